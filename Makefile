@@ -1,0 +1,70 @@
+# Pac-Man Pete: every entry point. On a fresh machine `make test` and `make demo` install what they
+# need themselves: a .venv with the project, and Debian packages for the C++ build when missing.
+
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+BUILD := build/host
+JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+export PIP_DISABLE_PIP_VERSION_CHECK := 1
+
+# Debian packages the host build needs: (file that proves it is installed, package).
+DEB_CHECKS := /usr/include/gtest/gtest.h:libgtest-dev \
+              /usr/bin/cmake:cmake \
+              /usr/bin/g++:g++
+
+.PHONY: help venv system-deps build test test-python test-cpp lint format generate check demo bench clean
+
+help:  ## list the targets
+	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | sed 's/:.*## /\t/' | expand -t 16
+
+$(BIN)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install -q --upgrade pip
+	$(BIN)/pip install -q -e '.[dev]'
+	touch $@
+
+venv: $(BIN)/.installed  ## create .venv and install the project with every extra
+
+system-deps:  ## apt-get the Debian packages the C++ build needs, if missing
+	@missing=""; for pair in $(DEB_CHECKS); do \
+	  [ -e "$${pair%%:*}" ] || missing="$$missing $${pair##*:}"; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages:$$missing"; \
+	  $(SUDO) apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+
+build: system-deps  ## configure and build the C++ host tree (tests run under ASan + UBSan)
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Debug -DPETE_SANITIZE=ON > /dev/null
+	cmake --build $(BUILD) -j $(JOBS)
+
+generate: venv  ## rewrite the generated codecs from protocol/schema.toml
+	$(BIN)/pete-protocol generate
+
+check: venv  ## lint, format check and generated-file check
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+	$(BIN)/pete-protocol check
+
+lint: check
+
+format: venv  ## apply ruff's formatting and fixable lints
+	$(BIN)/ruff format .
+	$(BIN)/ruff check --fix .
+
+test: venv build check  ## everything: lint, C++ build, Python and C++ tests
+	$(BIN)/pytest
+
+demo: venv build  ## the most complete thing the project can do so far
+	$(BIN)/python -m protocol.demo --tool $(BUILD)/bin/pete_codec_tool
+
+bench: venv build  ## run every benchmark; results land in bench/results/
+	@for b in bench/*.py; do \
+	  name=$$(basename $$b .py); [ "$$name" = "__init__" ] && continue; \
+	  [ "$$name" = "common" ] && continue; \
+	  echo "== bench.$$name"; $(BIN)/python -m bench.$$name || exit 1; done
+
+clean:  ## remove build outputs (keeps .venv)
+	rm -rf build .pytest_cache .ruff_cache
