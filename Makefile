@@ -14,6 +14,12 @@ DEB_CHECKS := /usr/include/gtest/gtest.h:libgtest-dev \
               /usr/bin/cmake:cmake \
               /usr/bin/g++:g++
 
+.PHONY: firmware-check arm-deps
+# The V5's toolchain, for proving the Brain core builds for the target.
+ARM_CHECKS := /usr/bin/arm-none-eabi-g++:gcc-arm-none-eabi \
+              /usr/lib/arm-none-eabi/newlib/libc.a:libnewlib-arm-none-eabi \
+              /usr/lib/arm-none-eabi/include/c++:libstdc++-arm-none-eabi-newlib
+
 .PHONY: help venv system-deps build test test-python test-cpp lint format generate check demo bench clean
 
 help:  ## list the targets
@@ -36,6 +42,18 @@ system-deps:  ## apt-get the Debian packages the C++ build needs, if missing
 	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
 	fi
 
+arm-deps:  ## apt-get the arm-none-eabi toolchain, if missing
+	@missing=""; for pair in $(ARM_CHECKS); do \
+	  [ -e "$${pair%%:*}" ] || missing="$$missing $${pair##*:}"; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages:$$missing"; \
+	  $(SUDO) apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+
+firmware-check: arm-deps  ## compile every Brain core source for the V5's Cortex-A9
+	bash brain/tools/firmware_check.sh
+
 build: system-deps  ## configure and build the C++ host tree (tests run under ASan + UBSan)
 	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Debug -DPETE_SANITIZE=ON > /dev/null
 	cmake --build $(BUILD) -j $(JOBS)
@@ -54,7 +72,7 @@ format: venv  ## apply ruff's formatting and fixable lints
 	$(BIN)/ruff format .
 	$(BIN)/ruff check --fix .
 
-test: venv build check  ## everything: lint, C++ build, Python and C++ tests
+test: venv build check firmware-check  ## everything: lint, C++ build, firmware check, all tests
 	$(BIN)/pytest
 
 demo: venv build  ## the most complete thing the project can do so far

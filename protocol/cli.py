@@ -155,7 +155,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_info)
     p = sub.add_parser("generate", help="write the C++ and Python codecs from the schema")
     p.set_defaults(func=_cmd_generate)
-    p = sub.add_parser("check", help="exit 1 if any generated file differs from the schema's output")
+    p = sub.add_parser(
+        "check", help="exit 1 if any generated file differs from the schema's output"
+    )
     p.set_defaults(func=_cmd_check)
     p = sub.add_parser(
         "golden",
@@ -186,7 +188,9 @@ def build_parser() -> argparse.ArgumentParser:
         "decode",
         help="read raw wire bytes and print one JSON object per message, text line or error",
     )
-    p.add_argument("--link", choices=("up", "down"), required=True, help="which link the bytes are from")
+    p.add_argument(
+        "--link", choices=("up", "down"), required=True, help="which link the bytes are from"
+    )
     p.add_argument("--input", default="-", help="file or device to read (default: stdin)")
     p.add_argument("--hex", action="store_true", help="the input is hex text rather than raw bytes")
     p.add_argument("--stats", action="store_true", help="print link counters at the end")

@@ -328,7 +328,9 @@ class DownlinkDecoder:
             self._error(events, exc.kind, exc.detail)
             return
         if not msg.DOWNLINK:
-            self._error(events, ErrorKind.WRONG_DIRECTION, f"{msg.NAME} is never sent by the Jetson")
+            self._error(
+                events, ErrorKind.WRONG_DIRECTION, f"{msg.NAME} is never sent by the Jetson"
+            )
             return
         if self._last_seq is not None:
             self.stats.lost += (seq - self._last_seq - 1) & 0xFF
@@ -367,13 +369,17 @@ def message_to_dict(msg: Any) -> dict[str, Any]:
     return out
 
 
-def message_from_dict(cls: type, data: Mapping[str, Any], codec: ModuleType = _default_codec) -> Any:
+def message_from_dict(
+    cls: type, data: Mapping[str, Any], codec: ModuleType = _default_codec
+) -> Any:
     """Build a message from JSON-like data, with errors that name the field. Missing fields keep
     their zero defaults."""
     known = {f.name: f for f in cls.FIELDS}
     unknown = set(data) - set(known)
     if unknown:
-        raise ValueError(f"{cls.NAME} has no field {sorted(unknown)[0]!r} (fields: {', '.join(known)})")
+        raise ValueError(
+            f"{cls.NAME} has no field {sorted(unknown)[0]!r} (fields: {', '.join(known)})"
+        )
     kwargs: dict[str, Any] = {}
     for name, value in data.items():
         kwargs[name] = _coerce(cls, known[name], value, codec)

@@ -140,8 +140,8 @@ class Hello:
 
     @classmethod
     def decode_body(cls, body: bytes) -> Hello:
-        """Raise ValueError on a wrong size, an unknown enum value, a bool other than 0/1,
-        or a non-finite float: none of those is ever sent by a correct peer."""
+        """Raise ValueError (KeyError for an enum) on a wrong size, an unknown enum
+        value, a bool other than 0/1 or a non-finite float: none is ever sent."""
         v = cls._S.unpack(body)
         return cls(
             v[0],
@@ -214,8 +214,8 @@ class State:
 
     @classmethod
     def decode_body(cls, body: bytes) -> State:
-        """Raise ValueError on a wrong size, an unknown enum value, a bool other than 0/1,
-        or a non-finite float: none of those is ever sent by a correct peer."""
+        """Raise ValueError (KeyError for an enum) on a wrong size, an unknown enum
+        value, a bool other than 0/1 or a non-finite float: none is ever sent."""
         v = cls._S.unpack(body)
         if not _isfinite(v[5] + v[6] + v[7] + v[8] + v[10] + v[11]):
             raise ValueError("non-finite float")
@@ -272,8 +272,8 @@ class Command:
 
     @classmethod
     def decode_body(cls, body: bytes) -> Command:
-        """Raise ValueError on a wrong size, an unknown enum value, a bool other than 0/1,
-        or a non-finite float: none of those is ever sent by a correct peer."""
+        """Raise ValueError (KeyError for an enum) on a wrong size, an unknown enum
+        value, a bool other than 0/1 or a non-finite float: none is ever sent."""
         v = cls._S.unpack(body)
         if not _isfinite(v[1] + v[2]):
             raise ValueError("non-finite float")
@@ -317,8 +317,8 @@ class Log:
 
     @classmethod
     def decode_body(cls, body: bytes) -> Log:
-        """Raise ValueError on a wrong size, an unknown enum value, a bool other than 0/1,
-        or a non-finite float: none of those is ever sent by a correct peer."""
+        """Raise ValueError (KeyError for an enum) on a wrong size, an unknown enum
+        value, a bool other than 0/1 or a non-finite float: none is ever sent."""
         v = cls._S.unpack(body)
         return cls(
             _LOGLEVEL_BY_VALUE[v[0]],

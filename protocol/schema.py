@@ -130,7 +130,7 @@ class Schema:
 
 
 def canonical_text(schema: Schema) -> str:
-    """What the fingerprint hashes: everything that changes the bytes or their meaning, in wire order.
+    """What the fingerprint hashes: all that changes the bytes or their meaning, in wire order.
 
     Docs and units are left out so that rewording a comment does not break a deployed robot.
     """
@@ -168,7 +168,7 @@ def _require(table: dict, key: str, kind: type, where: str) -> object:
     if key not in table:
         raise SchemaError(f"{where}: missing `{key}`")
     value = table[key]
-    if kind is int and isinstance(value, bool) or not isinstance(value, kind):
+    if (kind is int and isinstance(value, bool)) or not isinstance(value, kind):
         raise SchemaError(f"{where}: `{key}` must be {kind.__name__}, got {value!r}")
     return value
 

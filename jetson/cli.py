@@ -1,0 +1,49 @@
+"""`pete-jetson`: what runs on the robot's Jetson. Commands arrive with the parts they drive."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+DESCRIPTION = """\
+The Jetson side of Pac-Man Pete: finds the V5 Brain, talks the wire protocol, sees rings, drives.
+
+  pete-jetson ports        list V5 Brain serial ports (the user port is the one to talk on)
+"""
+
+
+def _cmd_ports(_: argparse.Namespace) -> int:
+    from jetson.ports import list_v5_ports
+
+    ports = list_v5_ports()
+    if not ports:
+        print("no V5 Brain found (USB VID 0x2888): is the Brain on and plugged into the Jetson?")
+        return 1
+    for p in ports:
+        print(f"{p.device:<16} {p.kind:<8} {p.description}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="pete-jetson",
+        description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    p = sub.add_parser("ports", help="list V5 Brain serial ports, user port first")
+    p.set_defaults(func=_cmd_ports)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except RuntimeError as exc:
+        print(f"pete-jetson: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
