@@ -119,6 +119,15 @@ class LinkStats:
         }
 
 
+def _gap(last: int | None, seq: int) -> int:
+    """Packets missing between two sequence numbers. A repeat (gap 255) is counted as no loss:
+    a correct sender never repeats, and 255 lost packets in a row would look like a dead link."""
+    if last is None:
+        return 0
+    gap = (seq - last - 1) & 0xFF
+    return 0 if gap == 0xFF else gap
+
+
 # --- packets ------------------------------------------------------------------------------------
 
 
@@ -192,7 +201,9 @@ class UplinkDecoder:
             if self._skipping:
                 self._skipping = False  # the rest of an oversize frame
                 continue
-            if frame:
+            if len(frame) > MAX_UPLINK_FRAME:  # the same verdict as when it arrives in pieces
+                self._error(events, ErrorKind.OVERSIZE, f"{len(frame)}-byte frame")
+            elif frame:
                 self._frame(frame, events)
         del self._buf[:start]
         if len(self._buf) > MAX_UPLINK_FRAME:
@@ -230,8 +241,7 @@ class UplinkDecoder:
         if not msg.UPLINK:
             self._error(events, ErrorKind.WRONG_DIRECTION, f"{msg.NAME} is never sent by the Brain")
             return
-        if self._last_seq is not None:
-            self.stats.lost += (seq - self._last_seq - 1) & 0xFF
+        self.stats.lost += _gap(self._last_seq, seq)
         self._last_seq = seq
         self.stats.received += 1
         events.append(Received(msg, seq))
@@ -332,8 +342,7 @@ class DownlinkDecoder:
                 events, ErrorKind.WRONG_DIRECTION, f"{msg.NAME} is never sent by the Jetson"
             )
             return
-        if self._last_seq is not None:
-            self.stats.lost += (seq - self._last_seq - 1) & 0xFF
+        self.stats.lost += _gap(self._last_seq, seq)
         self._last_seq = seq
         self.stats.received += 1
         events.append(Received(msg, seq))
@@ -409,7 +418,12 @@ def _coerce(cls: type, info: Any, value: Any, codec: ModuleType) -> Any:
         if issubclass(enum, IntFlag):
             names = [value] if isinstance(value, str) else value
             if isinstance(names, int) and not isinstance(names, bool):
+                known_bits = sum(m.value for m in enum)
+                if names < 0 or names & ~known_bits:
+                    raise ValueError(f"{where}: {names:#x} sets bits that are not flags")
                 return enum(names)
+            if not isinstance(names, list | tuple):
+                raise ValueError(f"{where}: expected a flag name, a list of names or an integer")
             result = enum(0)
             for n in names:
                 try:
@@ -423,6 +437,8 @@ def _coerce(cls: type, info: Any, value: Any, codec: ModuleType) -> Any:
             except KeyError:
                 choices = ", ".join(m.name.lower() for m in enum)
                 raise ValueError(f"{where}: {value!r} is not one of {choices}") from None
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ValueError(f"{where}: expected a name or an integer, got {value!r}")
         try:
             return enum(value)
         except ValueError:
@@ -431,6 +447,8 @@ def _coerce(cls: type, info: Any, value: Any, codec: ModuleType) -> Any:
         if not isinstance(value, str):
             raise ValueError(f"{where}: expected a string")
         size = int(ftype[5:-1])
+        if "\0" in value:
+            raise ValueError(f"{where}: NUL ends text on the wire; it cannot be inside it")
         if len(value.encode()) > size:
             raise ValueError(f"{where}: {len(value.encode())} bytes does not fit in {size}")
         return value
@@ -450,7 +468,7 @@ def _scalar(where: str, base: str, value: Any) -> Any:
     if base == "f32":
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise ValueError(f"{where}: expected a number")
-        if not math.isfinite(value) or abs(value) > 3.4028234663852886e38:
+        if abs(value) > 3.4028234663852886e38 or not math.isfinite(value):
             raise ValueError(f"{where}: {value!r} is not a finite f32")
         return float(value)
     if isinstance(value, bool) or not isinstance(value, int):

@@ -273,7 +273,9 @@ class SeqTracker {
   // Returns how many packets went missing before this one.
   uint32_t observe(uint8_t seq) {
     uint32_t lost = 0;
+    // A repeated number (gap 255) is not counted: correct senders never repeat.
     if (seen_) lost = static_cast<uint8_t>(seq - last_ - 1);
+    if (lost == 0xFF) lost = 0;
     seen_ = true;
     last_ = seq;
     return lost;
@@ -316,7 +318,8 @@ inline std::size_t stream_frame(const char (&stream_id)[kStreamIdSize + 1], cons
   uint8_t raw[kStreamIdSize + kMaxPacket];
   if (n > kMaxPacket) return 0;
   std::memcpy(raw, stream_id, kStreamIdSize);
-  std::memcpy(raw + kStreamIdSize, payload, n);
+  // An empty write may come with a null pointer, which memcpy must not be given even for 0 bytes.
+  if (n != 0) std::memcpy(raw + kStreamIdSize, payload, n);
   const std::size_t k = cobs_encode(raw, kStreamIdSize + n, out, cap == 0 ? 0 : cap - 1);
   if (k == 0) return 0;
   out[k] = 0;
