@@ -101,7 +101,7 @@ def _cmd_encode(args: argparse.Namespace) -> int:
     if args.raw:
         sys.stdout.buffer.write(wire)
     else:
-        print(wire.hex(" " if args.spaced else ""))
+        print(wire.hex(" ") if args.spaced else wire.hex())
     return 0
 
 
@@ -125,16 +125,24 @@ def _cmd_decode(args: argparse.Namespace) -> int:
 
     decoder = framing.UplinkDecoder() if args.link == "up" else framing.DownlinkDecoder()
     source = sys.stdin.buffer if args.input == "-" else open(args.input, "rb")  # noqa: SIM115
-    stdin_is_hex = args.hex
+    digits = ""  # --hex: a chunk may end between the two digits of a byte
     with source:
         while True:
             chunk = source.read1(4096) if hasattr(source, "read1") else source.read(4096)
             if not chunk:
                 break
-            if stdin_is_hex:
-                chunk = bytes.fromhex(chunk.decode().replace("\n", " "))
+            if args.hex:
+                digits += "".join(chunk.decode(errors="replace").split())
+                even = len(digits) - len(digits) % 2
+                try:
+                    chunk = bytes.fromhex(digits[:even])
+                except ValueError:
+                    raise ValueError(f"--hex input is not hex: {digits[:even][:60]!r}") from None
+                digits = digits[even:]
             for event in decoder.feed(chunk):
                 print(json.dumps(_event_json(event)), flush=True)
+    if digits:
+        raise ValueError("--hex input ends in the middle of a byte")
     if args.stats:
         print(json.dumps({"type": "stats", **decoder.stats.as_dict()}), flush=True)
     return 0
@@ -151,24 +159,38 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    p = sub.add_parser("info", help="list messages, wire sizes and the fingerprint")
+    p = sub.add_parser(
+        "info",
+        help="list messages, wire sizes and the fingerprint",
+        description="List every message, its fields and wire sizes, and the schema fingerprint.",
+    )
     p.set_defaults(func=_cmd_info)
-    p = sub.add_parser("generate", help="write the C++ and Python codecs from the schema")
+    p = sub.add_parser(
+        "generate",
+        help="write the C++ and Python codecs from the schema",
+        description="Write the C++ and Python codecs from the schema (only files that changed).",
+    )
     p.set_defaults(func=_cmd_generate)
     p = sub.add_parser(
-        "check", help="exit 1 if any generated file differs from the schema's output"
+        "check",
+        help="exit 1 if any generated file differs from the schema's output",
+        description="Exit 1, naming each stale file, if a generated file differs from what the "
+        "schema produces now; run `pete-protocol generate` to fix it.",
     )
     p.set_defaults(func=_cmd_check)
     p = sub.add_parser(
         "golden",
         help="recompute golden vector bytes after a deliberate schema change (review the diff!)",
+        description="Recompute the bytes of protocol/golden_vectors.json after a deliberate schema "
+        "change. Review the diff: golden vectors must not follow the codec by themselves.",
     )
     p.set_defaults(func=_cmd_golden)
 
     p = sub.add_parser(
         "encode",
         help="print the wire bytes of one message as hex",
-        description="Fields left out of --json keep their zero/default values. Enums are given "
+        description="Print the wire bytes of one message as hex. "
+        "Fields left out of --json keep their zero/default values. Enums are given "
         'by name ("autonomous"), flags as a list of names, text as a string.',
     )
     p.add_argument("message", help="message name, e.g. State or Command")
@@ -187,6 +209,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "decode",
         help="read raw wire bytes and print one JSON object per message, text line or error",
+        description="Read wire bytes and print one JSON object per message, text line or error.",
     )
     p.add_argument(
         "--link", choices=("up", "down"), required=True, help="which link the bytes are from"

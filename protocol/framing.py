@@ -297,7 +297,9 @@ class DownlinkDecoder:
             # Keep only a frame start that may still be good; the rest can never become a frame.
             colon = self._buf.rfind(b":")
             if colon > 0 and len(self._buf) - colon <= MAX_LINE:
-                self._line(bytes(self._buf[:colon]), events, self._skipping)
+                # Whatever precedes that ':' was cut off by it: never a complete frame.
+                self._line(bytes(self._buf[:colon]), events, self._skipping, terminated=False)
+                self._skipping = False
                 del self._buf[:colon]
             else:
                 self._error(events, ErrorKind.OVERSIZE, f"line longer than {MAX_LINE} bytes")
@@ -309,7 +311,9 @@ class DownlinkDecoder:
         self.stats.errors[kind.value] += 1
         events.append(LinkError(kind, detail))
 
-    def _line(self, line: bytes, events: list[Event], skipping: bool) -> None:
+    def _line(
+        self, line: bytes, events: list[Event], skipping: bool, terminated: bool = True
+    ) -> None:
         # Every ':' starts a frame; anything before the first is garbage, and a frame cut short by
         # the next ':' is truncated. Only the last one can be complete.
         parts = line.split(b":")
@@ -320,7 +324,10 @@ class DownlinkDecoder:
             self._error(events, ErrorKind.TRUNCATED, f"frame cut after {len(cut)} hex digits")
         if len(parts) == 1:
             return
-        self._hex(parts[-1], events)
+        if terminated:
+            self._hex(parts[-1], events)
+        else:
+            self._error(events, ErrorKind.TRUNCATED, "frame cut by the next frame's start")
 
     def _hex(self, digits: bytes, events: list[Event]) -> None:
         if digits.translate(None, _HEX_DIGITS):

@@ -15,6 +15,11 @@ BANNER = (
 )
 
 
+def _doc(text: str) -> str:
+    """Safe inside a triple-quoted docstring (the schema already refuses backslashes)."""
+    return text.replace('"', '\\"')
+
+
 def _struct_code(f: FieldDef) -> str:
     if f.is_text:
         return f"{f.count}s"
@@ -49,7 +54,7 @@ def _py_default(f: FieldDef) -> str:
 
 def _enum_block(e: EnumDef) -> list[str]:
     base = "IntFlag" if e.is_flags else "IntEnum"
-    out = [f"class {e.name}({base}):", f'    """{e.doc or e.name}"""', ""]
+    out = [f"class {e.name}({base}):", f'    """{_doc(e.doc or e.name)}"""', ""]
     for name, value in e.values:
         out.append(f"    {name.upper()} = {1 << value if e.is_flags else value}")
     out += ["", ""]
@@ -63,7 +68,7 @@ def _message_block(m: MessageDef) -> list[str]:
     out = [
         "@dataclass(slots=True)",
         f"class {m.name}:",
-        f'    """{m.doc}"""',
+        f'    """{_doc(m.doc)}"""',
         "",
         f"    ID: ClassVar[int] = {m.id}",
         f'    NAME: ClassVar[str] = "{m.name}"',
@@ -81,7 +86,7 @@ def _message_block(m: MessageDef) -> list[str]:
     for f in m.fields:
         unit = f" [{f.unit}]" if f.unit else ""
         out.append(f"    {f.name}: {_py_type(f)} = {_py_default(f)}")
-        out.append(f'    """{f.doc}{unit}"""')
+        out.append(f'    """{_doc(f.doc + unit)}"""')
     # encode
     args: list[str] = []
     for f in m.fields:

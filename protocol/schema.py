@@ -38,16 +38,30 @@ MAX_BODY = 255  # the packet's length field is one byte
 _IDENT = re.compile(r"^[a-z][a-z0-9_]*$")
 _TYPE_NAME = re.compile(r"^[A-Z][A-Za-z0-9]*$")
 _ARRAY = re.compile(r"^(\w+)\[(\d+)\]$")
-# Words that cannot be identifiers in the generated C++ or Python.
+# Words that cannot be identifiers in the generated C++ or Python: both languages' keywords, plus
+# `id` and `seq`, which the packet header and AnyMessage already use.
 _RESERVED = {
-    "and", "as", "assert", "auto", "bool", "break", "case", "catch", "char", "class", "const",
-    "continue", "default", "def", "delete", "do", "double", "else", "enum", "except", "false",
-    "float", "for", "from", "global", "if", "import", "in", "int", "is", "lambda", "long", "new",
-    "none", "not", "or", "pass", "private", "public", "raise", "return", "short", "signed",
-    "sizeof", "static", "struct", "switch", "template", "this", "throw", "true", "try", "union",
-    "unsigned", "void", "while", "with", "yield", "id", "seq",
+    "alignas", "alignof", "and", "and_eq", "as", "asm", "assert", "async", "auto", "await",
+    "bitand", "bitor", "bool", "break", "case", "catch", "char", "char16_t", "char32_t",
+    "char8_t", "class", "co_await", "co_return", "co_yield", "compl", "concept", "const",
+    "const_cast", "consteval", "constexpr", "constinit", "continue", "decltype", "def",
+    "default", "del", "delete", "do", "double", "dynamic_cast", "elif", "else", "enum",
+    "except", "explicit", "export", "extern", "false", "finally", "float", "for", "friend",
+    "from", "global", "goto", "if", "import", "in", "inline", "int", "is", "lambda", "long",
+    "mutable", "namespace", "new", "noexcept", "none", "nonlocal", "not", "not_eq", "nullptr",
+    "operator", "or", "or_eq", "pass", "private", "protected", "public", "raise", "register",
+    "reinterpret_cast", "requires", "return", "short", "signed", "sizeof", "static",
+    "static_assert", "static_cast", "struct", "switch", "template", "this", "thread_local",
+    "throw", "true", "try", "typedef", "typeid", "typename", "union", "unsigned", "using",
+    "virtual", "void", "volatile", "wchar_t", "while", "with", "xor", "xor_eq", "yield",
+    "id", "seq",
 }  # fmt: skip
-_RESERVED_FIELDS = _RESERVED - {"seq"}  # a message may carry its own `seq` field
+# Names the generated modules define next to the schema's types (messages.py and messages.hpp).
+_RESERVED_TYPES = {
+    "AnyMessage", "ClassVar", "Direction", "DownlinkDecoder", "ENUMS", "FINGERPRINT", "FieldInfo",
+    "IntEnum", "IntFlag", "MESSAGES", "NamedTuple", "STREAM",
+}  # fmt: skip
+_RESERVED_FIELDS = (_RESERVED - {"seq"}) | {"encode_body", "decode_body"}  # own `seq` is fine
 
 
 class SchemaError(ValueError):
@@ -173,10 +187,19 @@ def _require(table: dict, key: str, kind: type, where: str) -> object:
     return value
 
 
+def _note(table: dict, key: str, where: str) -> str:
+    """A doc or unit: copied into comments and string literals of the generated code, where a line
+    break or a backslash would end the comment or the literal early."""
+    text = str(table.get(key, ""))
+    if "\\" in text or any(not c.isprintable() for c in text):
+        raise SchemaError(f"{where}: `{key}` must be one line without backslashes, got {text!r}")
+    return text
+
+
 def _parse_enum(name: str, table: dict, is_flags: bool) -> EnumDef:
     where = f"{'flags' if is_flags else 'enum'} {name}"
-    if not _TYPE_NAME.match(name):
-        raise SchemaError(f"{where}: type names are CamelCase")
+    if not _TYPE_NAME.match(name) or name in _RESERVED_TYPES:
+        raise SchemaError(f"{where}: type names are CamelCase and not a generated name")
     base = table.get("type", "u8")
     if base not in INTEGER_RANGES or base.startswith("i"):
         raise SchemaError(f"{where}: `type` must be an unsigned integer type, got {base!r}")
@@ -197,7 +220,7 @@ def _parse_enum(name: str, table: dict, is_flags: bool) -> EnumDef:
             raise SchemaError(f"{where}: {vname} and {seen[v]} share the value {v}")
         seen[v] = vname
     ordered = tuple(sorted(values.items(), key=lambda kv: kv[1]))
-    return EnumDef(name, str(table.get("doc", "")), base, ordered, is_flags)
+    return EnumDef(name, _note(table, "doc", where), base, ordered, is_flags)
 
 
 def _parse_field(raw: object, where: str, enums: dict[str, EnumDef]) -> FieldDef:
@@ -230,8 +253,8 @@ def _parse_field(raw: object, where: str, enums: dict[str, EnumDef]) -> FieldDef
     return FieldDef(
         name=name,
         type=ftype,
-        doc=str(raw.get("doc", "")),
-        unit=str(raw.get("unit", "")),
+        doc=_note(raw, "doc", where),
+        unit=_note(raw, "unit", where),
         base=base,
         count=count,
         enum=enum,
@@ -270,9 +293,12 @@ def parse_schema(raw: dict, source: str = "<schema>") -> Schema:
             raise SchemaError(f"{where}: must be a table")
         name = _require(rm, "name", str, where)
         where = f"message {name!r}"
-        if not _TYPE_NAME.match(name):
-            raise SchemaError(f"{where}: message names are CamelCase")
-        if name in names or name in enums:
+        if not _TYPE_NAME.match(name) or name in _RESERVED_TYPES:
+            raise SchemaError(f"{where}: message names are CamelCase and not a generated name")
+        # messages.hpp's AnyMessage has one member per message, named in lower case
+        if name.lower() in _RESERVED:
+            raise SchemaError(f"{where}: {name.lower()!r} is a keyword in the generated code")
+        if name.lower() in names or name in enums:
             raise SchemaError(f"{where}: the name is used twice")
         mid = _require(rm, "id", int, where)
         if not 1 <= mid <= 255:
@@ -288,11 +314,11 @@ def parse_schema(raw: dict, source: str = "<schema>") -> Schema:
         dup = {n for n in fnames if fnames.count(n) > 1}
         if dup:
             raise SchemaError(f"{where}: duplicate field {sorted(dup)[0]!r}")
-        msg = MessageDef(name, mid, direction, str(rm.get("doc", "")), fields)
+        msg = MessageDef(name, mid, direction, _note(rm, "doc", where), fields)
         if msg.body_size > MAX_BODY:
             raise SchemaError(f"{where}: body is {msg.body_size} bytes, the limit is {MAX_BODY}")
         messages.append(msg)
-        names.add(name)
+        names.add(name.lower())
         ids[mid] = name
 
     hello = next((m for m in messages if m.name == "Hello"), None)

@@ -437,54 +437,73 @@ inline Direction direction_of(uint8_t id, bool& known) {
 }
 
 /// Decode a packet whose framing was already removed. False (and `err`) if it is corrupt,
-/// unknown, the wrong size for its id, or carries a value no correct peer sends.
+/// unknown, the wrong size for its id, or carries a value no correct peer sends. `out` is only
+/// written on success, so a corrupt packet never leaves a half-decoded message behind.
 inline bool decode_packet(const uint8_t* p, std::size_t n, AnyMessage& out, wire::Error& err) {
   const uint8_t* body = nullptr;
   std::size_t len = 0;
   if (!wire::open_packet(p, n, body, len, err)) return false;
-  out.id = p[0];
-  out.seq = p[1];
   switch (p[0]) {
-    case Hello::kId:
+    case Hello::kId: {
       if (len != Hello::kBodySize) {
         err = wire::Error::bad_length;
         return false;
       }
-      if (!decode_body(body, out.hello)) {
+      Hello m;
+      if (!decode_body(body, m)) {
         err = wire::Error::bad_value;
         return false;
       }
+      out.id = p[0];
+      out.seq = p[1];
+      out.hello = m;
       return true;
-    case State::kId:
+    }
+    case State::kId: {
       if (len != State::kBodySize) {
         err = wire::Error::bad_length;
         return false;
       }
-      if (!decode_body(body, out.state)) {
+      State m;
+      if (!decode_body(body, m)) {
         err = wire::Error::bad_value;
         return false;
       }
+      out.id = p[0];
+      out.seq = p[1];
+      out.state = m;
       return true;
-    case Command::kId:
+    }
+    case Command::kId: {
       if (len != Command::kBodySize) {
         err = wire::Error::bad_length;
         return false;
       }
-      if (!decode_body(body, out.command)) {
+      Command m;
+      if (!decode_body(body, m)) {
         err = wire::Error::bad_value;
         return false;
       }
+      out.id = p[0];
+      out.seq = p[1];
+      out.command = m;
       return true;
-    case Log::kId:
+    }
+    case Log::kId: {
       if (len != Log::kBodySize) {
         err = wire::Error::bad_length;
         return false;
       }
-      if (!decode_body(body, out.log)) {
+      Log m;
+      if (!decode_body(body, m)) {
         err = wire::Error::bad_value;
         return false;
       }
+      out.id = p[0];
+      out.seq = p[1];
+      out.log = m;
       return true;
+    }
   }
   err = wire::Error::unknown_id;
   return false;
@@ -509,21 +528,22 @@ inline std::size_t encode_packet(const AnyMessage& m, uint8_t* out, std::size_t 
 /// Corrupt, unknown and wrong-way frames are counted per kind in `errors` and never returned.
 class DownlinkDecoder {
  public:
-  /// True when `out` holds a newly decoded message.
+  /// True when `out` holds a newly decoded message; otherwise `out` is left as it was.
   bool feed(uint8_t byte, AnyMessage& out) {
     if (!line_.feed(byte, errors)) return false;
     wire::Error err{};
-    if (!decode_packet(line_.packet(), line_.size(), out, err)) {
+    if (!decode_packet(line_.packet(), line_.size(), rx_, err)) {
       errors.add(err);
       return false;
     }
     bool known = false;
-    if (!sent_by_jetson(direction_of(out.id, known))) {
+    if (!sent_by_jetson(direction_of(rx_.id, known))) {
       errors.add(wire::Error::wrong_direction);
       return false;
     }
-    lost += seq_.observe(out.seq);
+    lost += seq_.observe(rx_.seq);
     ++received;
+    out = rx_;
     return true;
   }
   wire::ErrorCounters errors;
@@ -533,6 +553,7 @@ class DownlinkDecoder {
  private:
   wire::LineAssembler line_;
   wire::SeqTracker seq_;
+  AnyMessage rx_;  // decoded here first, so a wrong-way message never reaches `out`
 };
 
 }  // namespace pete::msg
