@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import stat
 import sys
 from pathlib import Path
 from typing import Any
@@ -120,11 +122,52 @@ def _event_json(event: Any) -> dict[str, Any]:
     return {"type": "error", "kind": event.kind.value, "detail": event.detail}
 
 
+class _SerialReader:
+    """A serial device read like a file: raw 8N1 at 115200 baud (what pros-cli opens), returning
+    whatever has arrived, so that decoding keeps up with a live Brain."""
+
+    def __init__(self, path: str) -> None:
+        try:
+            import serial
+        except ImportError:
+            raise ValueError(
+                f"{path} is a serial device: reading it needs pyserial "
+                "(pip install 'pacman-pete[jetson]')"
+            ) from None
+        try:
+            self._port = serial.Serial(path, 115200, timeout=0.1)
+        except serial.SerialException as exc:
+            raise ValueError(f"cannot open {path}: {exc}") from None
+
+    def read(self, size: int) -> bytes:
+        data = self._port.read(max(1, self._port.in_waiting or 1))
+        while not data:  # a quiet link is not the end of the input
+            data = self._port.read(1)
+        return data[:size] if len(data) > size else data
+
+    def __enter__(self) -> _SerialReader:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._port.close()
+
+
+def _open_input(path: str) -> Any:
+    if path == "-":
+        return sys.stdin.buffer
+    try:
+        if stat.S_ISCHR(os.stat(path).st_mode) and not path.startswith("/dev/std"):
+            return _SerialReader(path)
+    except FileNotFoundError:
+        raise ValueError(f"{path}: no such file or device") from None
+    return open(path, "rb")  # closed by the caller's with-block
+
+
 def _cmd_decode(args: argparse.Namespace) -> int:
     from protocol import framing
 
     decoder = framing.UplinkDecoder() if args.link == "up" else framing.DownlinkDecoder()
-    source = sys.stdin.buffer if args.input == "-" else open(args.input, "rb")  # noqa: SIM115
+    source = _open_input(args.input)
     digits = ""  # --hex: a chunk may end between the two digits of a byte
     with source:
         while True:
