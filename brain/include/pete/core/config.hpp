@@ -1,0 +1,170 @@
+// The robot's configuration: the ONE file a team edits for its robot (ports, geometry, link timing,
+// who may drive when). brain/README.md walks through every value.
+//
+// Everything is constexpr and checked at compile time (config_error), so a robot with an impossible
+// configuration does not build, rather than driving wrongly.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "pete/messages.hpp"
+
+namespace pete::core {
+
+enum class BrakeMode : uint8_t { coast, brake, hold };
+
+/// Geometry and limits of the differential drive.
+struct DriveConfig {
+  float track_width_m;      // between the left and right wheels' contact lines
+  float wheel_diameter_m;   // of the driven wheels (VEX "4 in" omni wheels are about 0.1048 m)
+  float gear_ratio;         // wheel turns per motor-shaft turn: 36T on the motor driving 48T = 0.75
+  float cartridge_rpm;      // motor cartridge free speed: 100 (red), 200 (green) or 600 (blue)
+  float max_speed_fraction; // of the free speed the core may command; the rest is PID headroom
+  float max_linear_accel;   // m/s^2, slew limit on the commanded forward speed
+  float max_angular_accel;  // rad/s^2, slew limit on the commanded turn rate
+  BrakeMode brake_mode;     // how the motors hold when the core stops them
+};
+
+/// Timing of the Brain <-> Jetson link.
+struct LinkConfig {
+  uint32_t hello_period_ms;           // Hello cadence until the Jetson answers
+  uint32_t state_period_ms;           // State cadence after the handshake (20 ms = 50 Hz)
+  uint32_t default_command_valid_ms;  // used when a Command says valid_ms = 0
+  uint32_t max_command_valid_ms;      // longer windows are cut to this
+};
+
+/// Arcade drive from the V5 controller in driver control.
+struct DriverConfig {
+  float max_linear_mps;      // full stick forward
+  float max_angular_rps;     // full stick sideways, rad/s
+  float deadband;            // stick travel (0..1) treated as centred
+  uint32_t override_hold_ms; // a stick move takes over from the Jetson for this long after release
+};
+
+struct Config {
+  DriveConfig drive;
+  LinkConfig link;
+  DriverConfig driver;
+  uint32_t loop_period_ms;           // control loop period; the loop never runs faster or slower
+  msg::Alliance alliance;            // reported in every State (PROS cannot read it from the field)
+  bool jetson_drives_in_autonomous;  // VEX AI: both periods are autonomous, so both default to true
+  bool jetson_drives_in_driver;
+};
+
+/// Motor and sensor ports: used only by src/pros_adapter.cpp. 0 = unused slot; a negative port
+/// reverses that motor (PROS convention), so both sides can be written "forward = positive".
+inline constexpr std::size_t kMaxMotorsPerSide = 4;
+struct Ports {
+  int8_t left[kMaxMotorsPerSide];
+  int8_t right[kMaxMotorsPerSide];
+  int8_t intake[kMaxMotorsPerSide];
+  uint8_t gps;               // 0 = no GPS fitted (State always says absent)
+  double gps_offset_x_m;     // GPS sensor position relative to the robot's turning centre,
+  double gps_offset_y_m;     //   as pros::Gps(port, xOffset, yOffset) takes it
+  float intake_rpm;          // intake motor speed when running
+};
+
+// --- this robot ---------------------------------------------------------------------------------
+
+inline constexpr Config kRobotConfig{
+    /*drive=*/{
+        /*track_width_m=*/0.300f,
+        /*wheel_diameter_m=*/0.08255f,  // 3.25 in
+        /*gear_ratio=*/0.75f,           // 36:48, so a 600 rpm cartridge gives 450 rpm wheels
+        /*cartridge_rpm=*/600.0f,
+        /*max_speed_fraction=*/0.95f,
+        /*max_linear_accel=*/3.0f,
+        /*max_angular_accel=*/20.0f,
+        /*brake_mode=*/BrakeMode::brake,
+    },
+    /*link=*/{
+        /*hello_period_ms=*/200,
+        /*state_period_ms=*/20,
+        /*default_command_valid_ms=*/250,
+        /*max_command_valid_ms=*/1000,
+    },
+    /*driver=*/{
+        /*max_linear_mps=*/1.5f,
+        /*max_angular_rps=*/6.0f,
+        /*deadband=*/0.06f,
+        /*override_hold_ms=*/500,
+    },
+    /*loop_period_ms=*/10,
+    /*alliance=*/msg::Alliance::red,
+    /*jetson_drives_in_autonomous=*/true,
+    /*jetson_drives_in_driver=*/true,
+};
+
+inline constexpr Ports kRobotPorts{
+    /*left=*/{-1, -2, -3, 0},
+    /*right=*/{4, 5, 6, 0},
+    /*intake=*/{7, 0, 0, 0},
+    /*gps=*/10,
+    /*gps_offset_x_m=*/0.0,
+    /*gps_offset_y_m=*/-0.10,
+    /*intake_rpm=*/600.0f,
+};
+
+// --- checks -------------------------------------------------------------------------------------
+
+/// nullptr when `c` is usable, otherwise what is wrong with it.
+constexpr const char* config_error(const Config& c) {
+  const DriveConfig& d = c.drive;
+  if (!(d.track_width_m > 0.05f && d.track_width_m < 1.0f)) return "track_width_m out of range";
+  if (!(d.wheel_diameter_m > 0.01f && d.wheel_diameter_m < 0.5f)) {
+    return "wheel_diameter_m out of range";
+  }
+  if (!(d.gear_ratio > 0.05f && d.gear_ratio < 20.0f)) return "gear_ratio out of range";
+  if (d.cartridge_rpm != 100.0f && d.cartridge_rpm != 200.0f && d.cartridge_rpm != 600.0f) {
+    return "cartridge_rpm must be 100, 200 or 600";
+  }
+  if (!(d.max_speed_fraction > 0.0f && d.max_speed_fraction <= 1.0f)) {
+    return "max_speed_fraction must be in (0, 1]";
+  }
+  if (!(d.max_linear_accel > 0.0f) || !(d.max_angular_accel > 0.0f)) {
+    return "acceleration limits must be positive";
+  }
+  const LinkConfig& l = c.link;
+  if (l.hello_period_ms == 0 || l.state_period_ms == 0) return "link periods must be positive";
+  if (l.default_command_valid_ms == 0 || l.default_command_valid_ms > l.max_command_valid_ms) {
+    return "default_command_valid_ms must be in 1..max_command_valid_ms";
+  }
+  if (c.loop_period_ms < 2 || c.loop_period_ms > 50) return "loop_period_ms must be 2..50";
+  if (l.state_period_ms % c.loop_period_ms != 0) {
+    return "state_period_ms must be a multiple of loop_period_ms";
+  }
+  if (l.max_command_valid_ms < 2 * c.loop_period_ms) {
+    return "max_command_valid_ms must cover at least two loop periods";
+  }
+  const DriverConfig& dr = c.driver;
+  if (!(dr.max_linear_mps >= 0.0f) || !(dr.max_angular_rps >= 0.0f)) {
+    return "driver speed limits must not be negative";
+  }
+  if (!(dr.deadband >= 0.0f && dr.deadband < 0.5f)) return "driver deadband must be in [0, 0.5)";
+  if (!msg::is_valid(c.alliance)) return "alliance is not a valid Alliance";
+  return nullptr;
+}
+
+constexpr const char* ports_error(const Ports& p) {
+  bool used[22] = {};
+  const int8_t* groups[3] = {p.left, p.right, p.intake};
+  for (const int8_t* group : groups) {
+    for (std::size_t i = 0; i < kMaxMotorsPerSide; ++i) {
+      const int port = group[i] < 0 ? -group[i] : group[i];
+      if (port == 0) continue;
+      if (port > 21) return "motor port out of range 1..21";
+      if (used[port]) return "a port is used twice";
+      used[port] = true;
+    }
+  }
+  if (p.left[0] == 0 || p.right[0] == 0) return "each drive side needs at least one motor";
+  if (p.gps > 21) return "gps port out of range 1..21";
+  if (p.gps != 0 && used[p.gps]) return "the gps port is also a motor port";
+  return nullptr;
+}
+
+static_assert(config_error(kRobotConfig) == nullptr, "kRobotConfig: see config_error()");
+static_assert(ports_error(kRobotPorts) == nullptr, "kRobotPorts: see ports_error()");
+
+}  // namespace pete::core

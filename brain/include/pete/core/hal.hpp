@@ -1,0 +1,132 @@
+// The Brain core's view of the hardware: small interfaces that src/pros_adapter.cpp implements
+// with PROS and brain/host/ implements with fakes. Nothing here (or anywhere in the core) includes
+// a PROS header, so the whole core builds and is tested on a PC.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "pete/messages.hpp"
+
+namespace pete::core {
+
+// Interfaces are only ever used through references to objects owned elsewhere, so a protected
+// non-virtual destructor is enough and keeps the classes free of deleting destructors.
+
+/// Time since power-up: pros::millis() / pros::micros() on the Brain.
+class Clock {
+ public:
+  virtual uint32_t now_ms() const = 0;
+  virtual uint64_t now_us() const = 0;
+
+ protected:
+  ~Clock() = default;
+};
+
+/// One reading of the VEX GPS in its own frame: origin at the field centre, metres, heading in
+/// degrees [0, 360) clockwise. `status` says whether the numbers mean anything.
+struct GpsReading {
+  msg::GpsStatus status = msg::GpsStatus::absent;
+  double x_m = 0.0;
+  double y_m = 0.0;
+  double heading_deg = 0.0;
+  double error_m = 0.0;  // the sensor's own RMS error estimate
+};
+
+class PoseSource {
+ public:
+  virtual GpsReading read() = 0;
+
+ protected:
+  ~PoseSource() = default;
+};
+
+/// What the drive motors report back.
+struct WheelFeedback {
+  float left_rpm = 0.0f;   // motor output shaft, averaged over the side's motors
+  float right_rpm = 0.0f;
+  bool fault = false;      // a motor unplugged, over temperature, over current or in driver fault
+};
+
+/// The two sides of a differential drive.
+class Drivetrain {
+ public:
+  /// Motor output-shaft speeds in rpm (what pros::MotorGroup::move_velocity takes); positive
+  /// drives the robot forward. The core has already limited them to the cartridge's range.
+  virtual void drive_rpm(float left_rpm, float right_rpm) = 0;
+  /// Stop now, holding as the configured brake mode says.
+  virtual void stop() = 0;
+  virtual WheelFeedback feedback() = 0;
+
+ protected:
+  ~Drivetrain() = default;
+};
+
+class Intake {
+ public:
+  virtual void set(bool on) = 0;
+
+ protected:
+  ~Intake() = default;
+};
+
+/// The USB serial link to the Jetson. On the Brain, reads come from stdin (filled by a reader task,
+/// so they never block the control loop) and each packet is one write() to the `pete` stream,
+/// which PROS frames as COBS(stream id || packet) || 0x00.
+class SerialLink {
+ public:
+  /// Copy downlink bytes that have already arrived into `buf`, without blocking. Returns the count.
+  virtual std::size_t read(uint8_t* buf, std::size_t cap) = 0;
+  /// One whole packet in one write() to the pete stream. False if it was dropped.
+  virtual bool write_packet(const uint8_t* data, std::size_t n) = 0;
+  /// Human-readable text on stdout (PROS's `sout` stream), for someone watching `pros terminal`.
+  virtual void write_text(const char* text, std::size_t n) = 0;
+
+ protected:
+  ~SerialLink() = default;
+};
+
+/// pros::competition's view of the field: PROS has no match clock, only these bits.
+struct CompetitionStatus {
+  bool enabled = false;
+  bool autonomous = false;
+  bool connected = false;  // to a competition switch or field controller
+};
+
+class Competition {
+ public:
+  virtual CompetitionStatus read() = 0;
+
+ protected:
+  ~Competition() = default;
+};
+
+/// The V5 controller, as opcontrol() samples it. Axes in [-1, 1]; `present` is false when no one
+/// is holding a connected controller in driver control (so the core ignores it).
+struct DriverSticks {
+  bool present = false;
+  float forward = 0.0f;  // left stick, up = forward
+  float turn = 0.0f;     // right stick, right = clockwise
+  bool intake = false;   // R1 held
+};
+
+class DriverInput {
+ public:
+  virtual DriverSticks read() = 0;
+
+ protected:
+  ~DriverInput() = default;
+};
+
+/// Everything the core drives or reads, bundled so Robot takes one argument.
+struct Hardware {
+  Clock& clock;
+  PoseSource& gps;
+  Drivetrain& drive;
+  Intake& intake;
+  SerialLink& serial;
+  Competition& competition;
+  DriverInput& driver;
+};
+
+}  // namespace pete::core
