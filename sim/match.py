@@ -1,0 +1,283 @@
+"""What both environments share: actions to commands, observations, rewards, episode ends.
+
+A MatchCore wraps one World. Every robot in it gets its own frame stack and reward; the Gymnasium
+env drives one of them (and scripts or plays the rest), the PettingZoo env hands all of them to
+agents. Rewards follow the original team's table (sim.config.RewardConfig), each component
+reported separately.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any, Literal
+
+import numpy as np
+
+from sim.config import ConfigError, RewardConfig, WorldConfig, merge
+from sim.geometry import Alliance, field_to_robot
+from sim.observation import FrameStack, ObservationSpec, RobotView, build_frame
+from sim.world import DriveCommand, StepEvents, World
+
+REWARD_COMPONENTS = ("rings", "pin", "goals_end", "side_end", "score")
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Everything an environment is made from; nested tables map to the nested configs.
+
+    observation None derives the spec from the world (match length, ring capacity) with the
+    default layout. obs_noise applies the spec's uniform noise; gps_noise makes the robot's own
+    pose a GPS reading (Gaussian noise and latency) instead of the truth. Actions are
+    [linear, angular] in [-1, 1], scaled to the robot's speed limits (angular positive =
+    clockwise), plus [intake] and/or [clamp] when action_intake / action_clamp (> 0 means on;
+    clamp < 0 releases). max_steps truncates episodes early (None: the match's own length).
+    """
+
+    world: WorldConfig = field(default_factory=WorldConfig)
+    observation: ObservationSpec | None = None
+    reward: RewardConfig = field(default_factory=RewardConfig)
+    obs_noise: bool = True
+    gps_noise: bool = True
+    end_on_pin: bool = True
+    action_intake: bool = False
+    action_clamp: bool = False
+    max_steps: int | None = None
+    # Gymnasium env only: which robot learns and who plays against it.
+    agent_alliance: Literal["red", "blue", "random"] = "red"
+    opponent: Literal["none", "scripted", "policy"] = "scripted"
+
+    def __post_init__(self) -> None:
+        if self.agent_alliance not in ("red", "blue", "random"):
+            raise ConfigError(
+                f"agent_alliance must be red, blue or random: {self.agent_alliance!r}"
+            )
+        if self.opponent not in ("none", "scripted", "policy"):
+            raise ConfigError(f"opponent must be none, scripted or policy: {self.opponent!r}")
+        if self.max_steps is not None and self.max_steps < 1:
+            raise ConfigError("max_steps must be at least 1 or None")
+
+    @property
+    def action_size(self) -> int:
+        return 2 + int(self.action_intake) + int(self.action_clamp)
+
+
+def make_config(config: EnvConfig | dict[str, Any] | None = None, **overrides: Any) -> EnvConfig:
+    """An EnvConfig from a config, a plain dict (e.g. a TOML table) and/or keyword overrides.
+
+    Nested tables merge into the nested configs: make_config(world={"fidelity": "high"}) keeps
+    every other world setting.
+    """
+    base = config if isinstance(config, EnvConfig) else EnvConfig()
+    data = {} if isinstance(config, EnvConfig) else dict(config or {})
+    data.update(overrides)
+    obs = data.pop("observation", None)
+    cfg = merge(base, data, "env")
+    if isinstance(obs, ObservationSpec):
+        cfg = replace(cfg, observation=obs)
+    elif obs is not None:
+        spec = cfg.observation or ObservationSpec()
+        try:
+            cfg = replace(cfg, observation=merge(spec, obs, "observation"))
+        except ValueError as e:
+            raise ConfigError(str(e)) from e
+    return cfg
+
+
+def default_spec(world: World) -> ObservationSpec:
+    caps = [r.config.ring_capacity for r in world.robots if r.config.ring_capacity]
+    return ObservationSpec(
+        match_length_s=world.match_length_s, ring_capacity_norm=max(caps) if caps else 10
+    )
+
+
+@dataclass
+class RobotStep:
+    """One robot's share of a control step."""
+
+    observation: np.ndarray
+    reward: float
+    components: dict[str, float]
+    info: dict[str, Any]
+
+
+class MatchCore:
+    def __init__(self, config: EnvConfig, world_config: WorldConfig | None = None, client=None):
+        self.config = config
+        self.world = World(world_config or config.world, client=client)
+        self.spec = config.observation or default_spec(self._probe_spec_world())
+        if abs(self.spec.match_length_s - self.world.match_length_s) > 1e-9:
+            raise ConfigError(
+                f"observation.match_length_s is {self.spec.match_length_s} but the match lasts "
+                f"{self.world.match_length_s} s (isolation + interaction); set them equal"
+            )
+        self.stacks: list[FrameStack] = []
+        self.totals: list[dict[str, float]] = []
+        self.pins: list[int] = []
+        self.rng = np.random.default_rng(0)
+        self.ended_by_pin = False
+
+    def _probe_spec_world(self) -> World:
+        # Robots exist only after a reset; the spec needs their capacities.
+        if not self.world.robots:
+            self.world.reset(np.random.default_rng(0))
+        return self.world
+
+    @property
+    def n_robots(self) -> int:
+        return len(self.world.lineup)
+
+    def close(self) -> None:
+        self.world.close()
+
+    # --- actions ---------------------------------------------------------------------------
+
+    def command(self, index: int, action: Any) -> DriveCommand:
+        """Policy action in [-1, 1]^n -> DriveCommand; anything non-finite becomes a stop."""
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        if a.shape[0] != self.config.action_size:
+            raise ValueError(
+                f"action for robot {index} must have {self.config.action_size} values, "
+                f"got shape {np.shape(action)}"
+            )
+        if not np.all(np.isfinite(a)):
+            return DriveCommand(0.0, 0.0, intake=False, clamp=None)
+        a = np.clip(a, -1.0, 1.0)
+        rc = self.world.robots[index].config
+        k = 2
+        intake = True
+        clamp = None
+        if self.config.action_intake:
+            intake = bool(a[k] > 0)
+            k += 1
+        if self.config.action_clamp:
+            clamp = bool(a[k] > 0)
+        return DriveCommand(
+            float(a[0]) * rc.max_linear_mps, float(a[1]) * rc.max_angular_rad_s, intake, clamp
+        )
+
+    # --- episode ----------------------------------------------------------------------------
+
+    def reset(self, rng: np.random.Generator) -> list[np.ndarray]:
+        self.rng = rng
+        self.world.reset(rng)
+        self.stacks = [FrameStack(self.spec) for _ in self.world.robots]
+        self.totals = [dict.fromkeys(REWARD_COMPONENTS, 0.0) for _ in self.world.robots]
+        self.pins = [0 for _ in self.world.robots]
+        self.ended_by_pin = False
+        self._margin = [self._score_margin(r.alliance) for r in self.world.robots]
+        return [s.reset(self.frame(i)) for i, s in enumerate(self.stacks)]
+
+    def view(self, index: int) -> RobotView:
+        w = self.world
+        r = w.robots[index]
+        if self.config.gps_noise:
+            g = w.gps(index, self.rng)
+            x, y, h = g.x, g.y, g.heading_deg
+        else:
+            x, y, h = r.x, r.y, r.heading
+        rings = w.visible_rings(index)
+        others = np.zeros((0, 2))
+        if self.spec.n_other_robots:
+            pts = [(o.x, o.y) for o in w.robots if o.index != index]
+            if pts:
+                others = field_to_robot(np.array(pts), r.xy, r.heading)
+        return RobotView(
+            x=x,
+            y=y,
+            heading_deg=h,
+            alliance=r.alliance,
+            time_s=w.time_s,
+            rings_robot_xy=w.rings_in_robot_frame(index, rings),
+            rings_held=r.held,
+            others_robot_xy=others,
+        )
+
+    def frame(self, index: int) -> np.ndarray:
+        rng = self.rng if self.config.obs_noise else None
+        return build_frame(self.spec, self.view(index), rng)
+
+    def _score_margin(self, alliance: Alliance) -> float:
+        s = self.world.score()
+        other = "blue" if alliance == "red" else "red"
+        return float(s[alliance].total - s[other].total)
+
+    def step(self, commands: list[DriveCommand]) -> tuple[list[RobotStep], bool, StepEvents]:
+        """One control step for every robot; returns per-robot results and whether it ended."""
+        w = self.world
+        cfg = self.config.reward
+        before = [r.collected for r in w.robots]
+        events = w.step(commands)
+        pinned = set()
+        for a, b in events.pins:
+            pinned.update((a, b))
+        ended = events.match_over or (bool(events.pins) and self.config.end_on_pin)
+        if events.pins and self.config.end_on_pin:
+            self.ended_by_pin = True
+        end_rewards = ended and not self.ended_by_pin
+        results = []
+        for r in w.robots:
+            comp = dict.fromkeys(REWARD_COMPONENTS, 0.0)
+            cap = cfg.ring_cap
+            counted = (
+                r.collected - before[r.index]
+                if cap is None
+                else min(r.collected, cap) - min(before[r.index], cap)
+            )
+            comp["rings"] = cfg.ring * counted
+            if r.index in pinned:
+                comp["pin"] = cfg.pin
+                self.pins[r.index] += 1
+            if cfg.score:
+                margin = self._score_margin(r.alliance)
+                comp["score"] = cfg.score * (margin - self._margin[r.index])
+                self._margin[r.index] = margin
+            if end_rewards:
+                comp["goals_end"] = cfg.goal_end * self.goals_counting(r.alliance)
+                if self.on_opponent_side(r.index):
+                    comp["side_end"] = cfg.opponent_side_end
+            for k, v in comp.items():
+                self.totals[r.index][k] += v
+            obs = self.stacks[r.index].push(self.frame(r.index))
+            info = self.info(r.index)
+            info["reward_components"] = comp
+            results.append(RobotStep(obs, float(sum(comp.values())), comp, info))
+        return results, ended, events
+
+    def goals_counting(self, alliance: Alliance) -> int:
+        """Mobile goals that count for the alliance in its own zone (RewardConfig.goal_zone)."""
+        w = self.world
+        n = 0
+        for g in w.goals:
+            if g.spec.alliance not in (None, alliance):
+                continue
+            if self.config.reward.goal_zone == "home":
+                owner, _ = w.goal_owner(g)
+                n += owner == alliance
+            else:
+                n += (g.x < 0) == (alliance == "red")
+        return n
+
+    def on_opponent_side(self, index: int) -> bool:
+        r = self.world.robots[index]
+        return (r.x > 0) if r.alliance == "red" else (r.x < 0)
+
+    def info(self, index: int) -> dict[str, Any]:
+        w = self.world
+        r = w.robots[index]
+        score = w.score()
+        return {
+            "robot": r.name,
+            "time_s": round(w.time_s, 6),
+            "rings_collected": r.collected,
+            "rings_held": r.held,
+            "carrying_goal": -1 if r.carried_goal is None else r.carried_goal,
+            "pins": self.pins[index],
+            "score_red": score["red"].total,
+            "score_blue": score["blue"].total,
+            "reward_components": dict.fromkeys(REWARD_COMPONENTS, 0.0),
+            "episode_reward_components": dict(self.totals[index]),
+        }
+
+
+def action_bounds(size: int) -> tuple[np.ndarray, np.ndarray]:
+    return -np.ones(size, dtype=np.float32), np.ones(size, dtype=np.float32)

@@ -1,0 +1,291 @@
+"""The policy's input: one versioned, documented observation shared by the simulator and the Jetson.
+
+numpy only: the Jetson imports this module (and sim.geometry) without PyBullet or Gymnasium.
+
+One frame (version 1), with `n_other_robots` = R and `n_rings` = K:
+
+    index            name              meaning
+    0                time              elapsed match time / match_length_s, clipped to [0, 1]
+    1, 2             x, y              own GPS position in the ALLIANCE frame / length_unit_m
+    3, 4             cos_h, sin_h      cos and sin of own heading in the alliance frame
+                                       (heading clockwise from +y, so sin_h is the forward
+                                       vector's x and cos_h its y)
+    5                held              rings held / ring_capacity_norm
+    6 + 3r ..        robot_r x, y, ok  R other robots (nearest first) in the ROBOT frame
+                                       (x right, y forward) / length_unit_m, ok = 1 when known
+    6 + 3R + 3k ..   ring_k x, y, ok   K nearest visible rings in the ROBOT frame, sorted by
+                                       distance, / length_unit_m; ok = 1 for a ring, 0 for an
+                                       empty slot (whose x, y are 0 and never get noise)
+
+The observation is the current frame followed by the `n_stack` previous ones, newest first:
+obs[f * frame_size + i] is item i of the frame f control steps ago. At reset every slot holds the
+first frame. Defaults: K = 10, R = 0, n_stack = 10, so 36 values per frame and 396 in all.
+
+Alliance symmetry: blue sees the field rotated 180 degrees (sim.geometry.to_alliance_frame), so a
+blue robot and a red robot in mirrored places get identical observations. Robot-frame items need no
+rotation. Noise (training): own x, y get uniform +-position_noise_m added, each visible ring or
+robot coordinate is scaled by 1 + uniform +-relative_noise (errors grow with distance, as a depth
+camera's do); empty slots and flags never get noise.
+
+The spec is saved with every policy (to_dict / from_dict, JSON-safe) and has a fingerprint;
+`describe()` lists every index of the stacked observation.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from collections import deque
+from dataclasses import asdict, dataclass, field, fields
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sim.geometry import Alliance, to_alliance_frame
+
+SPEC_VERSION = 1
+SUPPORTED_VERSIONS = (1,)
+SCALARS = ("time", "x", "y", "cos_h", "sin_h", "held")
+SCALAR_MEANINGS = {
+    "time": "elapsed match time / match_length_s, clipped to [0, 1]",
+    "x": "own x in the alliance frame / length_unit_m",
+    "y": "own y in the alliance frame / length_unit_m",
+    "cos_h": "cos(own heading in the alliance frame)",
+    "sin_h": "sin(own heading in the alliance frame)",
+    "held": "rings held / ring_capacity_norm",
+}
+
+
+class ObservationError(ValueError):
+    """Bad input to the observation builder or a spec that cannot be used."""
+
+
+@dataclass(frozen=True)
+class ObservationSpec:
+    """Everything that fixes the meaning of the policy's input vector."""
+
+    version: int = SPEC_VERSION
+    n_rings: int = 10
+    n_other_robots: int = 0
+    n_stack: int = 10
+    length_unit_m: float = 1.8288  # half the Tipping Point field's width
+    match_length_s: float = 105.0
+    ring_capacity_norm: int = 10
+    position_noise_m: float = 0.1
+    relative_noise: float = 0.1
+
+    def __post_init__(self) -> None:
+        if self.version not in SUPPORTED_VERSIONS:
+            raise ObservationError(
+                f"observation spec version {self.version} is not supported "
+                f"(this code reads {SUPPORTED_VERSIONS})"
+            )
+        for name in ("n_rings", "n_other_robots", "n_stack"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                raise ObservationError(f"{name} must be a non-negative integer, got {value!r}")
+        if self.n_rings == 0:
+            raise ObservationError("n_rings must be at least 1")
+        for name in ("length_unit_m", "match_length_s"):
+            if not (getattr(self, name) > 0 and math.isfinite(getattr(self, name))):
+                raise ObservationError(f"{name} must be positive, got {getattr(self, name)!r}")
+        if self.ring_capacity_norm < 1:
+            raise ObservationError("ring_capacity_norm must be at least 1")
+        if not (self.position_noise_m >= 0 and self.relative_noise >= 0):
+            raise ObservationError("noise levels must be non-negative")
+
+    @property
+    def frame_size(self) -> int:
+        return len(SCALARS) + 3 * self.n_other_robots + 3 * self.n_rings
+
+    @property
+    def n_frames(self) -> int:
+        return self.n_stack + 1
+
+    @property
+    def size(self) -> int:
+        return self.frame_size * self.n_frames
+
+    @property
+    def ring_offset(self) -> int:
+        """Index of the first ring slot within a frame."""
+        return len(SCALARS) + 3 * self.n_other_robots
+
+    def frame_names(self) -> list[str]:
+        names = list(SCALARS)
+        for r in range(self.n_other_robots):
+            names += [f"robot{r}_x", f"robot{r}_y", f"robot{r}_ok"]
+        for k in range(self.n_rings):
+            names += [f"ring{k}_x", f"ring{k}_y", f"ring{k}_ok"]
+        return names
+
+    def describe(self) -> list[str]:
+        """One line per index of the stacked observation."""
+        lines = []
+        names = self.frame_names()
+        for f in range(self.n_frames):
+            age = "now" if f == 0 else f"t-{f}"
+            for i, name in enumerate(names):
+                lines.append(f"{f * self.frame_size + i:4d}  [{age}] {name}: {_meaning(name)}")
+        return lines
+
+    def to_dict(self) -> dict[str, object]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, object]) -> ObservationSpec:
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ObservationError(f"unknown observation spec keys: {unknown}")
+        if "version" not in data:
+            raise ObservationError("observation spec has no version")
+        return cls(**data)  # type: ignore[arg-type]
+
+    def fingerprint(self) -> str:
+        """Stable short hash of the layout-defining fields (noise levels excluded: they do not
+        change what an index means)."""
+        layout = {
+            k: v
+            for k, v in self.to_dict().items()
+            if k not in ("position_noise_m", "relative_noise")
+        }
+        blob = json.dumps(layout, sort_keys=True).encode()
+        return hashlib.sha256(blob).hexdigest()[:16]
+
+
+def _meaning(name: str) -> str:
+    if name in SCALAR_MEANINGS:
+        return SCALAR_MEANINGS[name]
+    kind, _, part = name.partition("_")
+    what = "nearest-first other robot" if kind.startswith("robot") else "nearest-first visible ring"
+    slot = kind.removeprefix("robot").removeprefix("ring")
+    if part == "ok":
+        return f"1 if {what} slot {slot} is filled, else 0"
+    axis = "right" if part == "x" else "forward"
+    return f"{what} slot {slot}, robot-frame {axis} / length_unit_m (0 when empty)"
+
+
+@dataclass
+class RobotView:
+    """What the robot knows at one control step, in the units the sensors give."""
+
+    x: float  # GPS field frame, metres
+    y: float
+    heading_deg: float  # GPS heading, clockwise from +y
+    alliance: Alliance
+    time_s: float  # elapsed match time
+    rings_robot_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    rings_held: int = 0
+    others_robot_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+
+
+def _as_points(value: ArrayLike, what: str) -> NDArray[np.float64]:
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.size == 0:
+        return np.zeros((0, 2))
+    if arr.ndim != 2 or arr.shape[1] != 2:
+        raise ObservationError(f"{what} must have shape (N, 2), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ObservationError(f"{what} contains NaN or infinity")
+    return arr
+
+
+def _fill_slots(
+    out: NDArray[np.float32],
+    offset: int,
+    n_slots: int,
+    points: NDArray[np.float64],
+    unit: float,
+    relative_noise: float,
+    rng: np.random.Generator | None,
+) -> None:
+    if len(points) == 0:
+        return
+    d2 = np.einsum("ij,ij->i", points, points)
+    count = min(n_slots, len(points))
+    # argsort with a stable kind keeps equal-distance items in input order: deterministic.
+    nearest = points[np.argsort(d2, kind="stable")[:count]]
+    if rng is not None and relative_noise > 0:
+        nearest = nearest * (1.0 + rng.uniform(-relative_noise, relative_noise, nearest.shape))
+    block = out[offset : offset + 3 * count].reshape(count, 3)
+    block[:, :2] = nearest / unit
+    block[:, 2] = 1.0
+
+
+def build_frame(
+    spec: ObservationSpec, view: RobotView, rng: np.random.Generator | None = None
+) -> NDArray[np.float32]:
+    """One observation frame. Noise is added only when `rng` is given."""
+    values = (view.x, view.y, view.heading_deg, view.time_s)
+    if not all(math.isfinite(float(v)) for v in values):
+        raise ObservationError(f"pose and time must be finite, got {values}")
+    if view.alliance not in ("red", "blue"):
+        raise ObservationError(f"alliance must be 'red' or 'blue', got {view.alliance!r}")
+    if view.rings_held < 0:
+        raise ObservationError(f"rings_held must be >= 0, got {view.rings_held}")
+    rings = _as_points(view.rings_robot_xy, "rings_robot_xy")
+    others = _as_points(view.others_robot_xy, "others_robot_xy")
+    unit = spec.length_unit_m
+    out = np.zeros(spec.frame_size, dtype=np.float32)
+    pos, heading = to_alliance_frame((view.x, view.y), view.heading_deg, view.alliance)
+    assert heading is not None
+    if rng is not None and spec.position_noise_m > 0:
+        pos = pos + rng.uniform(-spec.position_noise_m, spec.position_noise_m, 2)
+    h = math.radians(heading)
+    out[0] = min(max(view.time_s / spec.match_length_s, 0.0), 1.0)
+    out[1] = pos[0] / unit
+    out[2] = pos[1] / unit
+    out[3] = math.cos(h)
+    out[4] = math.sin(h)
+    out[5] = view.rings_held / spec.ring_capacity_norm
+    _fill_slots(out, len(SCALARS), spec.n_other_robots, others, unit, spec.relative_noise, rng)
+    _fill_slots(out, spec.ring_offset, spec.n_rings, rings, unit, spec.relative_noise, rng)
+    return out
+
+
+class FrameStack:
+    """The last n_stack + 1 frames as one flat vector, newest first."""
+
+    def __init__(self, spec: ObservationSpec) -> None:
+        self.spec = spec
+        self._frames: deque[NDArray[np.float32]] = deque(maxlen=spec.n_frames)
+
+    def _check(self, frame: NDArray[np.float32]) -> NDArray[np.float32]:
+        f = np.asarray(frame, dtype=np.float32)
+        if f.shape != (self.spec.frame_size,):
+            raise ObservationError(
+                f"frame must have shape ({self.spec.frame_size},), got {f.shape}"
+            )
+        return f
+
+    def reset(self, frame: NDArray[np.float32]) -> NDArray[np.float32]:
+        f = self._check(frame)
+        self._frames.clear()
+        for _ in range(self.spec.n_frames):
+            self._frames.append(f)
+        return self.observation()
+
+    def push(self, frame: NDArray[np.float32]) -> NDArray[np.float32]:
+        if not self._frames:
+            return self.reset(frame)
+        self._frames.appendleft(self._check(frame))
+        return self.observation()
+
+    def observation(self) -> NDArray[np.float32]:
+        if not self._frames:
+            raise ObservationError("FrameStack.observation() before reset()")
+        return np.concatenate(self._frames)
+
+
+def observation_bounds(spec: ObservationSpec) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """Bounds for a Box space: positions can exceed +-1 (far rings, noise), so they are +-4."""
+    low = np.full(spec.frame_size, -4.0, dtype=np.float32)
+    high = np.full(spec.frame_size, 4.0, dtype=np.float32)
+    low[0], high[0] = 0.0, 1.0
+    low[3:5], high[3:5] = -1.0, 1.0
+    low[5], high[5] = 0.0, 8.0
+    ok_idx = np.arange(len(SCALARS) + 2, spec.frame_size, 3)
+    low[ok_idx], high[ok_idx] = 0.0, 1.0
+    return np.tile(low, spec.n_frames), np.tile(high, spec.n_frames)

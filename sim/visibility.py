@@ -1,0 +1,262 @@
+"""Which rings a robot's camera sees: frustum, range and occlusion, in numpy.
+
+Training fidelity has no ring bodies in PyBullet, so visibility is geometry: a ring is visible when
+its centre projects inside the image, lies between the near plane and the range limit, and the
+straight line from the camera to it passes through no obstacle. Obstacles are vertical prisms
+standing on the floor (robots and platforms as boxes, goal bases and posts as discs), which is what
+everything on a Tipping Point field is to a camera 0.3 m up. High fidelity cross-checks the same
+question with PyBullet ray tests (sim.world).
+
+numpy only.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sim.config import CameraConfig
+from sim.geometry import heading_vector, project_points, robot_to_camera_rotation
+
+FloatArray = NDArray[np.float64]
+_EPS = 1e-9
+
+
+@dataclass
+class Obstacles:
+    """Vertical prisms on the floor, field frame. Boxes: centre, heading, half extents
+    (across, along the heading), height. Discs: centre, radius, height."""
+
+    box_xy: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
+    box_heading: FloatArray = field(default_factory=lambda: np.zeros(0))
+    box_half: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
+    box_height: FloatArray = field(default_factory=lambda: np.zeros(0))
+    disc_xy: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
+    disc_radius: FloatArray = field(default_factory=lambda: np.zeros(0))
+    disc_height: FloatArray = field(default_factory=lambda: np.zeros(0))
+
+    @classmethod
+    def build(
+        cls,
+        boxes: list[tuple[float, float, float, float, float, float]],
+        discs: list[tuple[float, float, float, float]],
+    ) -> Obstacles:
+        """boxes: (x, y, heading_deg, half_across, half_along, height); discs: (x, y, r, h)."""
+        b = np.asarray(boxes, dtype=np.float64).reshape(-1, 6)
+        d = np.asarray(discs, dtype=np.float64).reshape(-1, 4)
+        return cls(b[:, 0:2], b[:, 2], b[:, 3:5], b[:, 5], d[:, 0:2], d[:, 2], d[:, 3])
+
+
+@dataclass(frozen=True)
+class CameraPose:
+    """Where a camera is: optical centre in the field frame (x, y, z) and the rotation taking
+    field-frame vectors into the optical frame (x right, y down, z forward)."""
+
+    position: FloatArray
+    rotation: FloatArray
+
+    def to_camera(self, points_xyz: FloatArray) -> FloatArray:
+        return (np.asarray(points_xyz, dtype=np.float64) - self.position) @ self.rotation.T
+
+
+def camera_pose(robot_xy: tuple[float, float], heading_deg: float, cam: CameraConfig) -> CameraPose:
+    """The camera pose of a robot at robot_xy with the given GPS heading."""
+    fwd = heading_vector(heading_deg)
+    right = np.array([fwd[1], -fwd[0]])
+    pos_xy = np.asarray(robot_xy, dtype=np.float64) + cam.forward_m * fwd + cam.right_m * right
+    # Field -> robot (x right, y forward, z up), then robot -> optical.
+    field_to_robot = np.array([[right[0], right[1], 0.0], [fwd[0], fwd[1], 0.0], [0.0, 0.0, 1.0]])
+    rot = robot_to_camera_rotation(cam.tilt_deg) @ field_to_robot
+    return CameraPose(np.array([pos_xy[0], pos_xy[1], cam.height_m]), rot)
+
+
+def in_frustum(
+    points_xyz: FloatArray, pose: CameraPose, cam: CameraConfig
+) -> tuple[NDArray[np.bool_], FloatArray, FloatArray]:
+    """Points inside the image, beyond the near plane and within the range limit.
+
+    Returns the mask, the pixel coordinates (N, 2) and the optical-frame points (N, 3).
+    """
+    pc = pose.to_camera(points_xyz)
+    uv, z = project_points(pc, cam.fx, cam.fy, cam.cx, cam.cy)
+    dist = np.linalg.norm(pc, axis=-1)
+    with np.errstate(invalid="ignore"):
+        mask = (
+            (z > cam.near_m)
+            & (dist <= cam.max_range_m)
+            & (uv[:, 0] >= 0)
+            & (uv[:, 0] < cam.width)
+            & (uv[:, 1] >= 0)
+            & (uv[:, 1] < cam.height)
+        )
+    return mask, uv, pc
+
+
+def _slab_interval(a: FloatArray, d: FloatArray, half: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Parameter interval [t0, t1] where a + t d lies within |x| <= half (per axis), (N, M)."""
+    t0 = np.full(a.shape[:-1], -np.inf)
+    t1 = np.full(a.shape[:-1], np.inf)
+    for axis in range(2):
+        da = d[..., axis]
+        aa = a[..., axis]
+        h = half[..., axis]
+        parallel = np.abs(da) < _EPS
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ta = (-h - aa) / da
+            tb = (h - aa) / da
+        lo = np.where(parallel, np.where(np.abs(aa) <= h, -np.inf, np.inf), np.minimum(ta, tb))
+        hi = np.where(parallel, np.where(np.abs(aa) <= h, np.inf, -np.inf), np.maximum(ta, tb))
+        t0 = np.maximum(t0, lo)
+        t1 = np.minimum(t1, hi)
+    return t0, t1
+
+
+def _blocked(
+    t0: FloatArray, t1: FloatArray, z0: float, dz: FloatArray, height: FloatArray, t_max: float
+) -> NDArray[np.bool_]:
+    """Does the segment z(t) = z0 + t dz, t in (0, t_max), dip below `height` while inside?"""
+    lo = np.maximum(t0, 0.0)
+    hi = np.minimum(t1, t_max)
+    inside = hi > lo
+    # z is linear in t: its minimum over [lo, hi] is at one end.
+    z_min = np.minimum(z0 + lo * dz, z0 + hi * dz)
+    return inside & (z_min < height)
+
+
+def occluded(
+    camera_xyz: FloatArray,
+    targets_xyz: FloatArray,
+    obstacles: Obstacles,
+    t_max: float = 1.0 - 1e-6,
+) -> NDArray[np.bool_]:
+    """For each target, whether the segment camera -> target crosses any obstacle prism."""
+    targets = np.asarray(targets_xyz, dtype=np.float64).reshape(-1, 3)
+    n = len(targets)
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    c = np.asarray(camera_xyz, dtype=np.float64)
+    d3 = targets - c  # (N, 3)
+    d = d3[:, :2]
+    dz = d3[:, 2]
+    hit = np.zeros(n, dtype=bool)
+
+    if len(obstacles.box_xy):
+        h = np.radians(obstacles.box_heading)
+        s, co = np.sin(h), np.cos(h)
+        # Box-local axes: x across (right of its heading), y along its heading.
+        rel = c[:2] - obstacles.box_xy  # (M, 2)
+        a_local = np.stack([rel[:, 0] * co - rel[:, 1] * s, rel[:, 0] * s + rel[:, 1] * co], -1)
+        d_local = np.stack(
+            [
+                d[:, None, 0] * co[None] - d[:, None, 1] * s[None],
+                d[:, None, 0] * s[None] + d[:, None, 1] * co[None],
+            ],
+            -1,
+        )  # (N, M, 2)
+        a_b = np.broadcast_to(a_local[None], d_local.shape)
+        half_b = np.broadcast_to(obstacles.box_half[None], d_local.shape)
+        t0, t1 = _slab_interval(a_b, d_local, half_b)
+        hit |= np.any(_blocked(t0, t1, c[2], dz[:, None], obstacles.box_height[None], t_max), 1)
+
+    if len(obstacles.disc_xy):
+        rel = c[:2] - obstacles.disc_xy  # (M, 2)
+        qa = np.einsum("ij,ij->i", d, d)[:, None]  # (N, 1)
+        qb = 2.0 * (d @ rel.T)  # (N, M)
+        qc = np.einsum("ij,ij->i", rel, rel)[None] - obstacles.disc_radius[None] ** 2
+        disc = qb * qb - 4 * qa * qc
+        ok = (disc >= 0) & (qa > _EPS)
+        root = np.sqrt(np.where(ok, disc, 0.0))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t0 = np.where(ok, (-qb - root) / (2 * qa), np.inf)
+            t1 = np.where(ok, (-qb + root) / (2 * qa), -np.inf)
+        hit |= np.any(_blocked(t0, t1, c[2], dz[:, None], obstacles.disc_height[None], t_max), 1)
+    return hit
+
+
+def visible(
+    points_xyz: FloatArray,
+    pose: CameraPose,
+    cam: CameraConfig,
+    obstacles: Obstacles,
+) -> NDArray[np.bool_]:
+    """Frustum, range and occlusion together: the mask of visible points."""
+    pts = np.asarray(points_xyz, dtype=np.float64).reshape(-1, 3)
+    mask, _, _ = in_frustum(pts, pose, cam)
+    idx = np.flatnonzero(mask)
+    if len(idx):
+        mask[idx[occluded(pose.position, pts[idx], obstacles)]] = False
+    return mask
+
+
+def visible_among_rings(
+    points_xyz: FloatArray,
+    pose: CameraPose,
+    cam: CameraConfig,
+    obstacles: Obstacles,
+    ring_radius: float,
+    ring_thickness: float,
+) -> NDArray[np.bool_]:
+    """visible(), where every point is also a ring lying flat that can hide the others."""
+    pts = np.asarray(points_xyz, dtype=np.float64).reshape(-1, 3)
+    mask = visible(pts, pose, cam, obstacles)
+    tops = pts[:, 2] + ring_thickness / 2
+    for k in np.flatnonzero(mask):
+        others = np.arange(len(pts)) != k
+        rings = Obstacles(
+            disc_xy=pts[others, :2],
+            disc_radius=np.full(int(others.sum()), ring_radius),
+            disc_height=tops[others],
+        )
+        mask[k] = not occluded(pose.position, pts[k : k + 1], rings)[0]
+    return mask
+
+
+def brute_force_visible(
+    points_xyz: FloatArray,
+    pose: CameraPose,
+    cam: CameraConfig,
+    obstacles: Obstacles,
+    samples: int = 4000,
+) -> NDArray[np.bool_]:
+    """A slow, obviously-correct reference: test points along each sight line one by one."""
+    out = []
+    k = cam.fx, cam.fy, cam.cx, cam.cy
+    for p in np.asarray(points_xyz, dtype=np.float64).reshape(-1, 3):
+        pc = pose.rotation @ (p - pose.position)
+        if pc[2] <= cam.near_m or math.dist(p, pose.position) > cam.max_range_m:
+            out.append(False)
+            continue
+        u = k[0] * pc[0] / pc[2] + k[2]
+        v = k[1] * pc[1] / pc[2] + k[3]
+        if not (0 <= u < cam.width and 0 <= v < cam.height):
+            out.append(False)
+            continue
+        seen = True
+        for t in np.linspace(0.0, 1.0, samples, endpoint=False)[1:]:
+            q = pose.position + t * (p - pose.position)
+            if _point_in_obstacles(q, obstacles):
+                seen = False
+                break
+        out.append(seen)
+    return np.array(out, dtype=bool)
+
+
+def _point_in_obstacles(q: FloatArray, obs: Obstacles) -> bool:
+    for (x, y), hd, (hx, hy), hz in zip(
+        obs.box_xy, obs.box_heading, obs.box_half, obs.box_height, strict=True
+    ):
+        if q[2] >= hz:
+            continue
+        h = math.radians(hd)
+        rx, ry = q[0] - x, q[1] - y
+        lx = rx * math.cos(h) - ry * math.sin(h)
+        ly = rx * math.sin(h) + ry * math.cos(h)
+        if abs(lx) <= hx and abs(ly) <= hy:
+            return True
+    for (x, y), r, hz in zip(obs.disc_xy, obs.disc_radius, obs.disc_height, strict=True):
+        if q[2] < hz and (q[0] - x) ** 2 + (q[1] - y) ** 2 <= r * r:
+            return True
+    return False

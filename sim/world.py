@@ -1,0 +1,1109 @@
+"""The simulated field: PyBullet bodies for walls, goals and robots; rings, rules and sensors.
+
+    world = World(WorldConfig())            # owns a p.DIRECT client; or World(cfg, client=cid)
+    world.reset(np.random.default_rng(7))
+    events = world.step([DriveCommand(0.5, 0.0), DriveCommand()])   # one control step per robot
+
+Two fidelities (WorldConfig.fidelity):
+
+training
+    Planar physics: no gravity and no floor contacts, so PyBullet only resolves robot, goal and
+    wall contacts (floor friction on goals is linear damping). Rings are not bodies at all: their
+    positions live in numpy, pickup is a rectangle test in the robot frame and visibility is the
+    prism geometry of sim.visibility. This is what makes a 1260-step match take under a second.
+high
+    Gravity, a floor, 240 Hz physics and every ring a dynamic body that robots push around; pickup
+    uses the rings' real positions and visibility uses PyBullet ray tests.
+
+Robots are boxes driven like a differential drive: each control step the commanded (v, w) passes
+through the acceleration and speed limits and becomes the body's velocity; collisions push back.
+Command angular rates are rad/s, positive clockwise (heading increasing), as in the protocol.
+Robots are indexed red first, then blue, in the order WorldConfig lists them.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+import pybullet as p
+
+from sim.config import RobotConfig, WorldConfig
+from sim.field import FieldSpec, GoalSpec, load_field
+from sim.geometry import (
+    Alliance,
+    field_to_robot,
+    heading_to_yaw,
+    heading_vector,
+    quaternion_yaw,
+    wrap_heading,
+    yaw_quaternion,
+    yaw_to_heading,
+)
+from sim.visibility import (
+    CameraPose,
+    Obstacles,
+    camera_pose,
+    in_frustum,
+    visible,
+    visible_among_rings,
+)
+
+RING_FLOOR = 0
+RING_HELD = 1
+RING_SCORED = 2
+RING_OUT = 3  # not in play (never used in this match)
+
+_PARK_Z = -5.0  # collected ring bodies wait here, under the floor and out of every ray
+_GOAL_DAMPING = 0.99  # training: stands in for floor friction (a pushed goal slides ~0.2 m)
+_POST_RADIUS = 0.025  # the goal's vertical post, for occlusion and rendering
+
+
+@dataclass
+class DriveCommand:
+    """What a robot is told to do for one control step.
+
+    linear: m/s forward; angular: rad/s, positive clockwise (heading increasing), as in the wire
+    protocol's Command. intake: run the ring intake. clamp: True grabs a goal at the back when one
+    is there, False releases, None leaves it to WorldConfig.auto_clamp.
+    """
+
+    linear: float = 0.0
+    angular: float = 0.0
+    intake: bool = True
+    clamp: bool | None = None
+
+    @classmethod
+    def from_wheels(
+        cls, robot: RobotConfig, left_mps: float, right_mps: float, intake: bool = True
+    ) -> DriveCommand:
+        v, w = robot.from_wheel_speeds(left_mps, right_mps)
+        return cls(v, w, intake)
+
+
+@dataclass(frozen=True)
+class GpsReading:
+    x: float
+    y: float
+    heading_deg: float
+    error_m: float
+    time_s: float
+
+
+@dataclass
+class RobotState:
+    index: int
+    alliance: Alliance
+    slot: int  # 0, 1 within the alliance
+    config: RobotConfig
+    body: int
+    x: float = 0.0
+    y: float = 0.0
+    heading: float = 0.0
+    v: float = 0.0  # commanded forward speed after the limits, m/s
+    w: float = 0.0  # commanded turn rate after the limits, rad/s clockwise
+    measured_v: float = 0.0  # what the robot actually did over the last step (0 when blocked)
+    measured_w: float = 0.0
+    held: int = 0
+    collected: int = 0  # rings taken in through the intake this match
+    carried_goal: int | None = None
+    transfer_timer: float = 0.0
+    intake_on: bool = True
+    history: deque[tuple[float, float, float, float]] = field(default_factory=deque)
+
+    @property
+    def name(self) -> str:
+        return f"{self.alliance}_{self.slot}"
+
+    @property
+    def xy(self) -> tuple[float, float]:
+        return (self.x, self.y)
+
+    @property
+    def room(self) -> int:
+        cap = self.config.ring_capacity
+        return 1 << 30 if cap is None else max(0, cap - self.held)
+
+    def wheel_speeds(self) -> tuple[float, float]:
+        """Left and right wheel surface speeds as encoders would measure them, m/s."""
+        return self.config.wheel_speeds(self.measured_v, self.measured_w)
+
+
+@dataclass
+class GoalState:
+    index: int
+    spec: GoalSpec
+    body: int
+    x: float
+    y: float
+    carried_by: int | None = None
+    rings: int = 0
+
+
+@dataclass
+class StepEvents:
+    """What happened in one control step (indices are robot indices)."""
+
+    collected: list[int]  # rings each robot took in
+    scored: list[int]  # rings each robot moved onto its goal
+    clamped: list[tuple[int, int]] = field(default_factory=list)  # (robot, goal)
+    released: list[tuple[int, int]] = field(default_factory=list)
+    pins: list[tuple[int, int]] = field(default_factory=list)  # (red robot, blue robot)
+    phase_changed: bool = False
+    match_over: bool = False
+
+
+@dataclass(frozen=True)
+class AllianceScore:
+    rings: int
+    goals_in_zone: int
+    goals_elevated: int
+    robots_elevated: int
+    total: int
+
+
+class WorldError(RuntimeError):
+    """Misuse of the world (wrong number of commands, stepping before reset, ...)."""
+
+
+class World:
+    def __init__(
+        self,
+        config: WorldConfig | None = None,
+        *,
+        field_spec: FieldSpec | None = None,
+        client: int | None = None,
+    ) -> None:
+        self.config = config or WorldConfig()
+        self.field = field_spec or load_field(self.config.field)
+        self._owns_client = client is None
+        self.client = p.connect(p.DIRECT) if client is None else client
+        if self.client < 0:
+            raise WorldError("could not start a PyBullet client")
+        rules = self.field.rules
+        self.interaction_s = self.config.interaction_s or rules.interaction_s
+        self.isolation_s = self.config.isolation_s
+        self.match_length_s = self.isolation_s + self.interaction_s
+        self.pin_time_s = self.config.pin_time_s or rules.pin_time_s
+        self.dt = self.config.control_dt
+        self.substeps = self.config.substeps
+        self.training = self.config.fidelity == "training"
+        self.lineup: list[tuple[Alliance, str]] = [("red", n) for n in self.config.red] + [
+            ("blue", n) for n in self.config.blue
+        ]
+        self.robots: list[RobotState] = []
+        self.goals: list[GoalState] = []
+        self.ring_xy = np.zeros((0, 2))
+        self.ring_z = np.zeros(0)
+        self.ring_state = np.zeros(0, dtype=np.int8)
+        self.ring_owner = np.zeros(0, dtype=np.int16)  # robot (held) or goal (scored) index
+        self.ring_bodies: list[int] = []
+        self._ring_visuals: list[int] | None = None
+        self._ring_visual_state: np.ndarray | None = None
+        self.time_s = 0.0
+        self.steps = 0
+        self.over = False
+        self._pin_timers: dict[tuple[int, int], float] = {}
+        self._barrier: int | None = None
+        self._ready = False
+        # score() is asked for by every robot's info each step; it only changes when the world
+        # does (a step or a scenario edit), so it is cached on those.
+        self._edits = 0
+        self._score_cache: tuple[tuple, dict[str, AllianceScore]] | None = None
+
+    # --- lifecycle --------------------------------------------------------------------------
+
+    def close(self) -> None:
+        if self._owns_client and self.client >= 0:
+            with contextlib.suppress(p.error):
+                p.disconnect(physicsClientId=self.client)
+            self.client = -1
+
+    def __enter__(self) -> World:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def reset(self, rng: np.random.Generator | None = None) -> None:
+        """Rebuild the field for a new match. All randomness comes from `rng`."""
+        rng = rng if rng is not None else np.random.default_rng(0)
+        cid = self.client
+        # Rebuilding (a few ms) rather than restoring keeps a reset match bit-identical to a new
+        # one: no contact caches or constraint ids survive from the last match.
+        p.resetSimulation(physicsClientId=cid)
+        p.setGravity(0, 0, 0 if self.training else -9.81, physicsClientId=cid)
+        if self.training:
+            p.setPhysicsEngineParameter(
+                fixedTimeStep=self.dt,
+                numSubSteps=self.substeps,
+                deterministicOverlappingPairs=1,
+                physicsClientId=cid,
+            )
+        else:
+            p.setPhysicsEngineParameter(
+                fixedTimeStep=self.dt / self.substeps,
+                numSubSteps=0,
+                deterministicOverlappingPairs=1,
+                physicsClientId=cid,
+            )
+        self._ring_visuals = None
+        self._ring_visual_state = None
+        self._edits += 1
+        self.time_s = 0.0
+        self.steps = 0
+        self.over = False
+        self._pin_timers = {}
+        self._build_field()
+        self._build_goals()
+        self._build_robots(rng)
+        self._build_rings(rng)
+        if self.isolation_s > 0:
+            self._build_barrier()
+        else:
+            self._barrier = None
+        for r in self.robots:
+            r.history = deque(maxlen=max(4, int(r.config.gps.latency_s / self.dt) + 3))
+            r.history.append((0.0, r.x, r.y, r.heading))
+        self._ready = True
+
+    # --- building ---------------------------------------------------------------------------
+
+    def _rgba(self, rgb: tuple[int, int, int], alpha: float = 1.0) -> list[float]:
+        return [rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0, alpha]
+
+    def _static_box(
+        self,
+        center: tuple[float, float, float],
+        half: tuple[float, float, float],
+        rgb: tuple[int, int, int] | None,
+        collide: bool,
+    ) -> int:
+        cid = self.client
+        col = (
+            p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=cid)
+            if collide
+            else -1
+        )
+        vis = (
+            p.createVisualShape(
+                p.GEOM_BOX, halfExtents=half, rgbaColor=self._rgba(rgb), physicsClientId=cid
+            )
+            if rgb is not None
+            else -1
+        )
+        return p.createMultiBody(0, col, vis, basePosition=center, physicsClientId=cid)
+
+    def _build_field(self) -> None:
+        f = self.field
+        half = f.half
+        t = f.wall_thickness
+        # Floor: a body in both fidelities (the camera sees it); it only collides in high.
+        self.floor = self._static_box(
+            (0, 0, -0.05), (half + t, half + t, 0.05), f.tile_rgb, not self.training
+        )
+        line_half = 0.0254
+        for x0, y0, x1, y1 in f.lines:
+            cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+            hx = max(abs(x1 - x0) / 2, line_half)
+            hy = max(abs(y1 - y0) / 2, line_half)
+            self._static_box((cx, cy, 0.0005), (hx, hy, 0.0005), f.line_rgb, False)
+        # Walls reach well below the floor in training so nothing squeezed against them can slip
+        # under; their visible part is the field's wall height.
+        depth = 0.5 if self.training else 0.0
+        hz = (f.wall_height + depth) / 2
+        zc = hz - depth
+        self.walls = [
+            self._static_box((sx * (half + t / 2), 0, zc), (t / 2, half + t, hz), f.wall_rgb, True)
+            for sx in (-1, 1)
+        ] + [
+            self._static_box((0, sy * (half + t / 2), zc), (half + t, t / 2, hz), f.wall_rgb, True)
+            for sy in (-1, 1)
+        ]
+        # Platforms are drawn but neither collide nor hide rings: the see-saw a robot climbs is
+        # not simulated (a robot "elevates" by ending the match on it), and a 3 in ramp hides
+        # little from a camera 0.3 m up.
+        for plat in f.platforms:
+            sx, sy = plat.size
+            self._static_box(
+                (plat.center[0], plat.center[1], plat.height / 2),
+                (sx / 2, sy / 2, plat.height / 2),
+                plat.rgb,
+                False,
+            )
+
+    def _build_goals(self) -> None:
+        cid = self.client
+        self.goals = []
+        for i, g in enumerate(self.field.goals):
+            rgba = self._rgba(g.rgb)
+            if self.training:
+                # Planar physics only needs the base's outline: a sphere whose equator is at
+                # bumper height acts as a disc of the base's radius against robots, walls and
+                # goals, and sphere-box contacts cost a fraction of cylinder ones.
+                col = p.createCollisionShape(
+                    p.GEOM_SPHERE,
+                    radius=g.base_radius,
+                    collisionFramePosition=[0, 0, g.base_radius],
+                    physicsClientId=cid,
+                )
+            else:
+                col = p.createCollisionShapeArray(
+                    shapeTypes=[p.GEOM_CYLINDER, p.GEOM_CYLINDER],
+                    radii=[g.base_radius, _POST_RADIUS],
+                    lengths=[g.base_height, g.height],
+                    collisionFramePositions=[[0, 0, g.base_height / 2], [0, 0, g.height / 2]],
+                    physicsClientId=cid,
+                )
+            vis = p.createVisualShapeArray(
+                shapeTypes=[p.GEOM_CYLINDER, p.GEOM_CYLINDER],
+                radii=[g.base_radius, _POST_RADIUS],
+                lengths=[g.base_height, g.height],
+                rgbaColors=[rgba, rgba],
+                visualFramePositions=[[0, 0, g.base_height / 2], [0, 0, g.height / 2]],
+                physicsClientId=cid,
+            )
+            body = p.createMultiBody(
+                g.mass_kg,
+                col,
+                vis,
+                basePosition=(g.position[0], g.position[1], 0.0 if self.training else 0.001),
+                baseInertialFramePosition=[0, 0, g.base_height / 2],
+                physicsClientId=cid,
+            )
+            # Huge roll/pitch inertia: goals slide and spin but never tip (tipping is not part
+            # of what the policy needs, and a tipped goal wedges the solver).
+            inertia_xy = 1e3
+            p.changeDynamics(
+                body,
+                -1,
+                localInertiaDiagonal=[inertia_xy, inertia_xy, 0.5 * g.mass_kg * g.base_radius**2],
+                lateralFriction=0.5,
+                linearDamping=_GOAL_DAMPING if self.training else 0.04,
+                angularDamping=_GOAL_DAMPING if self.training else 0.04,
+                physicsClientId=cid,
+            )
+            self.goals.append(GoalState(i, g, body, g.position[0], g.position[1]))
+
+    def _build_robots(self, rng: np.random.Generator) -> None:
+        cid = self.client
+        cfg = self.config
+        self.robots = []
+        counts = {"red": 0, "blue": 0}
+        for index, (alliance, name) in enumerate(self.lineup):
+            rc = cfg.robots[name]
+            slot = counts[alliance]
+            counts[alliance] += 1
+            start = self.field.start(alliance, name)
+            jit = cfg.start_jitter_m
+            x = start.position[0] + (rng.uniform(-jit, jit) if jit > 0 else 0.0)
+            y = start.position[1] + (rng.uniform(-jit, jit) if jit > 0 else 0.0)
+            hj = cfg.start_jitter_deg
+            heading = float(wrap_heading(start.heading + (rng.uniform(-hj, hj) if hj > 0 else 0)))
+            half = (rc.width_m / 2, rc.length_m / 2, rc.height_m / 2)
+            col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=cid)
+            alliance_rgb = (200, 40, 45) if alliance == "red" else (30, 80, 190)
+            vis = p.createVisualShapeArray(
+                shapeTypes=[p.GEOM_BOX, p.GEOM_BOX],
+                # An alliance-coloured bumper stripe across the front, below the camera.
+                halfExtents=[list(half), [half[0] * 0.9, 0.01, 0.04]],
+                rgbaColors=[self._rgba(rc.rgb), self._rgba(alliance_rgb)],
+                visualFramePositions=[[0, 0, 0], [0, half[1], 0.0]],
+                physicsClientId=cid,
+            )
+            # Box local frame: x across, y along the heading, so yaw = heading_to_yaw - 90 deg
+            # makes local +y point along the heading.
+            body = p.createMultiBody(
+                rc.mass_kg,
+                col,
+                vis,
+                basePosition=(x, y, self._robot_z(rc)),
+                baseOrientation=yaw_quaternion(self._body_yaw(heading)),
+                physicsClientId=cid,
+            )
+            p.changeDynamics(
+                body,
+                -1,
+                lateralFriction=0.0,
+                linearDamping=0.0,
+                angularDamping=0.0,
+                physicsClientId=cid,
+            )
+            self.robots.append(RobotState(index, alliance, slot, rc, body, x, y, heading))
+
+    @staticmethod
+    def _body_yaw(heading: float) -> float:
+        return heading_to_yaw(heading) - math.pi / 2
+
+    @staticmethod
+    def _body_heading(yaw: float) -> float:
+        return yaw_to_heading(yaw + math.pi / 2)
+
+    def _robot_z(self, rc: RobotConfig) -> float:
+        return rc.height_m / 2 + (0.0 if self.training else 0.002)
+
+    def _build_rings(self, rng: np.random.Generator) -> None:
+        f = self.field
+        cfg = self.config
+        xy = [f.ring_positions.copy()]
+        if cfg.ring_jitter_m > 0:
+            xy[0] += rng.uniform(-cfg.ring_jitter_m, cfg.ring_jitter_m, xy[0].shape)
+            np.clip(xy[0], -f.half + f.ring.radius, f.half - f.ring.radius, out=xy[0])
+        if cfg.match_loads:
+            spots = f.match_load_spots[: f.ring.match_loads_per_alliance]
+            xy += [spots, -spots]
+        floor_xy = np.concatenate(xy) if xy else np.zeros((0, 2))
+        n_floor = len(floor_xy)
+        preload = f.ring.preloads_per_robot if cfg.preloads else 0
+        n = n_floor + preload * len(self.robots)
+        self.ring_xy = np.zeros((n, 2))
+        self.ring_xy[:n_floor] = floor_xy
+        self.ring_z = np.full(n, f.ring.thickness / 2)
+        self.ring_state = np.full(n, RING_FLOOR, dtype=np.int8)
+        self.ring_owner = np.full(n, -1, dtype=np.int16)
+        for r in self.robots:
+            lo = n_floor + r.index * preload
+            self.ring_state[lo : lo + preload] = RING_HELD
+            self.ring_owner[lo : lo + preload] = r.index
+            r.held = preload
+        self.ring_bodies = []
+        if not self.training:
+            self.ring_bodies = self._make_ring_bodies(dynamic=True)
+
+    def _ring_mesh(self) -> tuple[list[list[float]], list[list[float]], list[int]]:
+        ring = self.field.ring
+        tube = (ring.outer_diameter - ring.inner_diameter) / 4
+        major = ring.inner_diameter / 2 + tube
+        nu, nv = 16, 8
+        verts, norms, idx = [], [], []
+        for i in range(nu):
+            u = 2 * math.pi * i / nu
+            for j in range(nv):
+                v = 2 * math.pi * j / nv
+                rr = major + tube * math.cos(v)
+                verts.append([rr * math.cos(u), rr * math.sin(u), ring.thickness / 2 * math.sin(v)])
+                norms.append([math.cos(v) * math.cos(u), math.cos(v) * math.sin(u), math.sin(v)])
+        for i in range(nu):
+            for j in range(nv):
+                a = i * nv + j
+                b = ((i + 1) % nu) * nv + j
+                c = ((i + 1) % nu) * nv + (j + 1) % nv
+                d = i * nv + (j + 1) % nv
+                idx += [a, b, c, a, c, d]
+        return verts, norms, idx
+
+    def _make_ring_bodies(self, dynamic: bool) -> list[int]:
+        cid = self.client
+        ring = self.field.ring
+        verts, norms, idx = self._ring_mesh()
+        vis = p.createVisualShape(
+            p.GEOM_MESH,
+            vertices=verts,
+            indices=idx,
+            normals=norms,
+            rgbaColor=self._rgba(ring.rgb),
+            physicsClientId=cid,
+        )
+        col = -1
+        if dynamic:
+            col = p.createCollisionShape(
+                p.GEOM_CYLINDER, radius=ring.radius, height=ring.thickness, physicsClientId=cid
+            )
+        bodies = []
+        for i in range(len(self.ring_xy)):
+            on_floor = self.ring_state[i] == RING_FLOOR
+            pos = (
+                (self.ring_xy[i, 0], self.ring_xy[i, 1], self.ring_z[i] + (0.001 if dynamic else 0))
+                if on_floor
+                else (0.0, 0.0, _PARK_Z - i * 0.2)
+            )
+            body = p.createMultiBody(
+                ring.mass_kg if dynamic and on_floor else 0.0,
+                col,
+                vis,
+                basePosition=pos,
+                physicsClientId=cid,
+            )
+            if dynamic:
+                p.changeDynamics(
+                    body,
+                    -1,
+                    lateralFriction=0.6,
+                    rollingFriction=0.001,
+                    linearDamping=0.1,
+                    angularDamping=0.1,
+                    physicsClientId=cid,
+                )
+            bodies.append(body)
+        return bodies
+
+    def _build_barrier(self) -> None:
+        """During the isolation period a wall on the centre line that only robots hit."""
+        cid = self.client
+        half = self.field.half
+        col = p.createCollisionShape(p.GEOM_BOX, halfExtents=(0.01, half, 1.0), physicsClientId=cid)
+        self._barrier = p.createMultiBody(0, col, -1, basePosition=(0, 0, 0.5), physicsClientId=cid)
+        for g in self.goals:
+            p.setCollisionFilterPair(self._barrier, g.body, -1, -1, 0, physicsClientId=cid)
+        for b in self.ring_bodies:
+            p.setCollisionFilterPair(self._barrier, b, -1, -1, 0, physicsClientId=cid)
+
+    def _remove_barrier(self) -> None:
+        if self._barrier is not None:
+            p.removeBody(self._barrier, physicsClientId=self.client)
+            self._barrier = None
+
+    # --- stepping ---------------------------------------------------------------------------
+
+    @property
+    def phase(self) -> str:
+        if self.over:
+            return "over"
+        return "isolation" if self.time_s < self.isolation_s else "interaction"
+
+    def step(self, commands: list[DriveCommand]) -> StepEvents:
+        """Advance one control step (1 / control_hz seconds)."""
+        if not self._ready:
+            raise WorldError("World.step() before reset()")
+        if len(commands) != len(self.robots):
+            raise WorldError(f"expected {len(self.robots)} commands, got {len(commands)}")
+        events = StepEvents([0] * len(self.robots), [0] * len(self.robots))
+        if self.over:
+            events.match_over = True
+            return events
+        cid = self.client
+        dt = self.dt
+        for r, cmd in zip(self.robots, commands, strict=True):
+            self._apply_limits(r, cmd, dt)
+            r.intake_on = bool(cmd.intake)
+        if self.training:
+            self._set_velocities()
+            p.stepSimulation(physicsClientId=cid)
+        else:
+            for _ in range(self.substeps):
+                self._set_velocities()
+                p.stepSimulation(physicsClientId=cid)
+        before = [(r.x, r.y, r.heading) for r in self.robots]
+        self._read_poses()
+        self._contain()
+        for r, (x0, y0, h0) in zip(self.robots, before, strict=True):
+            h = math.radians(h0)
+            r.measured_v = ((r.x - x0) * math.sin(h) + (r.y - y0) * math.cos(h)) / dt
+            r.measured_w = math.radians((r.heading - h0 + 180.0) % 360.0 - 180.0) / dt
+        was_isolation = self.time_s < self.isolation_s
+        self.time_s = (self.steps + 1) * dt
+        self.steps += 1
+        if was_isolation and self.time_s >= self.isolation_s:
+            self._remove_barrier()
+            events.phase_changed = True
+        for r, cmd in zip(self.robots, commands, strict=True):
+            self._clamp(r, cmd, events)
+        self._carry_goals()
+        self._intake(events)
+        self._transfer(events)
+        self._pins(events, dt)
+        for r in self.robots:
+            r.history.append((self.time_s, r.x, r.y, r.heading))
+        if self.time_s >= self.match_length_s - 1e-9:
+            self.over = True
+            events.match_over = True
+        return events
+
+    def _apply_limits(self, r: RobotState, cmd: DriveCommand, dt: float) -> None:
+        rc = r.config
+        lin = float(cmd.linear)
+        ang = float(cmd.angular)
+        if not (math.isfinite(lin) and math.isfinite(ang)):
+            # A NaN from a policy must never become a motor command: stop instead.
+            lin = ang = 0.0
+        lin = min(max(lin, -rc.max_linear_mps), rc.max_linear_mps)
+        ang = min(max(ang, -rc.max_angular_rad_s), rc.max_angular_rad_s)
+        dv = rc.max_linear_accel * dt
+        dw = rc.max_angular_accel * dt
+        r.v += min(max(lin - r.v, -dv), dv)
+        r.w += min(max(ang - r.w, -dw), dw)
+
+    def _set_velocities(self) -> None:
+        cid = self.client
+        for r in self.robots:
+            h = math.radians(r.heading)
+            p.resetBaseVelocity(
+                r.body,
+                (r.v * math.sin(h), r.v * math.cos(h), 0.0),
+                (0.0, 0.0, -r.w),
+                physicsClientId=cid,
+            )
+
+    def _read_poses(self) -> None:
+        cid = self.client
+        for r in self.robots:
+            pos, q = p.getBasePositionAndOrientation(r.body, physicsClientId=cid)
+            r.x, r.y = pos[0], pos[1]
+            r.heading = self._body_heading(quaternion_yaw(q))
+            z0 = self._robot_z(r.config)
+            tilted = abs(q[0]) > 1e-3 or abs(q[1]) > 1e-3
+            if self.training and (tilted or abs(pos[2] - z0) > 1e-3):
+                self._place(r.body, r.x, r.y, z0, self._body_yaw(r.heading))
+            elif not self.training and (abs(q[0]) > 0.17 or abs(q[1]) > 0.17):
+                # More than ~20 degrees of tilt: a box robot climbing a ring pile; set it down.
+                self._place(r.body, r.x, r.y, z0, self._body_yaw(r.heading))
+        for g in self.goals:
+            pos, q = p.getBasePositionAndOrientation(g.body, physicsClientId=cid)
+            g.x, g.y = pos[0], pos[1]
+            if self.training and abs(pos[2]) > 1e-3:
+                self._place(g.body, g.x, g.y, 0.0, quaternion_yaw(q))
+
+    def _place(self, body: int, x: float, y: float, z: float, yaw: float) -> None:
+        cid = self.client
+        p.resetBasePositionAndOrientation(body, (x, y, z), yaw_quaternion(yaw), physicsClientId=cid)
+        lin, ang = p.getBaseVelocity(body, physicsClientId=cid)
+        p.resetBaseVelocity(body, (lin[0], lin[1], 0.0), (0.0, 0.0, ang[2]), physicsClientId=cid)
+
+    def _contain(self) -> None:
+        """Keep every robot (with the goal it carries) and every goal inside the walls.
+
+        The solver alone lets a robot whose velocity is set every step sink into a wall; this
+        geometric clamp makes "cannot leave the field" exact.
+        """
+        lim = self.field.half
+        for r in self.robots:
+            rc = r.config
+            h = math.radians(r.heading)
+            ac, as_ = abs(math.cos(h)), abs(math.sin(h))
+            hw, hl = rc.width_m / 2, rc.length_m / 2
+            ex = hw * ac + hl * as_  # half extents of the footprint's bounding box
+            ey = hw * as_ + hl * ac
+            lo_x, hi_x, lo_y, hi_y = r.x - ex, r.x + ex, r.y - ey, r.y + ey
+            if r.carried_goal is not None:
+                g = self.goals[r.carried_goal]
+                gx, gy = self._clamp_point(r, g)
+                rad = g.spec.base_radius
+                lo_x, hi_x = min(lo_x, gx - rad), max(hi_x, gx + rad)
+                lo_y, hi_y = min(lo_y, gy - rad), max(hi_y, gy + rad)
+            sx = max(0.0, -lim - lo_x) - max(0.0, hi_x - lim)
+            sy = max(0.0, -lim - lo_y) - max(0.0, hi_y - lim)
+            if sx or sy:
+                r.x += sx
+                r.y += sy
+                self._place(r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading))
+        for g in self.goals:
+            if g.carried_by is not None:
+                continue
+            rad = g.spec.base_radius
+            nx = min(max(g.x, -lim + rad), lim - rad)
+            ny = min(max(g.y, -lim + rad), lim - rad)
+            if nx != g.x or ny != g.y:
+                g.x, g.y = nx, ny
+                pos, q = p.getBasePositionAndOrientation(g.body, physicsClientId=self.client)
+                self._place(g.body, nx, ny, pos[2], quaternion_yaw(q))
+
+    # --- goals --------------------------------------------------------------------------------
+
+    def _clamp_point(self, r: RobotState, g: GoalState) -> tuple[float, float]:
+        """Where a carried goal's centre sits: just behind the robot's back face."""
+        back = r.config.length_m / 2 + g.spec.base_radius + 0.005
+        f = heading_vector(r.heading)
+        return r.x - back * float(f[0]), r.y - back * float(f[1])
+
+    def _clamp(self, r: RobotState, cmd: DriveCommand, events: StepEvents) -> None:
+        want = cmd.clamp if cmd.clamp is not None else (True if self.config.auto_clamp else None)
+        if want is None:
+            return
+        if not want:
+            if r.carried_goal is not None:
+                self._release(r, events)
+            return
+        if r.carried_goal is not None:
+            return
+        rc = r.config
+        h = math.radians(r.heading)
+        fs, fc = math.sin(h), math.cos(h)
+        best, best_d = None, math.inf
+        for g in self.goals:
+            if g.carried_by is not None:
+                continue
+            dx, dy = g.x - r.x, g.y - r.y
+            across = dx * fc - dy * fs
+            gap = -(dx * fs + dy * fc) - rc.length_m / 2 - g.spec.base_radius
+            if -0.03 <= gap <= rc.clamp_reach_m and abs(across) <= rc.clamp_half_width_m:
+                best, best_d = (g, gap) if gap < best_d else (best, best_d)
+        if best is not None:
+            best.carried_by = r.index
+            r.carried_goal = best.index
+            p.setCollisionFilterPair(r.body, best.body, -1, -1, 0, physicsClientId=self.client)
+            events.clamped.append((r.index, best.index))
+
+    def _release(self, r: RobotState, events: StepEvents) -> None:
+        assert r.carried_goal is not None
+        g = self.goals[r.carried_goal]
+        g.carried_by = None
+        r.carried_goal = None
+        p.setCollisionFilterPair(r.body, g.body, -1, -1, 1, physicsClientId=self.client)
+        events.released.append((r.index, g.index))
+
+    def _carry_goals(self) -> None:
+        cid = self.client
+        for r in self.robots:
+            if r.carried_goal is None:
+                continue
+            g = self.goals[r.carried_goal]
+            g.x, g.y = self._clamp_point(r, g)
+            pos, _ = p.getBasePositionAndOrientation(g.body, physicsClientId=cid)
+            p.resetBasePositionAndOrientation(
+                g.body,
+                (g.x, g.y, pos[2]),
+                yaw_quaternion(self._body_yaw(r.heading)),
+                physicsClientId=cid,
+            )
+            # Moving with the robot during the next physics step, so it pushes what it meets.
+            h = math.radians(r.heading)
+            p.resetBaseVelocity(
+                g.body,
+                (r.v * math.sin(h), r.v * math.cos(h), 0.0),
+                (0.0, 0.0, -r.w),
+                physicsClientId=cid,
+            )
+
+    # --- rings --------------------------------------------------------------------------------
+
+    def _sync_ring_bodies(self) -> None:
+        """High fidelity: read the dynamic rings' positions back into the numpy table."""
+        cid = self.client
+        for i in np.flatnonzero(self.ring_state == RING_FLOOR):
+            pos, _ = p.getBasePositionAndOrientation(self.ring_bodies[i], physicsClientId=cid)
+            self.ring_xy[i] = pos[0], pos[1]
+            self.ring_z[i] = pos[2]
+
+    def intake_rect(self, r: RobotState) -> tuple[tuple[float, float], tuple[float, float]]:
+        """The intake zone, robot frame: x (across) and y (forward) ranges a ring centre must be
+        in. It starts one ring radius behind the front face, so a ring touching the bumper
+        counts, and reaches intake_depth_m plus a radius ahead of it."""
+        rc = r.config
+        rad = self.field.ring.radius
+        front = rc.length_m / 2
+        return (-rc.intake_width_m / 2, rc.intake_width_m / 2), (
+            front - rad,
+            front + rc.intake_depth_m + rad,
+        )
+
+    def _intake(self, events: StepEvents) -> None:
+        if not self.training:
+            self._sync_ring_bodies()
+        floor = np.flatnonzero(self.ring_state == RING_FLOOR)
+        if len(floor) == 0:
+            return
+        # A ring on the floor can be taken only while low (high fidelity: not on top of a pile
+        # higher than the intake's lip).
+        low = self.ring_z[floor] < self.field.ring.thickness * 2.5
+        floor = floor[low]
+        for r in self.robots:
+            # Reversing, a robot passes over rings (training rings are not bodies) and they
+            # come out under its front bumper: an intake takes rings coming in, not going out.
+            if not r.intake_on or r.room <= 0 or len(floor) == 0 or r.v < -0.05:
+                continue
+            (x0, x1), (y0, y1) = self.intake_rect(r)
+            local = field_to_robot(self.ring_xy[floor], (r.x, r.y), r.heading)
+            inside = (local[:, 0] >= x0) & (local[:, 0] <= x1)
+            inside &= (local[:, 1] >= y0) & (local[:, 1] <= y1)
+            if not inside.any():
+                continue
+            cand = floor[inside]
+            order = np.argsort(local[inside, 1], kind="stable")  # nearest the bumper first
+            taken = cand[order[: r.room]]
+            self.ring_state[taken] = RING_HELD
+            self.ring_owner[taken] = r.index
+            r.held += len(taken)
+            r.collected += len(taken)
+            events.collected[r.index] += len(taken)
+            if self.ring_bodies:
+                for i in taken:
+                    self._park_ring(int(i))
+            floor = np.setdiff1d(floor, taken, assume_unique=True)
+
+    def _park_ring(self, i: int) -> None:
+        cid = self.client
+        body = self.ring_bodies[i]
+        p.changeDynamics(body, -1, mass=0.0, physicsClientId=cid)
+        p.resetBasePositionAndOrientation(
+            body, (0.0, 0.0, _PARK_Z - i * 0.2), (0, 0, 0, 1), physicsClientId=cid
+        )
+
+    def _transfer(self, events: StepEvents) -> None:
+        for r in self.robots:
+            if r.carried_goal is None or r.held == 0:
+                r.transfer_timer = 0.0
+                continue
+            r.transfer_timer += self.dt
+            while r.held > 0 and r.transfer_timer >= r.config.ring_transfer_s:
+                r.transfer_timer -= r.config.ring_transfer_s
+                mine = np.flatnonzero((self.ring_state == RING_HELD) & (self.ring_owner == r.index))
+                i = int(mine[0])
+                self.ring_state[i] = RING_SCORED
+                self.ring_owner[i] = r.carried_goal
+                r.held -= 1
+                self.goals[r.carried_goal].rings += 1
+                events.scored[r.index] += 1
+
+    # --- rules --------------------------------------------------------------------------------
+
+    def _pins(self, events: StepEvents, dt: float) -> None:
+        margin = self.config.pin_contact_m
+        for a in self.robots:
+            if a.alliance != "red":
+                continue
+            for b in self.robots:
+                if b.alliance != "blue":
+                    continue
+                key = (a.index, b.index)
+                d = math.hypot(a.x - b.x, a.y - b.y)
+                touching = False
+                if d <= a.config.radius_m + b.config.radius_m + margin:
+                    touching = bool(
+                        p.getClosestPoints(a.body, b.body, margin, physicsClientId=self.client)
+                    )
+                if touching:
+                    self._pin_timers[key] = self._pin_timers.get(key, 0.0) + dt
+                    if self._pin_timers[key] >= self.pin_time_s - 1e-9:
+                        events.pins.append(key)
+                        self._pin_timers[key] = 0.0
+                else:
+                    self._pin_timers[key] = 0.0
+
+    def pin_timer(self, red_index: int, blue_index: int) -> float:
+        return self._pin_timers.get((red_index, blue_index), 0.0)
+
+    def robot_elevated(self, r: RobotState) -> bool:
+        try:
+            plat = self.field.platform(r.alliance)
+        except ValueError:
+            return False
+        return plat.contains_point(r.x, r.y)
+
+    def goal_owner(self, g: GoalState) -> tuple[Alliance | None, bool]:
+        """Which alliance a goal scores for right now, and whether it is elevated."""
+        if g.carried_by is not None:
+            carrier = self.robots[g.carried_by]
+            if self.robot_elevated(carrier) and g.spec.alliance in (None, carrier.alliance):
+                return carrier.alliance, True
+        for alliance, zone in self.field.home_zones.items():
+            inside = zone.contains_point(g.x, g.y, margin=g.spec.base_radius)
+            if inside and g.spec.alliance in (None, alliance):
+                return alliance, False  # type: ignore[return-value]
+        return None, False
+
+    def score(self) -> dict[str, AllianceScore]:
+        """The match score as the Tipping Point manual counts it, for the current state.
+
+        Rings on an alliance goal count for its alliance wherever it is; rings on a neutral goal
+        count only while it is in a home zone (or elevated). Every ring counts as on a branch.
+        """
+        key = (self.steps, self._edits, tuple(g.rings for g in self.goals))
+        if self._score_cache is not None and self._score_cache[0] == key:
+            return dict(self._score_cache[1])
+        sc = self.field.scoring
+        out = {}
+        for alliance in ("red", "blue"):
+            rings = in_zone = elevated_goals = 0
+            for g in self.goals:
+                owner, elevated = self.goal_owner(g)
+                if g.spec.alliance == alliance or (g.spec.alliance is None and owner == alliance):
+                    rings += g.rings
+                if owner == alliance:
+                    if elevated:
+                        elevated_goals += 1
+                    else:
+                        in_zone += 1
+            robots_up = sum(
+                1 for r in self.robots if r.alliance == alliance and self.robot_elevated(r)
+            )
+            total = (
+                rings * sc.ring_branch
+                + in_zone * sc.goal_in_home_zone
+                + elevated_goals * sc.goal_elevated
+                + robots_up * sc.robot_elevated
+            )
+            out[alliance] = AllianceScore(rings, in_zone, elevated_goals, robots_up, total)
+        self._score_cache = (key, out)
+        return dict(out)
+
+    # --- scenarios (tests, datasets, the full-stack match) -------------------------------------
+
+    def place_robot(self, index: int, x: float, y: float, heading_deg: float) -> None:
+        """Teleport robot `index` (at rest); its carried goal follows."""
+        self._edits += 1
+        r = self.robots[index]
+        r.x, r.y, r.heading = float(x), float(y), float(wrap_heading(heading_deg))
+        r.v = r.w = r.measured_v = r.measured_w = 0.0
+        p.resetBasePositionAndOrientation(
+            r.body,
+            (r.x, r.y, self._robot_z(r.config)),
+            yaw_quaternion(self._body_yaw(r.heading)),
+            physicsClientId=self.client,
+        )
+        p.resetBaseVelocity(r.body, (0, 0, 0), (0, 0, 0), physicsClientId=self.client)
+        r.history.clear()
+        r.history.append((self.time_s, r.x, r.y, r.heading))
+        if r.carried_goal is not None:
+            self._carry_goals()
+
+    def place_goal(self, index: int, x: float, y: float) -> None:
+        self._edits += 1
+        g = self.goals[index]
+        if g.carried_by is not None:
+            raise WorldError(f"goal {g.spec.name} is carried; release it first")
+        g.x, g.y = float(x), float(y)
+        z = 0.0 if self.training else 0.001
+        cid = self.client
+        p.resetBasePositionAndOrientation(g.body, (g.x, g.y, z), (0, 0, 0, 1), physicsClientId=cid)
+        p.resetBaseVelocity(g.body, (0, 0, 0), (0, 0, 0), physicsClientId=cid)
+
+    def set_floor_rings(self, xy: np.ndarray) -> None:
+        """Replace every ring on the floor by rings at `xy` (N, 2); held and scored ones stay."""
+        self._edits += 1
+        pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        lim = self.field.half - self.field.ring.radius
+        if pts.size and np.any(np.abs(pts) > lim):
+            raise WorldError("a ring position lies outside the field")
+        keep = self.ring_state != RING_FLOOR
+        n_keep = int(keep.sum())
+        n = n_keep + len(pts)
+        state = np.concatenate([self.ring_state[keep], np.full(len(pts), RING_FLOOR, np.int8)])
+        owner = np.concatenate([self.ring_owner[keep], np.full(len(pts), -1, np.int16)])
+        ring_xy = np.concatenate([self.ring_xy[keep], pts]) if n else np.zeros((0, 2))
+        cid = self.client
+        for b in self.ring_bodies + (self._ring_visuals or []):
+            p.removeBody(b, physicsClientId=cid)
+        self.ring_xy = ring_xy
+        self.ring_z = np.full(n, self.field.ring.thickness / 2)
+        self.ring_state = state
+        self.ring_owner = owner
+        self._ring_visuals = None
+        self._ring_visual_state = None
+        self.ring_bodies = [] if self.training else self._make_ring_bodies(dynamic=True)
+
+    # --- sensors ------------------------------------------------------------------------------
+
+    def gps(self, index: int, rng: np.random.Generator | None = None) -> GpsReading:
+        """The GPS reading of robot `index`: its pose `latency_s` ago, plus noise when rng."""
+        r = self.robots[index]
+        gcfg = r.config.gps
+        t = self.time_s - gcfg.latency_s
+        hist = r.history
+        x, y, h = hist[-1][1], hist[-1][2], hist[-1][3]
+        if t < hist[-1][0]:
+            x, y, h = hist[0][1], hist[0][2], hist[0][3]
+            for (t0, x0, y0, h0), (t1, x1, y1, h1) in zip(
+                list(hist)[:-1], list(hist)[1:], strict=True
+            ):
+                if t0 <= t <= t1:
+                    a = (t - t0) / (t1 - t0) if t1 > t0 else 1.0
+                    dh = (h1 - h0 + 180.0) % 360.0 - 180.0
+                    x, y, h = x0 + a * (x1 - x0), y0 + a * (y1 - y0), h0 + a * dh
+                    break
+        if rng is not None:
+            x += rng.normal(0.0, gcfg.noise_xy_m)
+            y += rng.normal(0.0, gcfg.noise_xy_m)
+            h += rng.normal(0.0, gcfg.noise_heading_deg)
+        return GpsReading(x, y, float(wrap_heading(h)), gcfg.noise_xy_m, self.time_s)
+
+    def camera_pose(self, index: int) -> CameraPose:
+        r = self.robots[index]
+        return camera_pose((r.x, r.y), r.heading, r.config.camera)
+
+    def obstacles(self, exclude_robot: int | None = None, with_rings: bool = False) -> Obstacles:
+        boxes = []
+        for r in self.robots:
+            if r.index != exclude_robot:
+                rc = r.config
+                boxes.append((r.x, r.y, r.heading, rc.width_m / 2, rc.length_m / 2, rc.height_m))
+        discs = []
+        for g in self.goals:
+            discs.append((g.x, g.y, g.spec.base_radius, g.spec.base_height))
+            discs.append((g.x, g.y, _POST_RADIUS, g.spec.height))
+        obs = Obstacles.build(boxes, discs)
+        if with_rings:
+            floor = np.flatnonzero(self.ring_state == RING_FLOOR)
+            rad = np.full(len(floor), self.field.ring.radius)
+            hz = self.ring_z[floor] + self.field.ring.thickness / 2
+            obs.disc_xy = np.concatenate([obs.disc_xy, self.ring_xy[floor]])
+            obs.disc_radius = np.concatenate([obs.disc_radius, rad])
+            obs.disc_height = np.concatenate([obs.disc_height, hz])
+        return obs
+
+    def visible_rings(self, index: int) -> np.ndarray:
+        """Indices of the rings on the floor that robot `index`'s camera sees."""
+        r = self.robots[index]
+        cam = r.config.camera
+        if cam.max_turn_rate_rad_s is not None and abs(r.w) > cam.max_turn_rate_rad_s:
+            return np.zeros(0, dtype=np.int64)
+        floor = np.flatnonzero(self.ring_state == RING_FLOOR)
+        if len(floor) == 0:
+            return floor
+        pts = np.column_stack([self.ring_xy[floor], self.ring_z[floor]])
+        pose = self.camera_pose(index)
+        if self.training:
+            obstacles = self.obstacles(index)
+            if self.config.occlude_with_rings:
+                ring = self.field.ring
+                mask = visible_among_rings(pts, pose, cam, obstacles, ring.radius, ring.thickness)
+            else:
+                mask = visible(pts, pose, cam, obstacles)
+            return floor[mask]
+        mask, _, _ = in_frustum(pts, pose, cam)
+        keep = np.flatnonzero(mask)
+        if len(keep):
+            mask[keep] = self._rays_clear(pose, floor[keep], index)
+        return floor[mask]
+
+    def _rays_clear(self, pose: CameraPose, rings: np.ndarray, index: int) -> np.ndarray:
+        """High fidelity: a ray from the camera hits the ring itself (or nothing) first."""
+        start = [tuple(pose.position)] * len(rings)
+        ends = [(self.ring_xy[i, 0], self.ring_xy[i, 1], self.ring_z[i]) for i in rings]
+        hits = p.rayTestBatch(start, ends, physicsClientId=self.client)
+        own = self.robots[index].body
+        out = np.zeros(len(rings), dtype=bool)
+        for k, (i, hit) in enumerate(zip(rings, hits, strict=True)):
+            body = hit[0]
+            out[k] = body in (-1, own, self.ring_bodies[i])
+        return out
+
+    def rings_in_robot_frame(self, index: int, rings: np.ndarray) -> np.ndarray:
+        r = self.robots[index]
+        return field_to_robot(self.ring_xy[rings], (r.x, r.y), r.heading)
+
+    # --- rendering support ------------------------------------------------------------------
+
+    def ensure_ring_visuals(self) -> list[int]:
+        """Bodies the camera can see for every ring (training creates them on first use)."""
+        if self.ring_bodies:
+            return self.ring_bodies
+        if self._ring_visuals is None:
+            self._ring_visuals = self._make_ring_bodies(dynamic=False)
+            self._ring_visual_state = np.full(len(self.ring_xy), -1, dtype=np.int8)
+        assert self._ring_visual_state is not None
+        cid = self.client
+        changed = self._ring_visual_state != self.ring_state
+        for i in np.flatnonzero(changed):
+            if self.ring_state[i] == RING_FLOOR:
+                pos = (self.ring_xy[i, 0], self.ring_xy[i, 1], self.ring_z[i])
+            else:
+                pos = (0.0, 0.0, _PARK_Z - i * 0.2)
+            p.resetBasePositionAndOrientation(
+                self._ring_visuals[i], pos, (0, 0, 0, 1), physicsClientId=cid
+            )
+        self._ring_visual_state = self.ring_state.copy()
+        return self._ring_visuals
+
+    def body_kinds(self) -> dict[int, tuple[str, int]]:
+        """Body id -> (kind, index) for segmentation: kind in ring, goal, robot."""
+        out: dict[int, tuple[str, int]] = {}
+        for i, b in enumerate(self.ring_bodies or self._ring_visuals or []):
+            out[b] = ("ring", i)
+        for g in self.goals:
+            out[g.body] = ("goal", g.index)
+        for r in self.robots:
+            out[r.body] = ("robot", r.index)
+        return out
