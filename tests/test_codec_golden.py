@@ -121,6 +121,14 @@ def test_the_whole_vector_stream_decodes_in_order() -> None:
     ]
 
 
+def test_hello_vectors_carry_this_schemas_fingerprint() -> None:
+    hellos = [v for v in VECTORS if v["message"] == "Hello"]
+    assert hellos
+    for v in hellos:
+        assert v["fields"]["fingerprint"] == messages.FINGERPRINT
+        framing.check_hello(build(v))  # raises FingerprintMismatch otherwise
+
+
 def test_pr_pair_in_a_log_stays_out_of_the_downlink_alphabet() -> None:
     (v,) = [v for v in VECTORS if "pR" in str(v["fields"].get("text", ""))]
     assert "7052" in v["packet"]  # the pair is really in the bytes

@@ -308,10 +308,12 @@ def damaged(draw: st.DrawFn, link: str, keep_delimiters: bool) -> list[Piece]:
                 hurt[bit // 8] ^= 1 << (bit % 8)
             pieces.append(Piece(bytes(hurt) + tail, None))
         elif damage == "inject":
-            # not right after the opening ':', where another ':' would leave the frame whole
-            at = draw(st.integers(2, len(body) - 1))
+            # Inside the frame proper: next to its opening ':' or its terminator, another ':' or
+            # terminator would leave the frame whole.
+            core, end = data[:-1], data[-1:]
+            at = draw(st.integers(2, len(core) - 1))
             junk = draw(st.sampled_from([b"pR", b"pRa", b"pRpR", b"\x00", b":", b"\n"]))
-            pieces.append(Piece(body[:at] + junk + body[at:] + tail, None))
+            pieces.append(Piece(core[:at] + junk + core[at:] + end, None))
         else:
             if damage == "garbage_before":
                 junk = draw(st.binary(min_size=1, max_size=64))
