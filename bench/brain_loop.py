@@ -20,14 +20,12 @@ worst step must take under 5 % of the loop period here.
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import subprocess
 import sys
 from pathlib import Path
 from typing import Any
 
-from bench.common import Result
+from bench.common import Result, run_json_tool
 
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_BENCH = ROOT / "build" / "host" / "bin" / "brain_loop_bench"
@@ -42,26 +40,7 @@ WORST_FRACTION = 0.05
 
 def run_bench(binary: Path, steps: int) -> dict[str, Any]:
     """brain_loop_bench's JSON, checked: every scenario and statistic present and sensible."""
-    try:
-        proc = subprocess.run(
-            [str(binary), str(steps)],
-            capture_output=True,
-            text=True,
-            timeout=TIMEOUT_S,
-            check=False,
-        )
-    except subprocess.TimeoutExpired:
-        raise SystemExit(f"bench.brain_loop: {binary} ran past {TIMEOUT_S} s") from None
-    if proc.returncode != 0:
-        raise SystemExit(
-            f"bench.brain_loop: {binary} exited with {proc.returncode}: {proc.stderr.strip()}"
-        )
-    try:
-        data = json.loads(proc.stdout)
-    except json.JSONDecodeError as exc:
-        raise SystemExit(f"bench.brain_loop: {binary} did not print JSON ({exc})") from None
-    if not isinstance(data, dict):
-        raise SystemExit(f"bench.brain_loop: {binary} printed {type(data).__name__}")
+    data = run_json_tool("brain_loop", [str(binary), str(steps)], TIMEOUT_S)
     period = data.get("loop_period_ms")
     if not isinstance(period, int) or period <= 0:
         raise SystemExit(f"bench.brain_loop: loop_period_ms = {period!r}")

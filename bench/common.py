@@ -16,6 +16,7 @@ import math
 import os
 import platform
 import statistics
+import subprocess
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -178,3 +179,26 @@ def _display(path: Path) -> str:
         return str(path.relative_to(Path.cwd()))
     except ValueError:
         return str(path)
+
+
+def run_json_tool(bench: str, argv: list[str], timeout_s: float) -> dict[str, object]:
+    """Run a benchmark's helper binary and return the JSON object it prints, or exit with a message
+    naming the benchmark, the binary and what went wrong."""
+    binary = argv[0]
+    try:
+        proc = subprocess.run(argv, capture_output=True, text=True, timeout=timeout_s, check=False)
+    except subprocess.TimeoutExpired:
+        raise SystemExit(f"bench.{bench}: {binary} ran past {timeout_s} s") from None
+    except OSError as exc:
+        raise SystemExit(f"bench.{bench}: cannot run {binary}: {exc} (run `make build`)") from None
+    if proc.returncode != 0:
+        raise SystemExit(
+            f"bench.{bench}: {binary} exited with {proc.returncode}: {proc.stderr.strip()}"
+        )
+    try:
+        data = json.loads(proc.stdout)
+    except json.JSONDecodeError as exc:
+        raise SystemExit(f"bench.{bench}: {binary} did not print JSON ({exc})") from None
+    if not isinstance(data, dict):
+        raise SystemExit(f"bench.{bench}: {binary} printed {type(data).__name__}, not an object")
+    return data

@@ -11,16 +11,14 @@ come from pete_codec_bench, built by `make build`; this script never makes them 
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import subprocess
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from bench.common import Result, median_ns, per_second
+from bench.common import Result, median_ns, per_second, run_json_tool
 from protocol import framing
 from protocol.messages import (
     FINGERPRINT,
@@ -222,22 +220,7 @@ def python_rates(msgs: dict[str, Any], result: Result) -> None:
 
 def cpp_times(binary: Path) -> dict[str, float]:
     """pete_codec_bench's JSON, checked: every key present, every value a positive number."""
-    try:
-        proc = subprocess.run(
-            [str(binary)], capture_output=True, text=True, timeout=CPP_TIMEOUT_S, check=False
-        )
-    except subprocess.TimeoutExpired:
-        raise SystemExit(f"bench.protocol: {binary} ran past {CPP_TIMEOUT_S} s") from None
-    if proc.returncode != 0:
-        raise SystemExit(
-            f"bench.protocol: {binary} exited with {proc.returncode}: {proc.stderr.strip()}"
-        )
-    try:
-        data = json.loads(proc.stdout)
-    except json.JSONDecodeError as exc:
-        raise SystemExit(f"bench.protocol: {binary} did not print JSON ({exc})") from None
-    if not isinstance(data, dict):
-        raise SystemExit(f"bench.protocol: {binary} printed {type(data).__name__}, not an object")
+    data = run_json_tool("protocol", [str(binary)], CPP_TIMEOUT_S)
     out = {}
     for key in CPP_KEYS:
         value = data.get(key)
