@@ -5,11 +5,19 @@ from __future__ import annotations
 import argparse
 import sys
 
-DESCRIPTION = """\
+from jetson.perception.cli import HELP as PERCEPTION_HELP
+from jetson.perception.cli import add_commands as add_perception_commands
+from jetson.service import HELP as DAEMON_HELP
+
+DESCRIPTION = (
+    """\
 The Jetson side of Pac-Man Pete: finds the V5 Brain, talks the wire protocol, sees rings, drives.
 
   pete-jetson ports        list V5 Brain serial ports (the user port is the one to talk on)
 """
+    + DAEMON_HELP
+    + PERCEPTION_HELP
+)
 
 
 def _cmd_ports(_: argparse.Namespace) -> int:
@@ -33,7 +41,17 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     p = sub.add_parser("ports", help="list V5 Brain serial ports, user port first")
     p.set_defaults(func=_cmd_ports)
+    add_daemon_commands(sub)
+    add_perception_commands(sub)
     return parser
+
+
+def add_daemon_commands(sub: argparse._SubParsersAction) -> None:
+    """The daemon's commands (run, replay): registered by jetson.service, kept apart from the
+    perception commands so that each part adds its own."""
+    from jetson.service import add_commands
+
+    add_commands(sub)
 
 
 def main(argv: list[str] | None = None) -> int:

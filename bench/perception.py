@@ -1,0 +1,237 @@
+"""Benchmark of ring perception: detection quality, localisation error, pipeline speed.
+
+    python -m bench.perception [--sim-data DIR] [--frames N] [--real DIR] [--model PATH] [--strict]
+
+1. A test set with ground truth, for each detector (pre-filter off): precision, recall and F1 at
+   IoU 0.5, and localisation error (median, p90) by true distance band. With --sim-data, a folder
+   written by `pete-sim dataset`; without it, N frames (default 500) of jetson.perception's own
+   numpy renderer ("synthetic_" metrics), from seeds 2,000,000 up, which no training run uses
+   (training draws from 1,000,000 up and validates from 990,000 up).
+2. Real labelled images (a YOLO folder; the shared BLRSAI set when it is present): precision,
+   recall and F1 for each detector, with and without the pre-filter. Skipped, with a message,
+   when the folder is missing.
+3. Frames per second of the whole pipeline (pre-filter + detector + localisation) on a 640x480
+   frame with depth, one thread for OpenCV and onnxruntime: one core.
+
+Targets (issue 6): F1 >= 0.95 on simulated frames and >= 0.85 on real images, median
+localisation error <= 3 cm within 2 m, >= 60 frames/s; they are set on the default pipeline
+(the CNN, pre-filter off). Results: bench/results/perception.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from bench.common import Result, median_ns, per_second
+from jetson.perception.camera import CameraConfig
+from jetson.perception.classical import ClassicalDetector
+from jetson.perception.cnn.runtime import DEFAULT_MODEL, CnnDetector, metadata_path
+from jetson.perception.dataset import RingDataset
+from jetson.perception.detection import Detector
+from jetson.perception.errors import PerceptionError
+from jetson.perception.evaluate import Counts, DatasetScore, heldout_of, match, trained_on
+from jetson.perception.frame import Intrinsics
+from jetson.perception.localise import Localiser
+from jetson.perception.pipeline import Pipeline
+from jetson.perception.prefilter import PrefilterConfig
+from jetson.perception.synthetic import random_frame
+
+ROOT = Path(__file__).resolve().parent.parent
+SHARED_REAL = ROOT.parent / "shared" / "datasets" / "blrsai-rings" / "train"
+TEST_SEED = 2_000_000
+BANDS = (0.0, 1.0, 2.0, 3.0)
+
+
+def detectors(camera: CameraConfig, model: Path | None) -> dict[str, Detector]:
+    out: dict[str, Detector] = {"classical": ClassicalDetector(camera=camera)}
+    path = model or DEFAULT_MODEL
+    try:
+        out["cnn"] = CnnDetector(path, threads=1)
+    except PerceptionError as exc:
+        print(f"bench.perception: no CNN ({exc}); measuring the classical detector only")
+    return out
+
+
+def synthetic_scores(
+    dets: dict[str, Detector], camera: CameraConfig, frames: int
+) -> dict[str, DatasetScore]:
+    """Score each detector on `frames` rendered frames, rendering each frame once."""
+    scores = {name: DatasetScore(Counts(), 0, [], 0) for name in dets}
+    pipes = {name: Pipeline(d, camera) for name, d in dets.items()}
+    t0 = time.monotonic()
+    for k in range(frames):
+        r = random_frame(np.random.default_rng(TEST_SEED + k), camera.intrinsics, camera.mount)
+        for name, pipe in pipes.items():
+            res = pipe.process(r.frame)
+            pairs = match(res.detections, r.boxes)
+            s = scores[name]
+            s.counts.add(len(res.detections), len(r.boxes), len(pairs))
+            s.frames += 1
+            placed = {id(e.detection): e for e in res.rings}
+            for d, t in pairs:
+                ring = placed.get(id(res.detections[d]))
+                if ring is None:
+                    s.unplaced += 1
+                    continue
+                truth = r.rings_robot_xy[t]
+                err = float(np.hypot(*(np.asarray(ring.robot_xy) - truth)))
+                s.localisation.append((float(np.hypot(*truth)), err))
+        if (k + 1) % 100 == 0:
+            print(f"  {k + 1}/{frames} frames, {time.monotonic() - t0:.0f} s", flush=True)
+    return scores
+
+
+def folder_scores(
+    dets: dict[str, Detector],
+    camera: CameraConfig,
+    folder: Path,
+    prefilter: bool,
+    keep: set[str] | None = None,
+) -> dict[str, DatasetScore]:
+    from jetson.perception.evaluate import score_dataset
+
+    ds = RingDataset(folder, keep)
+    cfg = PrefilterConfig(enabled=prefilter)
+    return {name: score_dataset(Pipeline(d, camera, cfg), ds) for name, d in dets.items()}
+
+
+def real_images(
+    dets: dict[str, Detector],
+    camera: CameraConfig,
+    folder: Path,
+    meta: dict[str, object] | None,
+    result: Result,
+) -> None:
+    """Every detector with and without the pre-filter on real photos. When the CNN trained on
+    part of this folder, everything is scored on the part it held out (and the classical
+    detector, which never trains, on the whole folder as well)."""
+    held = heldout_of(meta, folder)
+    if held is not None:
+        print(f"== real images {folder}: the {len(held)} images the CNN held out of training")
+    else:
+        print(f"== real images {folder}")
+        if trained_on(meta, folder):
+            print("   warning: the CNN trained on these images; its score here flatters it")
+    result.add("real_images", len(held) if held is not None else len(RingDataset(folder)))
+    # Photos from unknown cameras and mounts: no floor-size prior for the classical detector.
+    real_dets = dict(dets, classical=ClassicalDetector())
+    for pre in (False, True):
+        for name, score in folder_scores(real_dets, camera, folder, pre, held).items():
+            tag = f"real_{name}{'_prefilter' if pre else ''}"
+            print(f"  {tag}: {score.counts.summary()}")
+            add_detection(result, tag, score)
+    if held is not None:
+        score = folder_scores({"classical": ClassicalDetector()}, camera, folder, False)
+        print(f"  real_all_classical (all images): {score['classical'].counts.summary()}")
+        add_detection(result, "real_all_classical", score["classical"])
+
+
+def add_detection(result: Result, prefix: str, score: DatasetScore) -> None:
+    c = score.counts
+    result.add(f"{prefix}_precision", round(c.precision, 4))
+    result.add(f"{prefix}_recall", round(c.recall, 4))
+    result.add(f"{prefix}_f1", round(c.f1, 4))
+
+
+def add_localisation(result: Result, prefix: str, score: DatasetScore) -> None:
+    for lo, hi, n, med, p90 in score.localisation_bands(BANDS):
+        band = f"{lo:.0f}_{hi:.0f}m"
+        result.add(f"{prefix}_loc_{band}_rings", n)
+        result.add(f"{prefix}_loc_{band}_median_m", round(med, 4))
+        result.add(f"{prefix}_loc_{band}_p90_m", round(p90, 4))
+    within = [e for d, e in score.localisation if d < 2.0]
+    if within:
+        result.add(f"{prefix}_loc_within_2m_median_m", round(float(np.median(within)), 4))
+
+
+def pipeline_fps(dets: dict[str, Detector], camera: CameraConfig, result: Result) -> None:
+    cv2.setNumThreads(1)
+    seed = TEST_SEED - 1
+    while len((r := random_frame(np.random.default_rng(seed), camera.intrinsics)).boxes) < 5:
+        seed -= 1  # a busy frame: localisation costs per ring
+    frame = r.frame
+    print(f"speed frame: 640x480, {len(r.boxes)} rings, one thread")
+    for name, det in dets.items():
+        for pre in (False, True):
+            pipe = Pipeline(det, camera, PrefilterConfig(enabled=pre))
+            ns = median_ns(lambda p=pipe: p.process(frame), number=20, repeats=7)
+            key = f"fps_{name}{'_prefilter' if pre else ''}"
+            result.add(key, round(per_second(ns), 1))
+            parts = pipe.process(frame).timings_ms
+            detail = ", ".join(f"{k} {v:.2f} ms" for k, v in parts.items())
+            print(f"  {key}: {per_second(ns):.0f} frames/s ({detail})")
+    loc = Localiser(camera)
+    boxes = ClassicalDetector(camera=camera).detect(frame.color, frame.depth_m)
+    ns = median_ns(lambda: loc.localise(boxes, frame.depth_m, None, frame.intrinsics), number=50)
+    result.add("localise_us_per_frame", round(ns / 1e3, 1))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m bench.perception",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--sim-data", type=Path, help="a `pete-sim dataset` folder")
+    parser.add_argument("--frames", type=int, default=500, help="synthetic test frames (500)")
+    parser.add_argument("--real", type=Path, default=SHARED_REAL, help="a YOLO folder")
+    parser.add_argument("--model", type=Path, help="CNN model (default models/ringnet.onnx)")
+    parser.add_argument("--strict", action="store_true", help="exit 1 if a target is missed")
+    args = parser.parse_args(argv)
+
+    camera = CameraConfig()
+    dets = detectors(camera, args.model)
+    result = Result("perception")
+    meta = None
+    if "cnn" in dets:
+        meta = json.loads(metadata_path(args.model or DEFAULT_MODEL).read_text())
+        print(f"CNN model trained on: {', '.join(meta.get('trained_on', ['?']))}")
+
+    if args.sim_data is not None:
+        print(f"== simulator test set {args.sim_data}")
+        prefix = "sim"
+        ds = RingDataset(args.sim_data)
+        if ds.meta is not None and "intrinsics" in ds.meta:
+            camera = CameraConfig(Intrinsics.from_dict(ds.meta["intrinsics"]), camera.mount)
+        scores = folder_scores(dets, camera, args.sim_data, prefilter=False)
+    else:
+        print(f"== synthetic test set: {args.frames} frames (numpy renderer, not the simulator)")
+        prefix = "synthetic"
+        scores = synthetic_scores(dets, camera, args.frames)
+    for name, score in scores.items():
+        print(f"  {name}: {score.counts.summary()}")
+        for lo, hi, n, med, p90 in score.localisation_bands(BANDS):
+            print(f"    {lo:.0f}-{hi:.0f} m: {n} rings, median {med * 100:.1f} cm, "
+                  f"p90 {p90 * 100:.1f} cm")  # fmt: skip
+        add_detection(result, f"{prefix}_{name}", score)
+        add_localisation(result, f"{prefix}_{name}", score)
+    result.add(f"{prefix}_frames", scores[next(iter(scores))].frames)
+
+    if args.real.is_dir():
+        real_images(dets, camera, args.real, meta, result)
+    else:
+        print(f"== real images: {args.real} is not there; skipped (pass --real DIR)")
+
+    print("== speed")
+    pipeline_fps(dets, camera, result)
+
+    default = "cnn" if "cnn" in dets else "classical"
+    result.target(f"{prefix}_{default}_f1", 0.95, ">=")
+    result.target(f"{prefix}_{default}_loc_within_2m_median_m", 0.03, "<=")
+    if args.real.is_dir():
+        result.target(f"real_{default}_f1", 0.85, ">=")
+    result.target(f"fps_{default}", 60.0, ">=")
+    print()
+    result.report()
+    return 1 if args.strict and not result.all_met else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,157 @@
+"""The decision: one State (and the newest perception) in, one Command's worth of driving out.
+
+Pure and deterministic (no I/O, no clock: the caller passes the perception's age), so that
+`pete-jetson replay` can re-run a recorded session through exactly this code.
+
+- Phase gating: the policy drives only in `drive_phases`; otherwise the answer is a stop.
+- The observation is sim.observation's, built as in training: own pose in the alliance frame,
+  rings in the robot frame, no noise. A perception result older than `perception_max_age_s`, or
+  none, gives no rings: empty slots, as the policy saw rings it could not see.
+- Frame stacking follows the training's control rate (`decision_hz`, normally the policy's): the
+  stack takes a frame every control period (on the Brain's clock), and in between the newest slot
+  holds the current frame, so each State is answered from fresh data while the history keeps the
+  spacing the policy learned.
+- A new drive phase after a stop (enable, or a re-enable restarting the phase clock) starts a new
+  stack, like a training episode's reset.
+- Anything that goes wrong (perception that raised on the newest frame, an observation that
+  cannot be built, a policy that raises or returns NaN, a GPS without a fix, an unknown alliance)
+  gives a stop with the reason named. A camera that stops delivering is not an error: its last
+  result ages into "no rings".
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from jetson.policy import Policy
+from jetson.settings import ConfigError, DecisionConfig
+from protocol.messages import Alliance, GpsStatus, MatchPhase, State
+from sim.observation import FrameStack, RobotView, build_frame
+
+DEFAULT_DECISION_HZ = 12.0  # sim.config.WorldConfig.control_hz: what policies are trained at
+_NO_RINGS = np.zeros((0, 2))
+
+
+@dataclass(frozen=True, slots=True)
+class PerceptionInput:
+    id: int
+    age_s: float
+    rings_robot_xy: NDArray[np.float64]
+    error: str | None = None  # perception raised on the newest frame
+
+
+@dataclass(frozen=True, slots=True)
+class Decision:
+    linear: float  # m/s
+    angular: float  # rad/s, clockwise
+    intake: bool
+    reason: str  # "policy", or why it is a stop
+    perception: str = "-"  # fresh | stale | none | - (not looked at)
+    rings: int = 0  # rings in the observation
+    error: str | None = None  # the exception, when one made this a stop
+
+    @property
+    def drove(self) -> bool:
+        return self.reason == "policy"
+
+
+def stop(reason: str, error: str | None = None) -> Decision:
+    return Decision(0.0, 0.0, False, reason, error=error)
+
+
+class Decider:
+    def __init__(self, policy: Policy, config: DecisionConfig | None = None) -> None:
+        self.policy = policy
+        self.config = config or DecisionConfig()
+        hz = self.config.decision_hz or getattr(policy, "control_hz", None) or DEFAULT_DECISION_HZ
+        self.decision_hz = float(hz)
+        self.period_ms = 1000.0 / self.decision_hz
+        self.spec = policy.spec
+        names = tuple(policy.action_names)
+        if names[:2] != ("linear", "angular"):
+            raise ConfigError(f"the policy's actions must start with linear, angular: {names}")
+        self._scale = np.asarray(policy.action_scale[:2], dtype=np.float64)
+        self._intake_index = names.index("intake") if "intake" in names else None
+        self._drive_phases = {MatchPhase[p.upper()] for p in self.config.drive_phases}
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the history: a new connection or a new match."""
+        self._stack: FrameStack | None = None
+        self._next_push_ms = 0.0
+        self._phase: MatchPhase | None = None
+        self._phase_ms = 0
+
+    def decide(self, state: State, perception: PerceptionInput | None) -> Decision:
+        phase = state.phase
+        restarted = phase != self._phase or state.phase_ms < self._phase_ms
+        entering = restarted and not (
+            # Autonomous -> driver is the same match going on (VEX AI's isolation ->
+            # interaction): keep the history.
+            self._phase == MatchPhase.AUTONOMOUS and phase == MatchPhase.DRIVER
+        )
+        self._phase, self._phase_ms = phase, state.phase_ms
+        if phase not in self._drive_phases:
+            self._stack = None
+            return stop(f"phase {phase.name.lower()}")
+        if entering:
+            self._stack = None
+        if state.alliance == Alliance.UNKNOWN:
+            return stop("alliance unknown: set it in the Brain's config")
+        if state.gps_status != GpsStatus.OK:
+            return stop(f"gps {state.gps_status.name.lower()}")
+        rings, seen = self._rings(perception)
+        if seen == "fresh" and perception is not None and perception.error is not None:
+            return Decision(0.0, 0.0, False, "perception error", seen, 0, perception.error)
+        try:
+            obs = self._observation(state, rings)
+            action = np.asarray(self.policy(obs), dtype=np.float64).reshape(-1)
+        except Exception as exc:
+            return Decision(
+                0.0, 0.0, False, "error", seen, len(rings), f"{type(exc).__name__}: {exc}"
+            )
+        if action.size < 2 or not np.all(np.isfinite(action)):
+            return Decision(0.0, 0.0, False, "policy output not finite", seen, len(rings))
+        action = np.clip(action, -1.0, 1.0)
+        linear, angular = (action[:2] * self._scale).tolist()
+        i = self._intake_index
+        # Policies trained without an intake action had the intake always on.
+        intake = True if i is None else bool(action[i] > 0)
+        return Decision(linear, angular, intake, "policy", seen, len(rings))
+
+    def _rings(self, perception: PerceptionInput | None) -> tuple[NDArray[np.float64], str]:
+        if perception is None:
+            return _NO_RINGS, "none"
+        if not perception.age_s <= self.config.perception_max_age_s:
+            return _NO_RINGS, "stale"
+        return perception.rings_robot_xy, "fresh"
+
+    def _observation(self, state: State, rings: NDArray[np.float64]) -> NDArray[np.float32]:
+        t = state.phase_ms / 1000.0
+        if state.phase == MatchPhase.DRIVER:
+            t += self.config.driver_time_offset_s
+        view = RobotView(
+            x=state.x,
+            y=state.y,
+            heading_deg=state.heading,
+            alliance="red" if state.alliance == Alliance.RED else "blue",
+            time_s=t,
+            rings_robot_xy=rings,
+            rings_held=self.config.rings_held,
+        )
+        frame = build_frame(self.spec, view)
+        now_ms = float(state.time_ms)
+        if self._stack is None:
+            self._stack = FrameStack(self.spec)
+            self._next_push_ms = now_ms + self.period_ms
+            return self._stack.reset(frame)
+        if now_ms >= self._next_push_ms:
+            self._next_push_ms += self.period_ms
+            if now_ms >= self._next_push_ms:  # fell behind (a gap in States): start the beat again
+                self._next_push_ms = now_ms + self.period_ms
+            return self._stack.push(frame)
+        committed = self._stack.observation()
+        return np.concatenate((frame, committed[self.spec.frame_size :]))

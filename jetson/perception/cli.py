@@ -1,0 +1,340 @@
+"""The perception commands of `pete-jetson`: detect, detector {train,eval,synth}, calibrate,
+record. jetson/cli.py registers them; heavy imports happen inside each command."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from jetson.perception.camera import CameraConfig
+from jetson.perception.errors import ConfigError
+
+DETECTORS = ("classical", "cnn")  # as jetson.perception.pipeline, without importing OpenCV
+
+HELP = """\
+  pete-jetson detect       run the ring pipeline on a source; annotated images + top-down plots
+  pete-jetson detector     train / eval the ring detector, or write a synthetic dataset
+  pete-jetson calibrate    checkerboard calibration -> camera config (K, distortion)
+  pete-jetson record       record a camera source to disk (our recording format)
+"""
+
+
+def _camera(args: argparse.Namespace) -> CameraConfig:
+    return CameraConfig.load(args.camera) if args.camera else CameraConfig()
+
+
+def _add_pipeline_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--detector", choices=DETECTORS, default="cnn", help="default: cnn")
+    p.add_argument("--model", type=Path, help="CNN weights (.onnx; default models/ringnet.onnx)")
+    p.add_argument("--threshold", type=float, help="score threshold (default: the model's)")
+    p.add_argument(
+        "--prefilter",
+        action=argparse.BooleanOptionalAction,
+        default=False,
+        help="mask the image to the HSV window first (the original team's GRIP stage)",
+    )
+    p.add_argument("--camera", type=Path, help="camera config JSON (default: built-in D435)")
+
+
+def _pipeline(args: argparse.Namespace, camera: CameraConfig):
+    from jetson.perception.pipeline import Pipeline, make_detector
+    from jetson.perception.prefilter import PrefilterConfig
+
+    detector = make_detector(args.detector, camera, args.model, args.threshold)
+    return Pipeline(detector, camera, PrefilterConfig(enabled=args.prefilter))
+
+
+def cmd_detect(args: argparse.Namespace) -> int:
+    import cv2
+
+    from jetson.perception.annotate import draw_detections, top_down
+    from jetson.perception.sources import open_source
+
+    camera = _camera(args)
+    pipeline = _pipeline(args, camera)
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    writers: dict[str, cv2.VideoWriter] = {}
+    if not args.video:
+        (out / "annotated").mkdir(exist_ok=True)
+        (out / "topdown").mkdir(exist_ok=True)
+    n = 0
+    total_ms = 0.0
+    with (
+        open_source(str(args.source), camera.intrinsics) as source,
+        (out / "rings.jsonl").open("w") as log,
+    ):
+        for frame in source:
+            if args.max_frames is not None and n >= args.max_frames:
+                break
+            result = pipeline.process(frame)
+            total_ms += sum(result.timings_ms.values())
+            annotated = draw_detections(frame.color, result.detections, result.rings)
+            plan = top_down(result.rings, camera, title=f"frame {frame.index}")
+            if args.video:
+                for name, img in (("annotated", annotated), ("topdown", plan)):
+                    if name not in writers:
+                        h, w = img.shape[:2]
+                        fourcc = cv2.VideoWriter.fourcc(*"mp4v")
+                        writers[name] = cv2.VideoWriter(
+                            str(out / f"{name}.mp4"), fourcc, args.fps, (w, h)
+                        )
+                    writers[name].write(img)
+            else:
+                cv2.imwrite(str(out / "annotated" / f"{n:06d}.png"), annotated)
+                cv2.imwrite(str(out / "topdown" / f"{n:06d}.png"), plan)
+            record = {
+                "index": frame.index,
+                "timestamp_s": frame.timestamp_s,
+                "detections": [
+                    [round(v, 1) for v in (d.x0, d.y0, d.x1, d.y1)] + [round(d.score, 3)]
+                    for d in result.detections
+                ],
+                "rings_robot_xy": np.round(result.rings_robot_xy, 4).tolist(),
+            }
+            log.write(json.dumps(record) + "\n")
+            n += 1
+    for w in writers.values():
+        w.release()
+    if n == 0:
+        print(f"{args.source}: no frames")
+        return 1
+    print(
+        f"{n} frames, {total_ms / n:.1f} ms per frame in the pipeline; wrote {out}/"
+        f"{'annotated.mp4, topdown.mp4' if args.video else 'annotated/, topdown/'}, rings.jsonl"
+    )
+    return 0
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    try:
+        from jetson.perception.cnn.train import TrainConfig, train
+    except ImportError as exc:
+        raise ConfigError(
+            f"training needs torch ({exc}); install the sim extra: pip install "
+            "'pacman-pete[sim]' (the Jetson only runs models; train on a desktop)"
+        ) from exc
+    cfg = TrainConfig(
+        data=list(args.data or []),
+        val_data=list(args.val or []),
+        synthetic=args.synthetic,
+        holdout=args.holdout,
+        steps=args.steps,
+        batch=args.batch,
+        seed=args.seed,
+        threads=args.threads,
+        width=args.width,
+    )
+    train(cfg, args.out)
+    return 0
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from jetson.perception.camera import CameraMount
+    from jetson.perception.classical import ClassicalDetector
+    from jetson.perception.cnn.runtime import CnnDetector
+    from jetson.perception.dataset import RingDataset
+    from jetson.perception.evaluate import heldout_of, score_dataset, trained_on
+
+    camera = _camera(args)
+    dataset = RingDataset(args.images)
+    known_camera = args.camera is not None
+    if dataset.meta is not None and "mount" in dataset.meta and not args.camera:
+        camera = CameraConfig(camera.intrinsics, CameraMount.from_dict(dataset.meta["mount"]))
+        known_camera = True
+    pipeline = _pipeline(args, camera)
+    if not known_camera and isinstance(pipeline.detector, ClassicalDetector):
+        # Photos from an unknown camera: the ring-size prior of the robot's mount would mislead.
+        pipeline.detector = ClassicalDetector()
+        print("no camera for these images (no dataset.json, no --camera): no ring-size prior")
+    if isinstance(pipeline.detector, CnnDetector):
+        meta = pipeline.detector.info.extra
+        held = heldout_of(meta, args.images)
+        if held is not None and not args.all_images:
+            dataset = RingDataset(args.images, held)
+            print(
+                f"the model trained on this folder: scoring the {len(dataset)} images it held out"
+            )
+        elif trained_on(meta, args.images):
+            print("warning: the model was trained on these images; this score flatters it")
+    t0 = time.perf_counter()
+    score = score_dataset(pipeline, dataset, args.iou, args.limit)
+    dt = time.perf_counter() - t0
+    c = score.counts
+    pre = "with" if args.prefilter else "without"
+    print(f"{args.detector} detector, {pre} pre-filter, IoU >= {args.iou}, {score.frames} images")
+    print(f"precision {c.precision:.3f}")
+    print(f"recall    {c.recall:.3f}")
+    print(f"F1        {c.f1:.3f}")
+    print(f"(TP {c.tp}, FP {c.fp}, FN {c.fn}; {dt / max(1, score.frames) * 1e3:.1f} ms per image)")
+    for lo, hi, count, med, p90 in score.localisation_bands():
+        print(
+            f"localisation {lo:.0f}-{hi:.0f} m: {count} rings, median error {med * 100:.1f} cm, "
+            f"p90 {p90 * 100:.1f} cm"
+        )
+    if score.unplaced:
+        print(f"{score.unplaced} matched rings could not be placed (no valid depth)")
+    return 0
+
+
+def cmd_synth(args: argparse.Namespace) -> int:
+    from jetson.perception.dataset import write_meta, write_sample
+    from jetson.perception.frame import Intrinsics
+    from jetson.perception.synthetic import random_frame
+
+    camera = _camera(args)
+    intr = camera.intrinsics
+    if (args.width, args.height) != (intr.width, intr.height):
+        intr = intr.scaled(args.width, args.height)
+    if args.frames < 1:
+        raise ConfigError("--frames must be at least 1")
+    out: Path = args.out
+    write_meta(
+        out,
+        {
+            "source": "jetson.perception.synthetic",
+            "seed": args.seed,
+            "frames": args.frames,
+            "intrinsics": intr.to_dict(),
+            "mount": camera.mount.to_dict(),
+        },
+    )
+    rings = 0
+    for k in range(args.frames):
+        rng = np.random.default_rng(args.seed + k)
+        r = random_frame(rng, Intrinsics.from_dict(intr.to_dict()), camera.mount, index=k)
+        write_sample(out, f"{args.seed + k:08d}", r.frame.color, r.boxes, r.frame.depth_m,
+                     r.rings_robot_xy)  # fmt: skip
+        rings += len(r.boxes)
+    print(f"wrote {args.frames} frames with {rings} labelled rings to {out}")
+    return 0
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from jetson.perception.calibrate import calibrate_folder, parse_board
+
+    board = parse_board(args.board)
+    if not args.square_mm > 0:
+        raise ConfigError(f"--square-mm must be positive, got {args.square_mm}")
+    cal = calibrate_folder(args.images, board, args.square_mm / 1000.0)
+    i = cal.intrinsics
+    print(f"board found in {len(cal.per_image_rms_px)} images; skipped: {cal.skipped or 'none'}")
+    print(f"image size {i.width}x{i.height}")
+    print(f"fx {i.fx:.3f}  fy {i.fy:.3f}  cx {i.cx:.3f}  cy {i.cy:.3f}")
+    print("dist (k1 k2 p1 p2 k3) " + " ".join(f"{d:.5g}" for d in i.dist))
+    print(f"reprojection error (RMS) {cal.rms_px:.4f} px")
+    worst = sorted(cal.per_image_rms_px.items(), key=lambda kv: -kv[1])[:3]
+    print("worst images: " + ", ".join(f"{n} {e:.3f} px" for n, e in worst))
+    out: Path = args.out
+    mount = CameraConfig.load(out).mount if out.is_file() else CameraConfig().mount
+    CameraConfig(i, mount, cal.summary()).save(out)
+    print(f"wrote {out}")
+    return 0
+
+
+def cmd_record(args: argparse.Namespace) -> int:
+    from jetson.perception.sources import open_source
+    from jetson.perception.sources.recording import Recorder
+
+    camera = _camera(args)
+    n = 0
+    with (
+        open_source(args.source, camera.intrinsics) as source,
+        Recorder(args.out, source=args.source) as rec,
+    ):
+        for frame in source:
+            rec.write(frame)
+            n += 1
+            if args.frames is not None and n >= args.frames:
+                break
+    print(f"recorded {n} frames to {args.out}")
+    return 0 if n else 1
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser(
+        "detect",
+        help="run detection + localisation on a source, write annotated images and plots",
+        description="SOURCE: realsense[:SERIAL], a .bag, a recording or image folder, a "
+        "video, or unix:PATH / tcp:HOST:PORT for a frame stream.",
+    )
+    p.add_argument("--source", required=True, help="what to read (see above)")
+    p.add_argument("--out", type=Path, required=True, help="output folder")
+    _add_pipeline_args(p)
+    p.add_argument("--max-frames", type=int, help="stop after this many frames")
+    p.add_argument("--video", action="store_true", help="write .mp4 videos instead of PNGs")
+    p.add_argument("--fps", type=float, default=30.0, help="frame rate of --video output")
+    p.set_defaults(func=cmd_detect)
+
+    d = sub.add_parser("detector", help="train or evaluate the ring detector")
+    dsub = d.add_subparsers(dest="detector_command", required=True, metavar="ACTION")
+    t = dsub.add_parser(
+        "train",
+        help="train the CNN from scratch (needs torch)",
+        description="Train RingNet from YOLO-format folders (images/ + labels/) and/or "
+        "synthetic frames; writes OUT (.onnx), its .json metadata and .pt weights.",
+    )
+    t.add_argument("--data", type=Path, action="append", help="a dataset folder (repeatable)")
+    t.add_argument("--val", type=Path, action="append", help="a validation folder (repeatable)")
+    t.add_argument("--synthetic", type=int, default=0, help="synthetic frames to add (0)")
+    t.add_argument(
+        "--holdout",
+        type=float,
+        default=0.0,
+        help="fraction of each --data folder's source images to hold out for validation (0)",
+    )
+    t.add_argument("--out", type=Path, required=True, help="the .onnx file to write")
+    t.add_argument("--steps", type=int, default=1500)
+    t.add_argument("--batch", type=int, default=16)
+    t.add_argument("--width", type=int, default=16, help="channels of the first stage (16)")
+    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--threads", type=int, default=2, help="torch threads (2)")
+    t.set_defaults(func=cmd_train)
+    e = dsub.add_parser(
+        "eval",
+        help="precision, recall and F1 on a dataset folder",
+        description="Score a detector on a YOLO-format folder (images/ + labels/); when the "
+        "folder also has depth/ and truth/, localisation error by distance too.",
+    )
+    e.add_argument("--images", type=Path, required=True, help="the dataset folder")
+    _add_pipeline_args(e)
+    e.add_argument("--iou", type=float, default=0.5, help="IoU for a match (0.5)")
+    e.add_argument("--limit", type=int, help="score only the first N images")
+    e.add_argument(
+        "--all-images",
+        action="store_true",
+        help="score every image even if the model trained on some (default: held-out only)",
+    )
+    e.set_defaults(func=cmd_eval)
+    s = dsub.add_parser(
+        "synth",
+        help="write synthetic frames as a dataset folder (images, labels, depth, truth)",
+    )
+    s.add_argument("--frames", type=int, required=True)
+    s.add_argument("--out", type=Path, required=True)
+    s.add_argument("--seed", type=int, default=0, help="frame k uses seed SEED + k")
+    s.add_argument("--width", type=int, default=640)
+    s.add_argument("--height", type=int, default=480)
+    s.add_argument("--camera", type=Path, help="camera config JSON (default: built-in D435)")
+    s.set_defaults(func=cmd_synth)
+
+    c = sub.add_parser(
+        "calibrate",
+        help="checkerboard calibration: K, distortion, reprojection error -> camera config",
+    )
+    c.add_argument("--images", type=Path, required=True, help="folder of checkerboard images")
+    c.add_argument("--board", required=True, help="INNER corners as COLSxROWS, e.g. 9x6")
+    c.add_argument("--square-mm", type=float, required=True, help="square side, millimetres")
+    c.add_argument("--out", type=Path, default=Path("camera.json"), help="(camera.json)")
+    c.set_defaults(func=cmd_calibrate)
+
+    r = sub.add_parser("record", help="record a source to disk (colour PNG + 16-bit depth)")
+    r.add_argument("--source", default="realsense", help="what to record (realsense)")
+    r.add_argument("--out", type=Path, required=True, help="a new folder")
+    r.add_argument("--frames", type=int, help="stop after this many frames")
+    r.add_argument("--camera", type=Path, help="camera config for sources without intrinsics")
+    r.set_defaults(func=cmd_record)

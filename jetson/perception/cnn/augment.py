@@ -1,0 +1,127 @@
+"""Training-time augmentation (numpy and OpenCV): geometry, lighting, colour, blur, noise.
+
+Everything that changes the image's geometry changes its boxes the same way. Colour shifts stay
+small in hue (rings are purple on every field) but wide in brightness, contrast and saturation;
+a share of samples goes through the pre-filter so the CNN also works on pre-filtered frames.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from jetson.perception.prefilter import PrefilterConfig, prefilter
+
+
+@dataclass(frozen=True)
+class AugmentConfig:
+    scale_range: tuple[float, float] = (0.6, 1.5)  # around the scale the detector runs at
+    aspect_jitter: float = 0.2  # log-uniform stretch of x against y
+    flip: bool = True
+    hue_shift: float = 6.0  # OpenCV hue units (0-180)
+    saturation: tuple[float, float] = (0.6, 1.35)
+    brightness: tuple[float, float] = (0.55, 1.45)
+    contrast: tuple[float, float] = (0.7, 1.3)
+    blur_p: float = 0.35
+    motion_blur_p: float = 0.15
+    noise_p: float = 0.5
+    jpeg_p: float = 0.25
+    prefilter_p: float = 0.2
+    min_visible: float = 0.45  # a box cut by the crop keeps its label if this much is left
+    min_box_px: float = 3.0
+
+
+def random_patch(
+    rng: np.random.Generator,
+    bgr: NDArray[np.uint8],
+    boxes: NDArray[np.float64],
+    size: tuple[int, int],
+    cfg: AugmentConfig,
+    base_scale: float = 1.0,
+) -> tuple[NDArray[np.uint8], NDArray[np.float64]]:
+    """A (width, height) = size patch of a randomly scaled, stretched, flipped image.
+
+    base_scale is the resize the detector applies to this image at run time, so that rings in
+    patches have the sizes the detector will meet, give or take cfg.scale_range.
+    """
+    pw, ph = size
+    h, w = bgr.shape[:2]
+    s = base_scale * rng.uniform(*cfg.scale_range)
+    stretch = float(np.exp(rng.uniform(-cfg.aspect_jitter, cfg.aspect_jitter)))
+    sx, sy = s * stretch, s / stretch
+    # Crop origin in the scaled image; when the image is smaller than the patch it is padded.
+    sw, sh = w * sx, h * sy
+    ox = rng.uniform(min(0.0, sw - pw), max(0.0, sw - pw))
+    oy = rng.uniform(min(0.0, sh - ph), max(0.0, sh - ph))
+    m = np.array([[sx, 0.0, -ox], [0.0, sy, -oy]])
+    fill = tuple(int(v) for v in rng.integers(0, 256, 3))
+    out = cv2.warpAffine(
+        bgr, m, (pw, ph), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=fill
+    )
+    b = boxes.reshape(-1, 4) * np.array([sx, sy, sx, sy]) - np.array([ox, oy, ox, oy])
+    clipped = np.clip(b, 0, [pw, ph, pw, ph])
+    area = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    kept_area = (clipped[:, 2] - clipped[:, 0]) * (clipped[:, 3] - clipped[:, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        visible = np.where(area > 0, kept_area / area, 0.0)
+    keep = (
+        (visible >= cfg.min_visible)
+        & (clipped[:, 2] - clipped[:, 0] >= cfg.min_box_px)
+        & (clipped[:, 3] - clipped[:, 1] >= cfg.min_box_px)
+    )
+    b = clipped[keep]
+    if cfg.flip and rng.random() < 0.5:
+        out = out[:, ::-1].copy()
+        b = np.stack([pw - b[:, 2], b[:, 1], pw - b[:, 0], b[:, 3]], axis=1)
+    return out, b
+
+
+def photometric(
+    rng: np.random.Generator, bgr: NDArray[np.uint8], cfg: AugmentConfig
+) -> NDArray[np.uint8]:
+    img = bgr
+    hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV).astype(np.float32)
+    hsv[..., 0] = (hsv[..., 0] + rng.uniform(-cfg.hue_shift, cfg.hue_shift)) % 180.0
+    hsv[..., 1] *= rng.uniform(*cfg.saturation)
+    img = cv2.cvtColor(np.clip(hsv, 0, 255).astype(np.uint8), cv2.COLOR_HSV2BGR)
+    f = img.astype(np.float32)
+    mean = f.mean()
+    f = (f - mean) * rng.uniform(*cfg.contrast) + mean
+    f *= rng.uniform(*cfg.brightness)
+    # A colour cast: lighting that is not white.
+    f *= rng.uniform(0.85, 1.15, 3).astype(np.float32)
+    if rng.random() < cfg.noise_p:
+        f += rng.normal(0.0, rng.uniform(2.0, 10.0), f.shape).astype(np.float32)
+    img = np.clip(f, 0, 255).astype(np.uint8)
+    if rng.random() < cfg.blur_p:
+        img = cv2.GaussianBlur(img, (0, 0), rng.uniform(0.5, 1.8))
+    if rng.random() < cfg.motion_blur_p:
+        k = int(rng.integers(3, 9))
+        kernel = np.zeros((k, k), np.float32)
+        kernel[k // 2, :] = 1.0 / k
+        rot = cv2.getRotationMatrix2D((k / 2 - 0.5, k / 2 - 0.5), rng.uniform(0, 180), 1.0)
+        kernel = cv2.warpAffine(kernel, rot, (k, k))
+        kernel /= max(kernel.sum(), 1e-6)
+        img = cv2.filter2D(img, -1, kernel)
+    if rng.random() < cfg.jpeg_p:
+        ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, int(rng.integers(30, 90))])
+        if ok:
+            img = cv2.imdecode(buf, cv2.IMREAD_COLOR)
+    if rng.random() < cfg.prefilter_p:
+        img = prefilter(img, PrefilterConfig()).image
+    return img
+
+
+def augment(
+    rng: np.random.Generator,
+    bgr: NDArray[np.uint8],
+    boxes: NDArray[np.float64],
+    size: tuple[int, int],
+    cfg: AugmentConfig,
+    base_scale: float = 1.0,
+) -> tuple[NDArray[np.uint8], NDArray[np.float64]]:
+    img, b = random_patch(rng, bgr, boxes, size, cfg, base_scale)
+    return photometric(rng, img, cfg), b

@@ -1,0 +1,165 @@
+"""The CNN ring detector at run time: onnxruntime, numpy and OpenCV only (no torch).
+
+A model is two files side by side: NAME.onnx (cnn/model.py's export) and NAME.json, its metadata:
+
+    {"format": "pete-ringnet", "version": 1, "stride": 4, "input_long_side": 320,
+     "score_threshold": 0.4, "width": 16, "trained_on": [...], "training": {...}}
+
+The image is resized so its long side is input_long_side and both sides are multiples of 16
+(640x480 -> 320x240; a 416x416 image -> 320x320), converted to RGB in [0, 1], and run once;
+boxes are read off the heatmap's peaks and scaled back to the image.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from jetson.perception.detection import Detection, non_max_suppression
+from jetson.perception.errors import ModelError
+
+MODEL_FORMAT = "pete-ringnet"
+MODEL_VERSION = 1
+MULTIPLE = 16
+REPO_ROOT = Path(__file__).resolve().parents[3]
+DEFAULT_MODEL = REPO_ROOT / "models" / "ringnet.onnx"
+
+
+@dataclass(frozen=True)
+class ModelInfo:
+    stride: int = 4
+    input_long_side: int = 320
+    score_threshold: float = 0.4
+    extra: dict[str, Any] | None = None
+
+    @classmethod
+    def load(cls, path: Path) -> ModelInfo:
+        try:
+            data = json.loads(path.read_text())
+        except FileNotFoundError as exc:
+            msg = f"model metadata {path} is missing (it goes beside the .onnx)"
+            raise ModelError(msg) from exc
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ModelError(f"model metadata {path} cannot be read: {exc}") from exc
+        if data.get("format") != MODEL_FORMAT or data.get("version") != MODEL_VERSION:
+            raise ModelError(f"{path} is not {MODEL_FORMAT} version {MODEL_VERSION} metadata")
+        try:
+            return cls(
+                stride=int(data["stride"]),
+                input_long_side=int(data["input_long_side"]),
+                score_threshold=float(data["score_threshold"]),
+                extra=data,
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ModelError(f"{path}: bad metadata: {exc}") from exc
+
+
+def metadata_path(model: Path) -> Path:
+    return model.with_suffix(".json")
+
+
+def input_size(width: int, height: int, long_side: int) -> tuple[int, int]:
+    """Network input (width, height): long side ~long_side, both multiples of 16."""
+    scale = long_side / max(width, height)
+    w = max(MULTIPLE, round(width * scale / MULTIPLE) * MULTIPLE)
+    h = max(MULTIPLE, round(height * scale / MULTIPLE) * MULTIPLE)
+    return w, h
+
+
+def to_input(bgr: NDArray[np.uint8], size: tuple[int, int]) -> NDArray[np.float32]:
+    """(1, 3, H, W) float32 RGB in [0, 1]."""
+    img = cv2.resize(bgr, size, interpolation=cv2.INTER_AREA)
+    rgb = cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
+    return np.ascontiguousarray(rgb.transpose(2, 0, 1)[None], dtype=np.float32) * np.float32(
+        1.0 / 255.0
+    )
+
+
+def decode(
+    peaks: NDArray[np.float32],
+    boxes: NDArray[np.float32],
+    stride: int,
+    threshold: float,
+    scale_xy: tuple[float, float],
+    max_detections: int = 100,
+) -> list[Detection]:
+    """Detections from one image's outputs: peaks (1, Hc, Wc), boxes (4, Hc, Wc)."""
+    ys, xs = np.nonzero(peaks[0] >= threshold)
+    if ys.size == 0:
+        return []
+    scores = peaks[0, ys, xs]
+    if scores.size > max_detections:
+        top = np.argsort(-scores)[:max_detections]
+        ys, xs, scores = ys[top], xs[top], scores[top]
+    ox, oy, lw, lh = (boxes[k, ys, xs] for k in range(4))
+    cx = (xs + ox) * stride
+    cy = (ys + oy) * stride
+    w = np.exp(np.clip(lw, -4.0, 6.0)) * stride
+    h = np.exp(np.clip(lh, -4.0, 6.0)) * stride
+    sx, sy = scale_xy
+    dets = [
+        Detection(
+            float((cx[i] - w[i] / 2) * sx),
+            float((cy[i] - h[i] / 2) * sy),
+            float((cx[i] + w[i] / 2) * sx),
+            float((cy[i] + h[i] / 2) * sy),
+            float(scores[i]),
+        )
+        for i in range(len(scores))
+    ]
+    # Peaks are already local maxima; NMS only removes twin peaks on one ring.
+    return non_max_suppression(dets, 0.6)
+
+
+class CnnDetector:
+    name = "cnn"
+
+    def __init__(
+        self,
+        model: Path | str | None = None,
+        score_threshold: float | None = None,
+        threads: int = 1,
+    ) -> None:
+        path = Path(model) if model is not None else DEFAULT_MODEL
+        if not path.is_file():
+            raise ModelError(
+                f"detector model {path} does not exist (train one with `pete-jetson detector "
+                "train`, or use --detector classical)"
+            )
+        self.info = ModelInfo.load(metadata_path(path))
+        self.threshold = (
+            score_threshold if score_threshold is not None else self.info.score_threshold
+        )
+        try:
+            import onnxruntime as ort
+        except ImportError as exc:
+            msg = "onnxruntime is not installed: pip install 'pacman-pete[jetson]'"
+            raise ModelError(msg) from exc
+        opts = ort.SessionOptions()
+        # One thread by default: the pipeline's budget is one core, and the daemon owns the rest.
+        opts.intra_op_num_threads = threads
+        opts.inter_op_num_threads = 1
+        try:
+            self.session = ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
+        except Exception as exc:  # onnxruntime raises its own exception types
+            raise ModelError(f"{path} is not a loadable ONNX model: {exc}") from exc
+        self.path = path
+
+    def detect(
+        self,
+        bgr: NDArray[np.uint8],
+        depth_m: NDArray[np.float32] | None = None,
+        colour_mask: NDArray[np.uint8] | None = None,
+    ) -> list[Detection]:
+        h, w = bgr.shape[:2]
+        size = input_size(w, h, self.info.input_long_side)
+        peaks, boxes = self.session.run(None, {"rgb": to_input(bgr, size)})
+        return decode(
+            peaks[0], boxes[0], self.info.stride, self.threshold, (w / size[0], h / size[1])
+        )

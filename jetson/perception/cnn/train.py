@@ -1,0 +1,278 @@
+"""Training RingNet from scratch on dataset folders and/or synthetic frames (needs torch).
+
+    pete-jetson detector train --data DIR [--data DIR2] [--synthetic N] --out models/ringnet.onnx
+
+Each source (a folder, or the synthetic frames) is drawn equally often, whatever its size, so a
+small real set is not drowned by thousands of renders. Every step takes a batch of random patches
+(cnn/augment.py), builds CenterNet targets at stride 4 and minimises the focal loss on the heatmap
+plus L1 on the offsets and log sizes. At the end the model is exported to ONNX, the score threshold
+that maximises F1 on the validation frames is chosen through the ONNX runtime (the same code the
+Jetson runs), and NAME.onnx, NAME.json (metadata and metrics) and NAME.pt (weights) are written.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+import torch
+from numpy.typing import NDArray
+from torch.nn import functional
+
+from jetson.perception.camera import CameraMount
+from jetson.perception.cnn.augment import AugmentConfig, augment
+from jetson.perception.cnn.model import STRIDE, RingNet, export_onnx
+from jetson.perception.cnn.runtime import MODEL_FORMAT, MODEL_VERSION, CnnDetector, metadata_path
+from jetson.perception.dataset import RingDataset, holdout_names
+from jetson.perception.errors import DatasetError
+from jetson.perception.evaluate import Counts, match
+from jetson.perception.frame import Intrinsics
+from jetson.perception.synthetic import random_frame
+
+Image = NDArray[np.uint8]
+Boxes = NDArray[np.float64]
+
+
+@dataclass
+class TrainConfig:
+    data: list[Path] = field(default_factory=list)
+    val_data: list[Path] = field(default_factory=list)
+    synthetic: int = 0  # synthetic training frames rendered in memory
+    synthetic_val: int = 64  # synthetic validation frames when there is no val_data
+    synthetic_seed: int = 1_000_000  # training scenes use seeds from here up
+    # Hold out this fraction of each --data folder's source images for validation (whole
+    # source groups, dataset.holdout_names), recorded in the metadata so that evaluation on
+    # that folder can use the held-out images only.
+    holdout: float = 0.0
+    holdout_seed: int = 0
+    steps: int = 1500
+    batch: int = 16
+    patch: tuple[int, int] = (192, 160)  # width, height; multiples of 16
+    lr: float = 3e-3
+    weight_decay: float = 1e-4
+    width: int = 16
+    seed: int = 0
+    threads: int = 2
+    input_long_side: int = 320
+    max_side: int = 480  # training images are stored at most this big
+
+
+@dataclass
+class Source:
+    name: str
+    images: list[Image]
+    boxes: list[Boxes]
+
+
+def load_folder(path: Path, max_side: int, keep: set[str] | None = None, tag: str = "") -> Source:
+    ds = RingDataset(path, keep)
+    images, boxes = [], []
+    for i in range(len(ds)):
+        img = ds.image(i)
+        h, w = img.shape[:2]
+        b = ds.boxes(i, w, h)
+        s = min(1.0, max_side / max(w, h))
+        if s < 1.0:
+            img = cv2.resize(img, (round(w * s), round(h * s)), interpolation=cv2.INTER_AREA)
+            b = b * s
+        images.append(img)
+        boxes.append(b)
+    return Source(f"{path}{tag}", images, boxes)
+
+
+def synthetic_source(n: int, seed: int, size: tuple[int, int] = (320, 240)) -> Source:
+    """n random scenes, each from its own seed (seed, seed + 1, ...), with a randomised mount."""
+    images, boxes = [], []
+    for k in range(n):
+        rng = np.random.default_rng(seed + k)
+        mount = CameraMount(
+            forward_m=rng.uniform(0.05, 0.3),
+            height_m=rng.uniform(0.18, 0.5),
+            tilt_deg=rng.uniform(-45.0, -12.0),
+        )
+        r = random_frame(rng, Intrinsics().scaled(*size), mount, max_rings=10, decoys=True)
+        images.append(r.frame.color)
+        boxes.append(r.boxes)
+    return Source(f"synthetic[{seed}..{seed + n - 1}]", images, boxes)
+
+
+def make_targets(
+    boxes: list[Boxes], width: int, height: int
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Heatmap (B, 1, Hc, Wc), box terms (B, 4, Hc, Wc) and their mask (B, 1, Hc, Wc)."""
+    wc, hc = width // STRIDE, height // STRIDE
+    heat = np.zeros((len(boxes), 1, hc, wc), np.float32)
+    reg = np.zeros((len(boxes), 4, hc, wc), np.float32)
+    mask = np.zeros((len(boxes), 1, hc, wc), np.float32)
+    gx, gy = np.meshgrid(np.arange(wc), np.arange(hc))
+    for n, bs in enumerate(boxes):
+        for x0, y0, x1, y1 in bs:
+            cx, cy = (x0 + x1) / 2 / STRIDE, (y0 + y1) / 2 / STRIDE
+            bw, bh = (x1 - x0) / STRIDE, (y1 - y0) / STRIDE
+            ix, iy = min(int(cx), wc - 1), min(int(cy), hc - 1)
+            sx, sy = max(0.6, bw / 6), max(0.6, bh / 6)
+            g = np.exp(-((gx - ix) ** 2) / (2 * sx * sx) - ((gy - iy) ** 2) / (2 * sy * sy))
+            np.maximum(heat[n, 0], g.astype(np.float32), out=heat[n, 0])
+            heat[n, 0, iy, ix] = 1.0
+            reg[n, :, iy, ix] = (cx - ix, cy - iy, math.log(max(bw, 0.1)), math.log(max(bh, 0.1)))
+            mask[n, 0, iy, ix] = 1.0
+    return torch.from_numpy(heat), torch.from_numpy(reg), torch.from_numpy(mask)
+
+
+def loss_fn(
+    raw: torch.Tensor, heat: torch.Tensor, reg: torch.Tensor, mask: torch.Tensor
+) -> tuple[torch.Tensor, dict[str, float]]:
+    p = torch.sigmoid(raw[:, 0:1]).clamp(1e-4, 1 - 1e-4)
+    pos = heat.eq(1.0).float()
+    n_pos = pos.sum().clamp(min=1.0)
+    pos_loss = -(torch.log(p) * (1 - p) ** 2 * pos).sum()
+    neg_loss = -(torch.log(1 - p) * p**2 * (1 - heat) ** 4 * (1 - pos)).sum()
+    focal = (pos_loss + neg_loss) / n_pos
+    offset = functional.l1_loss(
+        torch.sigmoid(raw[:, 1:3]) * mask, reg[:, 0:2] * mask, reduction="sum"
+    )
+    size = functional.l1_loss(raw[:, 3:5] * mask, reg[:, 2:4] * mask, reduction="sum")
+    total = focal + (offset + size) / n_pos
+    return total, {
+        "focal": float(focal.detach()),
+        "offset": float(offset.detach() / n_pos),
+        "size": float(size.detach() / n_pos),
+    }
+
+
+def _batch(
+    rng: np.random.Generator, sources: list[Source], cfg: TrainConfig, aug: AugmentConfig
+) -> tuple[torch.Tensor, list[Boxes]]:
+    imgs, boxes = [], []
+    for _ in range(cfg.batch):
+        src = sources[int(rng.integers(len(sources)))]
+        i = int(rng.integers(len(src.images)))
+        image = src.images[i]
+        base = cfg.input_long_side / max(image.shape[:2])
+        img, b = augment(rng, image, src.boxes[i], cfg.patch, aug, base)
+        imgs.append(cv2.cvtColor(img, cv2.COLOR_BGR2RGB))
+        boxes.append(b)
+    x = torch.from_numpy(np.stack(imgs).transpose(0, 3, 1, 2).astype(np.float32) / 255.0)
+    return x, boxes
+
+
+def evaluate(detector: CnnDetector, source: Source, thresholds: list[float]) -> dict[float, Counts]:
+    """Counts at each threshold (detections are computed once, at the lowest)."""
+    detector.threshold = min(thresholds)
+    out = {t: Counts() for t in thresholds}
+    for img, truth in zip(source.images, source.boxes, strict=True):
+        dets = detector.detect(img)
+        for t in thresholds:
+            kept = [d for d in dets if d.score >= t]
+            out[t].add(len(kept), len(truth), len(match(kept, truth)))
+    return out
+
+
+def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> dict[str, object]:
+    if not cfg.data and cfg.synthetic <= 0:
+        raise DatasetError("nothing to train on: give --data DIR and/or --synthetic N")
+    if out.suffix != ".onnx":
+        raise DatasetError(f"--out must name a .onnx file, got {out}")
+    torch.manual_seed(cfg.seed)
+    torch.set_num_threads(cfg.threads)
+    rng = np.random.default_rng(cfg.seed)
+    t0 = time.monotonic()
+    sources, val = [], []
+    for p in cfg.data:
+        if cfg.holdout > 0:
+            names = RingDataset(p).names
+            held = holdout_names(names, cfg.holdout, cfg.holdout_seed)
+            sources.append(load_folder(p, cfg.max_side, set(names) - held, " (minus held out)"))
+            val.append(load_folder(p, cfg.max_side, held, " (held out)"))
+        else:
+            sources.append(load_folder(p, cfg.max_side))
+    if cfg.synthetic > 0:
+        sources.append(synthetic_source(cfg.synthetic, cfg.synthetic_seed))
+    for s in sources:
+        n_boxes = sum(len(b) for b in s.boxes)
+        log(f"source {s.name}: {len(s.images)} images, {n_boxes} rings")
+    val += [load_folder(p, cfg.max_side) for p in cfg.val_data]
+    if cfg.synthetic_val > 0 and (cfg.synthetic > 0 or not val):
+        # Seeds below the training ones: validation scenes are never training scenes.
+        val.append(synthetic_source(cfg.synthetic_val, cfg.synthetic_seed - 10_000))
+    log(f"data ready in {time.monotonic() - t0:.1f} s")
+
+    net = RingNet(cfg.width)
+    opt = torch.optim.AdamW(net.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+    warm = min(100, cfg.steps // 10)
+
+    def lr_at(step: int) -> float:
+        if step < warm:
+            return (step + 1) / warm
+        return 0.5 * (1 + math.cos(math.pi * (step - warm) / max(1, cfg.steps - warm)))
+
+    sched = torch.optim.lr_scheduler.LambdaLR(opt, lr_at)
+    aug = AugmentConfig()
+    net.train()
+    t0 = time.monotonic()
+    running: dict[str, float] = {}
+    for step in range(cfg.steps):
+        x, boxes = _batch(rng, sources, cfg, aug)
+        heat, reg, mask = make_targets(boxes, cfg.patch[0], cfg.patch[1])
+        loss, parts = loss_fn(net(x), heat, reg, mask)
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        sched.step()
+        for k, v in parts.items():
+            running[k] = 0.9 * running.get(k, v) + 0.1 * v
+        if (step + 1) % 50 == 0 or step == 0:
+            terms = " ".join(f"{k} {v:.3f}" for k, v in running.items())
+            log(f"step {step + 1}/{cfg.steps}  {terms}  {time.monotonic() - t0:.0f} s")
+
+    net.eval()
+    export_onnx(net, out, 240, 320)
+    torch.save(net.state_dict(), out.with_suffix(".pt"))
+    meta: dict[str, object] = {
+        "format": MODEL_FORMAT,
+        "version": MODEL_VERSION,
+        "stride": STRIDE,
+        "input_long_side": cfg.input_long_side,
+        "score_threshold": 0.4,
+        "width": cfg.width,
+        "trained_on": [s.name for s in sources],
+        "validated_on": [s.name for s in val],
+        "training": {k: (str(v) if isinstance(v, Path) else v) for k, v in asdict(cfg).items()},
+    }
+    meta["training"]["data"] = [str(p) for p in cfg.data]  # type: ignore[index]
+    meta["training"]["val_data"] = [str(p) for p in cfg.val_data]  # type: ignore[index]
+    if cfg.holdout > 0:
+        meta["holdout"] = {
+            "fraction": cfg.holdout,
+            "seed": cfg.holdout_seed,
+            "folders": [str(Path(p).resolve()) for p in cfg.data],
+        }
+    metadata_path(out).write_text(json.dumps(meta, indent=2) + "\n")
+    detector = CnnDetector(out)
+    thresholds = [0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5, 0.55, 0.6, 0.7]
+    per_source = {s.name: evaluate(detector, s, thresholds) for s in val}
+    # The threshold with the best mean F1 over the validation sources, so that a small real
+    # set weighs as much as many synthetic frames.
+    best = max(thresholds, key=lambda t: float(np.mean([c[t].f1 for c in per_source.values()])))
+    meta["score_threshold"] = best
+    meta["validation"] = {
+        name: {
+            "threshold": best,
+            "precision": round(c[best].precision, 4),
+            "recall": round(c[best].recall, 4),
+            "f1": round(c[best].f1, 4),
+        }
+        for name, c in per_source.items()
+    }
+    meta["train_seconds"] = round(time.monotonic() - t0, 1)
+    metadata_path(out).write_text(json.dumps(meta, indent=2) + "\n")
+    for name, c in per_source.items():
+        log(f"validation on {name} at threshold {best}: {c[best].summary()}")
+    log(f"wrote {out}, {metadata_path(out)}, {out.with_suffix('.pt')}")
+    return meta

@@ -1,0 +1,290 @@
+"""`pete-jetson run` and `pete-jetson replay`: settings in, a running daemon out.
+
+    build(settings)     -> Service: the policy, the camera thread, the recorder, the Daemon
+    Service.run()       serves until SIGTERM/SIGINT (or stop()), then sends a stop and exits
+    add_commands(sub)   registers `run` and `replay` with pete-jetson's argument parser
+
+The heavy imports (numpy, onnxruntime, OpenCV, sim.observation) happen inside these functions,
+so that `pete-jetson --help` and the other commands stay light.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import threading
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import FrameType
+from typing import Any, TextIO
+
+from jetson.settings import ConfigError, Settings
+
+# Python hands the interpreter between threads every 5 ms by default: a State arriving while the
+# camera thread runs Python code could wait that long. 1 ms bounds the wait at a small cost to
+# the camera thread.
+SWITCH_INTERVAL_S = 0.001
+
+HELP = """\
+  pete-jetson run          the daemon: talk to the Brain, see rings, drive (jetson/README.md)
+  pete-jetson replay       re-run a recorded session through the decision code, report changes
+"""
+
+
+@dataclass
+class Service:
+    """A built daemon and what it owns."""
+
+    daemon: Any  # jetson.loop.Daemon
+    camera: Any | None = None  # jetson.camera_feed.CameraWorker
+    stop_event: threading.Event = field(default_factory=threading.Event)
+    _files: list[TextIO] = field(default_factory=list)
+
+    def stop(self) -> None:
+        self.stop_event.set()
+
+    def run(self) -> int:
+        sys.setswitchinterval(SWITCH_INTERVAL_S)
+        if self.camera is not None:
+            self.camera.start()
+        try:
+            self.daemon.run(self.stop_event)
+        finally:
+            if self.camera is not None:
+                self.camera.stop()
+            for f in self._files:
+                f.close()
+        return 0
+
+    def install_signal_handlers(self) -> None:
+        """SIGTERM (systemd stop) and SIGINT (Ctrl-C) end the loop, which sends a stop first."""
+
+        def handler(signum: int, _frame: FrameType | None) -> None:
+            self.daemon.log.info("signal", f"{signal.Signals(signum).name}: stopping")
+            self.stop_event.set()
+
+        signal.signal(signal.SIGTERM, handler)
+        signal.signal(signal.SIGINT, handler)
+
+
+def build(
+    settings: Settings,
+    clock: Any | None = None,
+    log_stream: TextIO | None = None,
+    human_stream: TextIO | None = None,
+    policy: Any | None = None,
+    perception: Any | None = None,
+    boot_id: int | None = None,
+    fingerprint: int | None = None,
+) -> Service:
+    """Everything `pete-jetson run` runs, from settings. Pass clock / policy / perception to
+    replace the real ones (a lockstep simulator, tests); fingerprint plays a Jetson built from
+    another schema (tests of the refusal)."""
+    from jetson.clock import MonotonicClock
+    from jetson.decide import Decider
+    from jetson.link import PortLocator
+    from jetson.log import EventLog
+    from jetson.loop import Daemon
+    from jetson.policy import OnnxPolicy
+    from jetson.recorder import RecordingDir
+
+    clock = clock or MonotonicClock()
+    files: list[TextIO] = []
+    if log_stream is None:
+        if settings.log.file:
+            path = Path(settings.log.file)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            log_stream = path.open("a", encoding="utf-8")
+            files.append(log_stream)
+        else:
+            log_stream = sys.stdout
+    if human_stream is None and settings.log.summary:
+        human_stream = sys.stderr
+    log = EventLog(log_stream, human_stream, clock, settings.log.level)
+    if policy is None:
+        policy = OnnxPolicy(settings.policy.path)
+    decider = Decider(policy, settings.decision)
+    camera = None
+    if perception is None and settings.camera.enabled:
+        camera = make_camera(settings, clock, log)
+        perception = camera
+    recordings = None
+    if settings.record.dir:
+        keep = int(settings.record.keep_mb * 1e6)
+        recordings = RecordingDir(Path(settings.record.dir), keep, settings.record.compress)
+    header = {
+        "policy": {
+            "path": str(Path(getattr(policy, "path", "")).resolve())
+            if hasattr(policy, "path")
+            else None,
+            "sha256": getattr(policy, "sha256", None),
+            "description": getattr(policy, "description", type(policy).__name__),
+        },
+        "camera": {"enabled": perception is not None, "source": settings.camera.source},
+    }
+    daemon = Daemon(
+        decider,
+        clock,
+        log,
+        perception=perception,
+        link=settings.link,
+        locator=PortLocator(settings.link.port),
+        recordings=recordings,
+        header=header,
+        boot_id=boot_id,
+        summary_period_s=settings.log.summary_period_s,
+        **({} if fingerprint is None else {"fingerprint": fingerprint}),
+    )
+    log.info(
+        "config",
+        f"policy {header['policy']['description']}, decisions at {decider.decision_hz:g} Hz, "
+        f"drives in {', '.join(settings.decision.drive_phases) or 'no phase'}",
+        settings=_settings_dict(settings),
+    )
+    return Service(daemon, camera, _files=files)
+
+
+def make_pipeline(camera_settings: Any) -> Any:
+    """jetson.perception's pipeline as [camera] configures it: (camera config, Pipeline). A
+    missing model or a bad camera config fails here, at start-up."""
+    from jetson.perception.camera import CameraConfig
+    from jetson.perception.pipeline import Pipeline, make_detector
+    from jetson.perception.prefilter import PrefilterConfig
+
+    cs = camera_settings
+    camera = CameraConfig.load(Path(cs.config)) if cs.config else CameraConfig()
+    model = Path(cs.model) if cs.model else None
+    detector = make_detector(cs.detector, camera, model, cs.threshold)
+    return camera, Pipeline(detector, camera, PrefilterConfig(enabled=cs.prefilter))
+
+
+def make_camera(settings: Settings, clock: Any, log: Any) -> Any:
+    """The camera thread over the configured source and pipeline; a camera that is absent or
+    fails later is retried by the thread, forever."""
+    from jetson.camera_feed import CameraWorker
+    from jetson.perception.sources import open_source
+
+    cs = settings.camera
+    camera, pipeline = make_pipeline(cs)
+    return CameraWorker(
+        lambda: open_source(cs.source, camera.intrinsics),
+        pipeline.process,
+        clock,
+        log,
+        retry_s=cs.retry_s,
+        frame_clock=cs.frame_clock,
+    )
+
+
+def _settings_dict(settings: Settings) -> dict[str, Any]:
+    from dataclasses import asdict
+
+    return asdict(settings)
+
+
+# --- command line ---------------------------------------------------------------------------------
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "run",
+        help="the daemon: Brain link, perception, policy, Commands",
+        description="Run the Jetson daemon until SIGTERM/SIGINT (then it sends a stop). "
+        "Settings come from --config (TOML, see jetson/deploy/pete-jetson.toml) and these "
+        "options, which override it.",
+    )
+    p.add_argument("--config", type=Path, help="settings file (TOML)")
+    p.add_argument("--port", help="the Brain's user port (default: found over USB)")
+    p.add_argument("--policy", help="policy.onnx or its folder (default models/policy/)")
+    p.add_argument("--camera-source", help="realsense[:SERIAL], unix:PATH, tcp:HOST:PORT, ...")
+    p.add_argument("--camera-config", help="camera config JSON from `pete-jetson calibrate`")
+    p.add_argument("--detector", choices=("cnn", "classical"))
+    p.add_argument("--detector-model", help="ring detector weights (.onnx)")
+    p.add_argument(
+        "--no-camera", action="store_true", help="run without perception (the policy sees no rings)"
+    )
+    p.add_argument(
+        "--frame-clock",
+        action="store_true",
+        default=None,
+        help="the camera's frame timestamps are on this machine's monotonic clock",
+    )
+    p.add_argument(
+        "--drive-phases",
+        help="comma-separated phases the policy may drive in (default autonomous,driver)",
+    )
+    p.add_argument("--max-perception-age", type=float, help="seconds (default 0.3)")
+    p.add_argument("--valid-ms", type=int, help="Command validity window (default 250)")
+    p.add_argument("--record-dir", help="where session recordings go")
+    p.add_argument("--no-record", action="store_true", help="do not record sessions")
+    p.add_argument("--log", help="JSON-lines log file (default stdout)")
+    p.add_argument("--log-level", choices=("debug", "info", "warning", "error"))
+    p.add_argument("--quiet", action="store_true", help="no human summary line on stderr")
+    p.set_defaults(func=cmd_run)
+
+    r = sub.add_parser(
+        "replay",
+        help="re-run a session recording through the decision code and report differences",
+    )
+    r.add_argument("file", type=Path, help="a session-*.jsonl[.gz] recording")
+    r.add_argument("--policy", help="policy to replay with (default: the recorded path)")
+    r.add_argument("--tolerance", type=float, default=1e-6, help="m/s, rad/s (default 1e-6)")
+    r.add_argument("--show", type=int, default=10, help="differences to list (default 10)")
+    r.add_argument("--json", action="store_true", help="print the report as JSON")
+    r.set_defaults(func=cmd_replay)
+
+
+def settings_from_args(args: argparse.Namespace) -> Settings:
+    settings = Settings.load(args.config) if args.config else Settings()
+    phases = None
+    if args.drive_phases is not None:
+        phases = tuple(p.strip() for p in args.drive_phases.split(",") if p.strip())
+    settings = settings.with_overrides(
+        link={"port": args.port},
+        policy={"path": args.policy},
+        camera={
+            "source": args.camera_source,
+            "config": args.camera_config,
+            "detector": args.detector,
+            "model": args.detector_model,
+            "frame_clock": args.frame_clock,
+            "enabled": False if args.no_camera else None,
+        },
+        decision={
+            "drive_phases": phases,
+            "perception_max_age_s": args.max_perception_age,
+            "valid_ms": args.valid_ms,
+        },
+        record={"dir": "" if args.no_record else args.record_dir},
+        log={
+            "file": args.log,
+            "level": args.log_level,
+            "summary": False if args.quiet else None,
+        },
+    )
+    return settings
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    try:
+        settings = settings_from_args(args)
+        service = build(settings)
+    except (ConfigError, ValueError) as exc:
+        raise RuntimeError(str(exc)) from exc
+    service.install_signal_handlers()
+    return service.run()
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    from jetson.policy import OnnxPolicy
+    from jetson.replay import replay
+
+    policy = OnnxPolicy(args.policy) if args.policy else None
+    report = replay(args.file, policy, args.tolerance)
+    if args.json:
+        print(json.dumps(report.as_dict(), indent=1, default=str))
+    else:
+        print(report.text(args.show))
+    return 0 if report.ok else 1

@@ -1,0 +1,176 @@
+"""Every setting of `pete-jetson run`, with defaults, checks, and the TOML file that holds them.
+
+The config file (jetson/deploy/pete-jetson.toml is the annotated example) has one table per
+group; a key it does not know is an error that names it. Command-line options override the file.
+Standard library only: `pete-jetson --help` must not load numpy, OpenCV or the simulator.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+PHASES = ("disabled", "autonomous", "driver")
+DEFAULT_POLICY = Path(__file__).resolve().parent.parent / "models" / "policy" / "policy.onnx"
+
+
+class ConfigError(ValueError):
+    """A setting that cannot be used, named."""
+
+
+def _from_dict(cls: type, data: dict[str, Any], where: str) -> Any:
+    if not isinstance(data, dict):
+        raise ConfigError(f"[{where}] must be a table")
+    known = {f.name for f in fields(cls)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise ConfigError(f"[{where}] has no setting {unknown[0]!r} (settings: {sorted(known)})")
+    try:
+        return cls(**data)
+    except TypeError as exc:
+        raise ConfigError(f"[{where}]: {exc}") from exc
+
+
+@dataclass(frozen=True)
+class LinkConfig:
+    port: str | None = None  # None: find the V5 user port over USB (VID 0x2888)
+    baud: int = 115200
+    hello_period_s: float = 0.2
+    mismatch_hello_period_s: float = 1.0
+    silence_timeout_s: float = 2.0  # a connected Brain sends 50 States a second
+    reconnect_poll_s: float = 0.05  # how often to look for a port that went away
+    exclusive: bool = True  # no second program may open the port while we hold it
+
+    def __post_init__(self) -> None:
+        for name in ("hello_period_s", "mismatch_hello_period_s", "silence_timeout_s"):
+            if not getattr(self, name) > 0:
+                raise ConfigError(f"link {name} must be positive")
+        if not 0 < self.reconnect_poll_s <= 0.5:
+            raise ConfigError("link reconnect_poll_s must be in (0, 0.5] s: reconnect within 1 s")
+
+
+@dataclass(frozen=True)
+class DecisionConfig:
+    drive_phases: tuple[str, ...] = ("autonomous", "driver")
+    perception_max_age_s: float = 0.3
+    valid_ms: int = 250  # Command.valid_ms: the Brain stops if no newer Command comes in this
+    decision_hz: float | None = None  # None: the policy's control rate, else 12 Hz
+    driver_time_offset_s: float = 0.0  # match time at the start of driver control
+    rings_held: int = 0  # the State does not report it: what the observation says
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "drive_phases", tuple(self.drive_phases))
+        for p in self.drive_phases:
+            if p not in PHASES[1:]:
+                raise ConfigError(
+                    f"decision drive_phases: {p!r} is not a phase the policy may drive in "
+                    "(autonomous, driver)"
+                )
+        age = self.perception_max_age_s
+        if not (isinstance(age, int | float) and age > 0 and math.isfinite(age)):
+            raise ConfigError("decision perception_max_age_s must be a positive number")
+        if not (isinstance(self.valid_ms, int) and 1 <= self.valid_ms <= 1000):
+            raise ConfigError("decision valid_ms must be 1..1000 (the Brain caps it at 1000)")
+        if self.decision_hz is not None and not 0 < self.decision_hz <= 1000:
+            raise ConfigError(f"decision decision_hz must be in (0, 1000], got {self.decision_hz}")
+        if not (math.isfinite(self.driver_time_offset_s) and self.driver_time_offset_s >= 0):
+            raise ConfigError("decision driver_time_offset_s must be >= 0")
+        if not (isinstance(self.rings_held, int) and self.rings_held >= 0):
+            raise ConfigError("decision rings_held must be a whole number >= 0")
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["drive_phases"] = list(self.drive_phases)
+        return d
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> DecisionConfig:
+        return _from_dict(cls, data, "decision")
+
+
+@dataclass(frozen=True)
+class PolicySettings:
+    path: str = str(DEFAULT_POLICY)  # policy.onnx (policy.json beside it) or its folder
+
+
+@dataclass(frozen=True)
+class CameraSettings:
+    enabled: bool = True
+    source: str = "realsense"  # see jetson/perception/sources: realsense, unix:PATH, a folder...
+    detector: str = "cnn"  # cnn | classical
+    model: str | None = None  # detector weights; None: the shipped ones
+    threshold: float | None = None
+    config: str | None = None  # camera config JSON from `pete-jetson calibrate`
+    prefilter: bool = False
+    retry_s: float = 1.0  # wait before reopening a failed camera
+    frame_clock: bool = False  # frames are stamped on the daemon's clock (a lockstep simulator)
+
+    def __post_init__(self) -> None:
+        if self.detector not in ("cnn", "classical"):
+            raise ConfigError(f"camera detector must be cnn or classical, not {self.detector!r}")
+        if not self.retry_s > 0:
+            raise ConfigError("camera retry_s must be positive")
+
+
+@dataclass(frozen=True)
+class RecordSettings:
+    dir: str | None = "/var/lib/pete-jetson/sessions"  # None or "": do not record
+    keep_mb: float = 2000.0
+    compress: bool = True
+
+
+@dataclass(frozen=True)
+class LogSettings:
+    file: str | None = None  # JSON lines; None: stdout
+    level: str = "info"
+    summary: bool = True  # the human summary line on stderr each second
+    summary_period_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.level not in ("debug", "info", "warning", "error"):
+            raise ConfigError(f"log level must be debug, info, warning or error: {self.level!r}")
+
+
+@dataclass(frozen=True)
+class Settings:
+    link: LinkConfig = field(default_factory=LinkConfig)
+    decision: DecisionConfig = field(default_factory=DecisionConfig)
+    policy: PolicySettings = field(default_factory=PolicySettings)
+    camera: CameraSettings = field(default_factory=CameraSettings)
+    record: RecordSettings = field(default_factory=RecordSettings)
+    log: LogSettings = field(default_factory=LogSettings)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Settings:
+        groups = {f.name: f.type for f in fields(cls)}
+        unknown = sorted(set(data) - set(groups))
+        if unknown:
+            raise ConfigError(f"config has no table [{unknown[0]}] (tables: {sorted(groups)})")
+        kinds = {
+            "link": LinkConfig, "decision": DecisionConfig, "policy": PolicySettings,
+            "camera": CameraSettings, "record": RecordSettings, "log": LogSettings,
+        }  # fmt: skip
+        return cls(**{k: _from_dict(kinds[k], v, k) for k, v in data.items()})
+
+    @classmethod
+    def load(cls, path: str | Path) -> Settings:
+        try:
+            data = tomllib.loads(Path(path).read_text())
+        except FileNotFoundError as exc:
+            raise ConfigError(f"config file {path} does not exist") from exc
+        except (OSError, tomllib.TOMLDecodeError) as exc:
+            raise ConfigError(f"config file {path}: {exc}") from exc
+        return cls.from_dict(data)
+
+    def with_overrides(self, **groups: dict[str, Any]) -> Settings:
+        """A copy with some settings replaced, e.g. with_overrides(link={"port": "/dev/x"});
+        None values are ignored (an option that was not given)."""
+        out = self
+        for group, values in groups.items():
+            values = {k: v for k, v in values.items() if v is not None}
+            if values:
+                out = replace(out, **{group: replace(getattr(out, group), **values)})
+        return out

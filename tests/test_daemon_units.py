@@ -1,0 +1,462 @@
+"""The daemon's pieces on their own: handshake rules, the decision, settings, the policy reader,
+the log. No ports, no threads (the link tests are test_daemon_fake_brain.py and
+test_daemon_brain_host.py)."""
+
+from __future__ import annotations
+
+import io
+import json
+from dataclasses import replace
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from jetson.decide import Decider, PerceptionInput
+from jetson.handshake import Handshake, LinkState
+from jetson.log import EventLog, LatencyStats, percentile
+from jetson.policy import OnnxPolicy, PolicyError
+from jetson.settings import ConfigError, DecisionConfig, Settings
+from jetson.testing import ProbePolicy, write_mlp_policy
+from protocol.messages import (
+    FINGERPRINT,
+    PROTOCOL_VERSION,
+    Alliance,
+    GpsStatus,
+    Hello,
+    MatchPhase,
+    Role,
+    State,
+)
+from sim.observation import ObservationSpec
+
+SPEC = ObservationSpec()
+UNIT = SPEC.length_unit_m
+
+
+def brain_hello(boot_id: int = 0xB00, fingerprint: int = FINGERPRINT) -> Hello:
+    return Hello(fingerprint, PROTOCOL_VERSION, Role.BRAIN, boot_id, "0.1.0")
+
+
+def state(t_ms: int = 0, **kw) -> State:
+    base = dict(
+        seq=t_ms // 20 + 1, time_ms=t_ms, phase=MatchPhase.AUTONOMOUS, phase_ms=t_ms,
+        alliance=Alliance.RED, x=0.5, y=-0.5, heading=90.0, gps_error=0.01,
+        gps_status=GpsStatus.OK,
+    )  # fmt: skip
+    base.update(kw)
+    return State(**base)
+
+
+def rings(n: int, age_s: float = 0.05, pid: int = 1) -> PerceptionInput:
+    xy = np.array([[0.1 * i, 0.5 + 0.1 * i] for i in range(n)], dtype=np.float64)
+    return PerceptionInput(pid, age_s, xy.reshape(-1, 2))
+
+
+# --- handshake ----------------------------------------------------------------------------------
+
+
+def test_hello_goes_out_at_once_then_every_period_until_the_brain_matches() -> None:
+    h = Handshake(0x1234, "0.1.0", hello_period_s=0.2)
+    assert h.due(0.0)
+    h.sent(0.0)
+    assert not h.due(0.19) and h.due(0.2)
+    assert h.hello().role is Role.JETSON and h.hello().fingerprint == FINGERPRINT
+    out = h.on_hello(brain_hello(), 0.05)
+    assert h.state is LinkState.UP and out.kind == "up"
+    assert not out.reply  # ours went out 50 ms ago: the Brain has it or will answer it
+    assert not h.due(10.0)  # up: no more Hellos
+
+
+def test_a_lost_hello_is_repeated_when_the_brain_keeps_asking() -> None:
+    h = Handshake(0x1234, "0.1.0", hello_period_s=0.2)
+    h.sent(0.0)
+    h.on_hello(brain_hello(), 0.01)
+    # The Brain sends Hello every 200 ms while it has not seen ours: answer those.
+    assert h.on_hello(brain_hello(), 0.25).reply
+    h.sent(0.25)
+    # ... but not the answer to the one we just sent: that would ping-pong forever.
+    assert not h.on_hello(brain_hello(), 0.26).reply
+
+
+def test_a_fingerprint_mismatch_is_refused_naming_both_and_hellos_slow_down() -> None:
+    h = Handshake(0x1234, "0.1.0", hello_period_s=0.2, mismatch_period_s=1.0)
+    h.sent(0.0)
+    out = h.on_hello(brain_hello(fingerprint=0x12345678), 0.01)
+    assert out.kind == "mismatch" and h.state is LinkState.MISMATCH and not h.up
+    assert "0x12345678" in out.message and f"0x{FINGERPRINT:08X}" in out.message
+    assert out.reply  # a new Brain: tell it who we are, so that its log says why too
+    assert not h.due(0.5) and h.due(1.0)
+    again = h.on_hello(brain_hello(fingerprint=0x12345678), 0.3)
+    assert again.kind == "same" and not again.reply
+    # Re-flashed with our schema (new boot id): the link comes up.
+    assert h.on_hello(brain_hello(boot_id=0xB01), 2.0).kind == "up" and h.up
+
+
+def test_a_new_boot_id_while_up_is_a_restart_answered_at_once() -> None:
+    h = Handshake(0x1234, "0.1.0")
+    h.sent(0.0)
+    h.on_hello(brain_hello(0xB00), 0.01)
+    h.sent(0.01)
+    out = h.on_hello(brain_hello(0xB01), 0.02)
+    assert out.kind == "restart" and out.reply and h.brain_boot_id == 0xB01
+
+
+def test_our_own_hello_echoed_back_is_refused() -> None:
+    h = Handshake(0x1234, "0.1.0")
+    out = h.on_hello(h.hello(), 0.0)
+    assert out.kind == "refused" and "echo" in out.message and h.state is LinkState.WAITING
+
+
+# --- decision -----------------------------------------------------------------------------------
+
+
+def test_the_policy_drives_only_in_allowed_phases() -> None:
+    policy = ProbePolicy()
+    d = Decider(policy, DecisionConfig(drive_phases=("autonomous",)))
+    stopped = d.decide(state(phase=MatchPhase.DISABLED), None)
+    assert (stopped.linear, stopped.angular, stopped.intake) == (0.0, 0.0, False)
+    assert stopped.reason == "phase disabled" and policy.calls == 0
+    assert d.decide(state(phase=MatchPhase.DRIVER), None).reason == "phase driver"
+    drove = d.decide(state(), None)
+    assert drove.drove and policy.calls == 1
+    assert drove.linear == pytest.approx(0.5 / UNIT * 0.5, rel=1e-6)
+    assert drove.intake  # a policy without an intake action had it always on in training
+
+
+def test_stale_or_missing_perception_is_seen_as_no_rings() -> None:
+    d = Decider(ProbePolicy(), DecisionConfig(perception_max_age_s=0.2))
+    fresh = d.decide(state(0), rings(3, age_s=0.1))
+    assert fresh.perception == "fresh" and fresh.rings == 3
+    assert fresh.angular == pytest.approx(3 / 10 * 2.0)
+    stale = d.decide(state(20), rings(3, age_s=0.25))
+    assert stale.perception == "stale" and stale.rings == 0 and stale.angular == 0.0
+    assert stale.drove  # still driving, as trained for a robot that sees no rings
+    none = d.decide(state(40), None)
+    assert none.perception == "none" and none.angular == 0.0 and none.drove
+
+
+def test_observation_is_sim_observation_in_the_alliance_frame() -> None:
+    policy = ProbePolicy()
+    policy.keep_observations = True
+    d = Decider(policy)
+    d.decide(state(0, alliance=Alliance.BLUE, x=0.5, phase_ms=21_000), rings(2))
+    obs = policy.observations[-1]
+    assert obs.shape == (SPEC.size,) and obs.dtype == np.float32
+    assert obs[0] == pytest.approx(21.0 / 105.0)
+    assert obs[1] == pytest.approx(-0.5 / UNIT)  # blue sees the field turned 180 degrees
+    slots = obs[SPEC.ring_offset : SPEC.frame_size].reshape(10, 3)
+    assert np.allclose(slots[0], [0.0, 0.5 / UNIT, 1.0]) and slots[2:, 2].sum() == 0
+
+
+def test_frames_enter_the_stack_at_the_policys_control_rate() -> None:
+    policy = ProbePolicy()
+    policy.keep_observations = True
+    d = Decider(policy, DecisionConfig(decision_hz=12.0))
+    fs = SPEC.frame_size
+    for t in range(0, 1000, 20):  # 50 Hz States for one second, x = t mm
+        d.decide(state(t, x=t / 1000.0), None)
+    history = [round(float(o[fs + 1]) * UNIT * 1000) for o in policy.observations]
+    current = [round(float(o[1]) * UNIT * 1000) for o in policy.observations]
+    assert current == list(range(0, 1000, 20))  # every State is answered from its own pose
+    # The frame before the current one moves on only when the stack commits a frame, every
+    # 1/12 s on the Brain's clock (pushes at 100, 180, 260, ... ms), and holds the frame committed
+    # at the push before: its age stays within one to two control periods, as in training.
+    changes = [(20 * i, history[i]) for i in range(1, len(history)) if history[i] != history[i - 1]]
+    commits = [next(t for t in range(0, 1000, 20) if t >= k * 1000 / 12) for k in range(1, 12)]
+    assert commits[:4] == [100, 180, 260, 340]
+    assert changes == list(zip(commits[1:], commits[:-1], strict=True))
+
+
+def test_a_new_enable_or_a_restarted_phase_starts_a_fresh_history() -> None:
+    policy = ProbePolicy()
+    policy.keep_observations = True
+    d = Decider(policy)
+    fs = SPEC.frame_size
+    for t in range(0, 400, 20):
+        d.decide(state(t, x=t / 1000.0), None)
+    assert policy.observations[-1][fs + 1] != policy.observations[-1][1]
+    d.decide(state(400, phase=MatchPhase.DISABLED, phase_ms=0), None)
+    d.decide(state(420, x=0.9, phase_ms=0), None)  # enabled again
+    obs = policy.observations[-1]
+    assert np.all(obs.reshape(11, fs) == obs[:fs])  # every slot holds the first frame
+    d.decide(state(440, x=0.1, phase_ms=20), None)
+    d.decide(state(460, x=0.3, phase_ms=0), None)  # phase clock went back: re-enabled
+    obs = policy.observations[-1]
+    assert np.all(obs.reshape(11, fs) == obs[:fs])
+
+
+def test_autonomous_into_driver_keeps_the_match_history() -> None:
+    policy = ProbePolicy()
+    policy.keep_observations = True
+    d = Decider(policy, DecisionConfig(driver_time_offset_s=15.0))
+    fs = SPEC.frame_size
+    for t in range(0, 200, 20):
+        d.decide(state(t, x=t / 1000.0), None)
+    d.decide(state(200, x=0.2, phase=MatchPhase.DRIVER, phase_ms=0), None)
+    obs = policy.observations[-1]
+    assert obs[fs + 1] != obs[1]  # history kept
+    assert obs[0] == pytest.approx(15.0 / 105.0)  # the match clock continues
+
+
+def test_any_exception_or_bad_output_is_a_stop_and_the_next_state_drives_again() -> None:
+    policy = ProbePolicy()
+    d = Decider(policy)
+    policy.fail = lambda obs: True
+    failed = d.decide(state(0), None)
+    assert (failed.linear, failed.angular, failed.intake, failed.reason) == (0, 0, False, "error")
+    assert "probe policy told to fail" in failed.error
+    policy.fail = None
+    assert d.decide(state(20), None).drove
+    bad_rings = PerceptionInput(2, 0.0, np.array([[np.nan, 1.0]]))
+    broken = d.decide(state(40), bad_rings)
+    assert broken.reason == "error" and "NaN" in broken.error
+
+    class NanPolicy(ProbePolicy):
+        def __call__(self, obs):
+            return np.array([np.nan, 0.0], dtype=np.float32)
+
+    assert Decider(NanPolicy()).decide(state(0), None).reason == "policy output not finite"
+
+
+def test_perception_that_raised_on_the_newest_frame_is_a_stop_until_it_ages_out() -> None:
+    policy = ProbePolicy()
+    d = Decider(policy, DecisionConfig(perception_max_age_s=0.2))
+    broken = PerceptionInput(3, 0.05, np.zeros((0, 2)), "ValueError: bad depth")
+    got = d.decide(state(0), broken)
+    assert (got.linear, got.angular, got.intake) == (0.0, 0.0, False)
+    assert got.reason == "perception error" and got.error == "ValueError: bad depth"
+    assert policy.calls == 0
+    # The camera then stops delivering: an old error is just no rings, as trained.
+    old = d.decide(state(20), PerceptionInput(3, 0.5, np.zeros((0, 2)), "ValueError: bad depth"))
+    assert old.drove and old.perception == "stale"
+
+
+def test_sync_perception_publishes_an_exception_as_an_error_result() -> None:
+    from jetson.camera_feed import SyncPerception
+    from jetson.clock import ManualClock
+
+    def process(frame):
+        if frame.bad:
+            raise ValueError("bad depth")
+        return SimpleNamespace(rings_robot_xy=[[0.0, 1.0]], detections=[1])
+
+    feed = SyncPerception(process, ManualClock(5.0))
+    good = feed.submit(SimpleNamespace(bad=False, index=1))
+    assert good.error is None and good.rings_robot_xy.shape == (1, 2) and good.detections == 1
+    bad = feed.submit(SimpleNamespace(bad=True, index=2))
+    assert bad.error == "ValueError: bad depth" and len(bad.rings_robot_xy) == 0
+    assert bad.stamp_s == 5.0 and feed.latest() is bad
+
+
+def test_no_gps_fix_or_no_alliance_is_a_stop_with_the_reason() -> None:
+    d = Decider(ProbePolicy())
+    assert d.decide(state(gps_status=GpsStatus.CALIBRATING), None).reason == "gps calibrating"
+    unknown = d.decide(state(alliance=Alliance.UNKNOWN), None)
+    assert not unknown.drove and "alliance" in unknown.reason
+
+
+def test_an_intake_action_drives_the_intake() -> None:
+    class IntakePolicy(ProbePolicy):
+        action_names = ("linear", "angular", "intake")
+        action_scale = (0.5, 2.0, 1.0)
+
+        def __call__(self, obs):
+            return np.array([0.1, 0.0, 1.0 if obs[1] > 0 else -1.0], dtype=np.float32)
+
+    d = Decider(IntakePolicy())
+    assert d.decide(state(0, x=0.5), None).intake
+    assert not d.decide(state(20, x=-0.5), None).intake
+
+
+# --- settings -----------------------------------------------------------------------------------
+
+
+def test_settings_file_round_trip_and_errors_name_the_key(tmp_path: Path) -> None:
+    good = tmp_path / "good.toml"
+    good.write_text(
+        '[link]\nport = "/dev/pete-brain"\n[decision]\ndrive_phases = ["autonomous"]\n'
+        'perception_max_age_s = 0.5\n[record]\ndir = ""\n'
+    )
+    s = Settings.load(good)
+    assert s.link.port == "/dev/pete-brain" and s.decision.drive_phases == ("autonomous",)
+    assert s.decision.perception_max_age_s == 0.5 and not s.record.dir
+    assert s.with_overrides(link={"port": "/dev/x", "baud": None}).link.port == "/dev/x"
+    bad = tmp_path / "bad.toml"
+    for text, needle in (
+        ("[link]\nprot = 1\n", "'prot'"),
+        ("[linc]\n", "[linc]"),
+        ('[decision]\ndrive_phases = ["disabled"]\n', "'disabled'"),
+        ("[decision]\nvalid_ms = 5000\n", "valid_ms"),
+        ("[link]\nreconnect_poll_s = 3\n", "within 1 s"),
+        ("[link\n", "bad.toml"),
+    ):
+        bad.write_text(text)
+        with pytest.raises(ConfigError, match=needle.replace("[", r"\[")):
+            Settings.load(bad)
+
+
+def test_the_shipped_example_config_loads() -> None:
+    example = Path(__file__).resolve().parent.parent / "jetson" / "deploy" / "pete-jetson.toml"
+    s = Settings.load(example)
+    assert s.link.port == "/dev/pete-brain" and s.record.dir
+
+
+# --- policy file --------------------------------------------------------------------------------
+
+
+def test_policy_reader_matches_sim_policy_on_the_same_file(tmp_path: Path) -> None:
+    from sim.policy import OnnxPolicy as SimPolicy
+
+    path = write_mlp_policy(tmp_path, seed=1)
+    ours, theirs = OnnxPolicy(path), SimPolicy(path)
+    assert ours.spec == theirs.spec and ours.control_hz == 12.0
+    assert ours.action_scale == theirs.meta.actions.scale
+    obs = np.random.default_rng(0).uniform(-1, 1, (20, SPEC.size)).astype(np.float32)
+    for o in obs:
+        assert np.array_equal(ours(o), theirs(o))
+    assert OnnxPolicy(tmp_path).path == path  # the folder works too
+
+
+def test_a_tampered_or_missing_policy_is_refused_by_name(tmp_path: Path) -> None:
+    path = write_mlp_policy(tmp_path)
+    meta = json.loads(path.with_suffix(".json").read_text())
+    with pytest.raises(PolicyError, match="no policy"):
+        OnnxPolicy(tmp_path / "nope.onnx")
+    edited = dict(meta, observation=dict(meta["observation"], n_rings=5))
+    path.with_suffix(".json").write_text(json.dumps(edited))
+    with pytest.raises(PolicyError, match="fingerprint"):
+        OnnxPolicy(path)
+    path.with_suffix(".json").write_text(json.dumps(dict(meta, onnx_sha256="0" * 64)))
+    with pytest.raises(PolicyError, match="onnx_sha256"):
+        OnnxPolicy(path)
+    path.with_suffix(".json").unlink()
+    with pytest.raises(PolicyError, match="metadata"):
+        OnnxPolicy(path)
+
+
+# --- log ----------------------------------------------------------------------------------------
+
+
+def test_log_lines_are_json_with_the_fixed_keys_and_the_summary_goes_to_both() -> None:
+    out, human = io.StringIO(), io.StringIO()
+    log = EventLog(out, human, min_level="info")
+    log.debug("noise", "not shown")
+    log.warning("link_down", "link down", n=np.int64(3), xs=np.array([1.5, np.nan]))
+    log.summary("up | 50 Hz", rate_hz=50.0)
+    lines = [json.loads(x) for x in out.getvalue().splitlines()]
+    assert [r["event"] for r in lines] == ["link_down", "summary"]
+    assert {"ts", "t", "level", "event", "msg"} <= set(lines[0])
+    assert lines[0]["n"] == 3 and lines[0]["xs"] == [1.5, None]
+    assert human.getvalue() == "up | 50 Hz\n"
+
+
+def test_latency_percentiles() -> None:
+    values = sorted(i / 1000 for i in range(1, 101))
+    assert percentile(values, 50) == 0.05 and percentile(values, 99) == 0.099
+    stats = LatencyStats()
+    for v in values:
+        stats.add(v)
+    s = LatencyStats.summary_ms(stats.take_window())
+    assert s["n"] == 100 and s["p99_ms"] == pytest.approx(99.0) and stats.window == []
+    assert LatencyStats.summary_ms([])["n"] == 0
+
+
+def test_decision_config_is_checked() -> None:
+    with pytest.raises(ConfigError, match="perception_max_age_s"):
+        DecisionConfig(perception_max_age_s=0)
+    assert replace(DecisionConfig(), valid_ms=100).valid_ms == 100
+
+
+# --- finding the port -----------------------------------------------------------------------------
+
+
+def test_the_port_is_the_user_port_found_over_usb_never_the_system_port(tmp_path: Path) -> None:
+    from jetson.link import PortLocator
+    from jetson.ports import V5Port
+
+    ports: list[V5Port] = []
+    scans = []
+
+    def discover() -> list[V5Port]:
+        scans.append(1)
+        return list(ports)
+
+    loc = PortLocator(discover=discover, scan_interval_s=0.0)
+    assert loc.find() is None
+    ports[:] = [V5Port("/dev/ttyACM0", "system", "VEX V5 Brain System")]
+    assert loc.find() is None  # uploads go there: never talk on it
+    ports.append(V5Port("/dev/ttyACM1", "user", "VEX V5 Brain User"))
+    assert loc.find() == "/dev/ttyACM1"
+    slow = PortLocator(discover=discover, scan_interval_s=60.0)
+    n = len(scans)
+    assert slow.find() == slow.find() == "/dev/ttyACM1" and len(scans) == n + 1
+    fixed = PortLocator(str(tmp_path / "pete-brain"))
+    assert fixed.find() is None
+    (tmp_path / "pete-brain").touch()
+    assert fixed.find() == str(tmp_path / "pete-brain")
+
+
+def test_the_port_is_opened_raw_and_a_hang_up_is_link_closed() -> None:
+    import os
+    import pty
+    import termios
+
+    from jetson.link import LinkClosed, SerialLink
+
+    master, slave = pty.openpty()  # a cooked tty, as a fresh /dev/ttyACM is: echo, CR/LF maps
+    path = os.ttyname(slave)
+    os.close(slave)
+    link = SerialLink.open(path)
+    try:
+        iflag, oflag, _, lflag, _, _, _ = termios.tcgetattr(link.fileno())
+        assert not lflag & (termios.ECHO | termios.ICANON | termios.ISIG)
+        assert not oflag & termios.OPOST and not iflag & (termios.ICRNL | termios.IXON)
+        payload = bytes(range(256))  # every byte value crosses unchanged, both ways
+        os.write(master, payload)
+        got = b""
+        while len(got) < 256:
+            got += link.read(1.0)
+        assert got == payload and link.rx_bytes == 256
+        assert link.write(b":0102\r\n") and os.read(master, 100) == b":0102\r\n"
+        os.close(master)  # the Brain goes away
+        with pytest.raises(LinkClosed):
+            for _ in range(10):
+                link.read(0.1)
+    finally:
+        link.close()
+    with pytest.raises(LinkClosed, match="does not exist"):
+        SerialLink.open("/dev/pete-brain-that-is-not-there")
+
+
+def test_the_summary_line_says_what_a_person_needs_first() -> None:
+    from jetson.stats import Snapshot, summary_fields, summary_line
+    from protocol.messages import Command
+
+    lat = LatencyStats.summary_ms([0.0002, 0.0004, 0.0009])
+    base = dict(
+        link="up", port="/dev/pete-brain", waited_s=0.0, brain_boot_id=0x5EED0001,
+        state=state(12_300), rate_hz=50.0, latency=lat, received=616, lost=2,
+        errors={"bad_crc": 1, "truncated": 1}, perception=(4, 0.035), has_perception=True,
+        command=Command(9, 0.61, -0.2, True, 250), stop_reason=None, window={}, counters={},
+    )  # fmt: skip
+    up = Snapshot(**base)
+    assert summary_line(up) == (
+        "up brain 5EED0001 | autonomous 12.3 s | 50 Hz | latency p50 0.40 p99 0.90 max 0.90 ms"
+        " | rx 616 lost 2 | errors bad_crc=1 truncated=1 | rings 4 (35 ms old)"
+        " | cmd +0.61 m/s -0.20 rad/s intake"
+    )
+    assert summary_fields(up)["perception"] == {"rings": 4, "age_ms": 35.0}
+    stopped = Snapshot(
+        **{**base, "command": Command(9, 0, 0, False, 250), "stop_reason": "gps error"}
+    )
+    assert summary_line(stopped).endswith("cmd +0.00 m/s +0.00 rad/s (gps error)")
+    idle = {"link": "waiting for port", "waited_s": 12.4, "rate_hz": 0.0, "errors": {}}
+    idle.update(latency=LatencyStats.summary_ms([]), perception=None)
+    waiting = Snapshot(**{**base, **idle})
+    assert summary_line(waiting) == (
+        "waiting for the Brain at /dev/pete-brain (12 s) | 0 Hz | rx 616 lost 2 | errors none"
+        " | no perception"
+    )
+    assert summary_line(Snapshot(**{**base, "link": "mismatch"})).startswith("SCHEMA MISMATCH")

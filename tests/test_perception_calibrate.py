@@ -1,0 +1,110 @@
+"""Checkerboard calibration on boards rendered with a known camera."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from jetson.cli import main
+from jetson.perception.calibrate import board_points, calibrate_folder, parse_board
+from jetson.perception.errors import CalibrationError
+
+BOARD = (9, 6)  # inner corners
+SQUARE_M = 0.025
+TRUE_K = np.array([[610.0, 0.0, 328.0], [0.0, 605.0, 236.0], [0.0, 0.0, 1.0]])
+TEXTURE_PPM = 2000.0  # texture pixels per metre (2 per mm)
+MARGIN_SQUARES = 1.0
+
+
+def board_texture() -> tuple[np.ndarray, float]:
+    """A white-bordered board of (cols + 1) x (rows + 1) squares; returns it and the texture
+    coordinate of the first inner corner (the same along x and y)."""
+    cols, rows = BOARD[0] + 1, BOARD[1] + 1
+    sq = round(SQUARE_M * TEXTURE_PPM)
+    margin = round(MARGIN_SQUARES * sq)
+    tex = np.full((rows * sq + 2 * margin, cols * sq + 2 * margin), 255, np.uint8)
+    for r in range(rows):
+        for c in range(cols):
+            if (r + c) % 2 == 0:
+                y, x = margin + r * sq, margin + c * sq
+                tex[y : y + sq, x : x + sq] = 0
+    return tex, margin + sq
+
+
+def render_views(folder: Path, n: int = 8, seed: int = 0) -> None:
+    rng = np.random.default_rng(seed)
+    tex, origin = board_texture()
+    texture_to_board = np.array(
+        [[1 / TEXTURE_PPM, 0, -origin / TEXTURE_PPM], [0, 1 / TEXTURE_PPM, -origin / TEXTURE_PPM],
+         [0, 0, 1]]
+    )  # fmt: skip
+    centre = np.array([(BOARD[0] - 1) * SQUARE_M / 2, (BOARD[1] - 1) * SQUARE_M / 2, 0.0])
+    folder.mkdir(parents=True, exist_ok=True)
+    for k in range(n):
+        rvec = np.radians([rng.uniform(-35, 35), rng.uniform(-35, 35), rng.uniform(-20, 20)])
+        rot, _ = cv2.Rodrigues(rvec)
+        # Put the board's centre somewhere in view, 0.45-0.7 m away.
+        z = rng.uniform(0.45, 0.7)
+        target = np.array([rng.uniform(-0.06, 0.06), rng.uniform(-0.04, 0.04), z])
+        t = target - rot @ centre
+        h = TRUE_K @ np.c_[rot[:, 0], rot[:, 1], t] @ texture_to_board
+        img = cv2.warpPerspective(tex, h, (640, 480), flags=cv2.INTER_LINEAR, borderValue=128)
+        img = cv2.GaussianBlur(img, (0, 0), 0.7)
+        noisy = img + rng.normal(0, 2.0, img.shape)
+        cv2.imwrite(str(folder / f"view{k:02d}.png"), np.clip(noisy, 0, 255).astype(np.uint8))
+
+
+def test_calibration_recovers_a_known_camera_within_one_percent(tmp_path: Path) -> None:
+    render_views(tmp_path / "views")
+    cv2.imwrite(str(tmp_path / "views" / "blank.png"), np.full((480, 640), 128, np.uint8))
+    cal = calibrate_folder(tmp_path / "views", BOARD, SQUARE_M)
+    i = cal.intrinsics
+    for got, want in ((i.fx, 610.0), (i.fy, 605.0), (i.cx, 328.0), (i.cy, 236.0)):
+        assert got == pytest.approx(want, rel=0.01)
+    assert cal.rms_px < 0.5
+    assert cal.skipped == ["blank.png"]
+    assert len(cal.per_image_rms_px) == 8
+
+
+def test_board_points_follow_opencvs_order() -> None:
+    pts = board_points((3, 2), 0.1)
+    want = [[0, 0, 0], [0.1, 0, 0], [0.2, 0, 0], [0, 0.1, 0], [0.1, 0.1, 0], [0.2, 0.1, 0]]
+    assert pts == pytest.approx(np.array(want), abs=1e-6)
+
+
+def test_bad_boards_and_folders_are_named(tmp_path: Path) -> None:
+    assert parse_board("9x6") == (9, 6)
+    for bad in ("9", "9x", "ax6", "1x6"):
+        with pytest.raises(CalibrationError, match=r"COLSxROWS|at least 2x2"):
+            parse_board(bad)
+    with pytest.raises(CalibrationError, match="different column and row"):
+        parse_board("7x7")
+    with pytest.raises(CalibrationError, match="does not exist"):
+        calibrate_folder(tmp_path / "none", BOARD, SQUARE_M)
+    with pytest.raises(CalibrationError, match="holds no images"):
+        calibrate_folder(tmp_path, BOARD, SQUARE_M)
+    render_views(tmp_path / "views", n=3)
+    with pytest.raises(CalibrationError, match=r"found in 0 of 3 images.*INNER"):
+        calibrate_folder(tmp_path / "views", (8, 5), SQUARE_M)
+
+
+def test_calibrate_command_writes_the_camera_config(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    render_views(tmp_path / "views", n=6, seed=1)
+    out = tmp_path / "camera.json"
+    assert main(["calibrate", "--images", str(tmp_path / "views"), "--board", "9x6",
+                 "--square-mm", "25", "--out", str(out)]) == 0  # fmt: skip
+    printed = capsys.readouterr().out
+    assert "reprojection error (RMS)" in printed
+    data = json.loads(out.read_text())
+    assert data["intrinsics"]["fx"] == pytest.approx(610.0, rel=0.01)
+    assert data["mount"]["tilt_deg"] == -30.0
+    assert data["calibration"]["images_used"] == 6
+    assert main(["calibrate", "--images", str(tmp_path), "--board", "9x6",
+                 "--square-mm", "25"]) == 2  # fmt: skip
+    assert "holds no images" in capsys.readouterr().err

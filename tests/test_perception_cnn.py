@@ -1,0 +1,186 @@
+"""The CNN detector: ONNX export agrees with torch, decoding, errors, a tiny training run."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from jetson.perception.cnn.augment import AugmentConfig, augment, random_patch
+from jetson.perception.cnn.runtime import (
+    CnnDetector,
+    decode,
+    input_size,
+    metadata_path,
+    to_input,
+)
+from jetson.perception.errors import DatasetError, ModelError
+
+torch = pytest.importorskip("torch")
+ort = pytest.importorskip("onnxruntime")
+
+from jetson.perception.cnn.model import STRIDE, ExportWrapper, RingNet, export_onnx  # noqa: E402
+from jetson.perception.cnn.train import TrainConfig, loss_fn, make_targets, train  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def tiny_model(tmp_path_factory: pytest.TempPathFactory) -> tuple[RingNet, Path]:
+    torch.manual_seed(0)
+    net = RingNet(width=4)
+    # Untrained batch-norm statistics are 0 and 1; give them other values so export must get
+    # them right too.
+    for m in net.modules():
+        if isinstance(m, torch.nn.BatchNorm2d):
+            m.running_mean.uniform_(-0.5, 0.5)
+            m.running_var.uniform_(0.5, 2.0)
+    net.eval()
+    path = tmp_path_factory.mktemp("model") / "tiny.onnx"
+    export_onnx(net, path, 96, 128)
+    meta = {"format": "pete-ringnet", "version": 1, "stride": STRIDE, "input_long_side": 128,
+            "score_threshold": 0.0}  # fmt: skip
+    metadata_path(path).write_text(json.dumps(meta))
+    return net, path
+
+
+def test_onnx_forward_agrees_with_torch(tiny_model: tuple[RingNet, Path], tmp_path: Path) -> None:
+    net, _ = tiny_model
+    raw_path = tmp_path / "raw.onnx"
+    torch.onnx.export(
+        net, (torch.zeros(1, 3, 96, 128),), str(raw_path), input_names=["rgb"],
+        output_names=["raw"], dynamic_axes={"rgb": {0: "n", 2: "h", 3: "w"}}, opset_version=17,
+        dynamo=False,
+    )  # fmt: skip
+    session = ort.InferenceSession(str(raw_path), providers=["CPUExecutionProvider"])
+    rng = np.random.default_rng(0)
+    # Two sizes: the graph's height and width are dynamic.
+    for h, w in ((96, 128), (160, 224)):
+        x = rng.random((2, 3, h, w), dtype=np.float32)
+        with torch.no_grad():
+            want = net(torch.from_numpy(x)).numpy()
+        (got,) = session.run(None, {"rgb": x})
+        assert got.shape == (2, 5, h // STRIDE, w // STRIDE)
+        np.testing.assert_allclose(got, want, atol=1e-4, rtol=0)
+
+
+def test_exported_detector_graph_agrees_with_torch(tiny_model: tuple[RingNet, Path]) -> None:
+    net, path = tiny_model
+    session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    x = np.random.default_rng(3).random((1, 3, 96, 128), dtype=np.float32)
+    with torch.no_grad():
+        want_peaks, want_boxes = (t.numpy() for t in ExportWrapper(net)(torch.from_numpy(x)))
+        heat = torch.sigmoid(net(torch.from_numpy(x))[:, 0:1])
+        pooled = torch.nn.functional.max_pool2d(heat, 3, 1, 1)
+    got_peaks, got_boxes = session.run(None, {"rgb": x})
+    np.testing.assert_allclose(got_boxes, want_boxes, atol=1e-4, rtol=0)
+    # Whether a cell is a 3x3 maximum can flip between runtimes only where its neighbour is
+    # within rounding of it; everywhere else the peaks must agree.
+    second = torch.nn.functional.max_pool2d(
+        torch.where(heat == pooled, torch.full_like(heat, -1.0), heat), 3, 1, 1
+    )
+    clear = ((heat - second).abs() > 1e-4).numpy() | (want_peaks == 0) & (got_peaks == 0)
+    assert clear.mean() > 0.5
+    np.testing.assert_allclose(got_peaks[clear], want_peaks[clear], atol=1e-4, rtol=0)
+
+
+def test_peaks_are_local_maxima_only(tiny_model: tuple[RingNet, Path]) -> None:
+    _, path = tiny_model
+    session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    x = np.random.default_rng(1).random((1, 3, 96, 128), dtype=np.float32)
+    peaks = session.run(None, {"rgb": x})[0][0, 0]
+    nz = np.argwhere(peaks > 0)
+    assert len(nz) > 0
+    for y, x_ in nz:
+        window = peaks[max(0, y - 1) : y + 2, max(0, x_ - 1) : x_ + 2]
+        assert peaks[y, x_] == window.max()
+
+
+def test_decode_turns_cells_into_boxes() -> None:
+    peaks = np.zeros((1, 6, 8), np.float32)
+    boxes = np.zeros((4, 6, 8), np.float32)
+    peaks[0, 2, 3] = 0.9
+    boxes[:, 2, 3] = (0.5, 0.25, np.log(2.0), np.log(1.0))  # offset, log(w / 4), log(h / 4)
+    peaks[0, 5, 7] = 0.1  # below the threshold
+    dets = decode(peaks, boxes, STRIDE, 0.3, (2.0, 2.0))
+    assert len(dets) == 1
+    d = dets[0]
+    # Centre (3.5, 2.25) cells = (14, 9) px at the input; 8 x 4 px; then scaled by 2.
+    assert (d.x0, d.y0, d.x1, d.y1) == pytest.approx((20.0, 14.0, 36.0, 22.0))
+    assert d.score == pytest.approx(0.9)
+
+
+def test_input_sizes_are_multiples_of_16() -> None:
+    assert input_size(640, 480, 320) == (320, 240)
+    assert input_size(416, 416, 320) == (320, 320)
+    w, h = input_size(1280, 720, 320)
+    assert w % 16 == 0 and h % 16 == 0 and w == 320
+    x = to_input(np.zeros((480, 640, 3), np.uint8), (320, 240))
+    assert x.shape == (1, 3, 240, 320) and x.dtype == np.float32
+
+
+def test_cnn_detector_runs_on_a_frame(tiny_model: tuple[RingNet, Path]) -> None:
+    _, path = tiny_model
+    det = CnnDetector(path, score_threshold=0.0)
+    img = np.random.default_rng(2).integers(0, 256, (240, 320, 3), dtype=np.uint8)
+    dets = det.detect(img)
+    assert len(dets) > 0
+    assert all(0.0 <= d.score <= 1.0 for d in dets)
+    assert [d.score for d in dets] == sorted((d.score for d in dets), reverse=True)
+
+
+def test_missing_or_broken_models_are_clear_errors(tmp_path: Path) -> None:
+    with pytest.raises(ModelError, match=r"does not exist.*detector train"):
+        CnnDetector(tmp_path / "none.onnx")
+    bad = tmp_path / "bad.onnx"
+    bad.write_bytes(b"not a model")
+    with pytest.raises(ModelError, match=r"metadata .* is missing"):
+        CnnDetector(bad)
+    metadata_path(bad).write_text(json.dumps({"format": "pete-ringnet", "version": 1,
+                                              "stride": 4, "input_long_side": 320,
+                                              "score_threshold": 0.4}))  # fmt: skip
+    with pytest.raises(ModelError, match="not a loadable ONNX model"):
+        CnnDetector(bad)
+
+
+def test_targets_put_each_ring_at_its_centre_cell() -> None:
+    heat, reg, mask = make_targets([np.array([[10.0, 20.0, 30.0, 28.0]])], 64, 48)
+    assert heat.shape == (1, 1, 12, 16)
+    # Centre (20, 24) px -> cell (5, 6), offset (0, 0); size (20, 8) px = (5, 2) cells.
+    assert float(heat[0, 0, 6, 5]) == 1.0 and float(mask.sum()) == 1.0
+    assert reg[0, :, 6, 5].tolist() == pytest.approx([0.0, 0.0, np.log(5.0), np.log(2.0)])
+    assert float(heat[0, 0, 6, 7]) < 1.0
+    raw = torch.zeros(1, 5, 12, 16, requires_grad=True)
+    loss, parts = loss_fn(raw, heat, reg, mask)
+    loss.backward()
+    assert float(loss.detach()) > 0 and set(parts) == {"focal", "offset", "size"}
+
+
+def test_augmentation_moves_boxes_with_the_image() -> None:
+    rng = np.random.default_rng(0)
+    img = np.zeros((240, 320, 3), np.uint8)
+    img[100:140, 150:200] = 255
+    box = np.array([[150.0, 100.0, 200.0, 140.0]])
+    cfg = AugmentConfig()
+    for _ in range(10):
+        patch, b = random_patch(rng, img, box, (192, 160), cfg)
+        assert patch.shape == (160, 192, 3)
+        for x0, y0, x1, y1 in b:
+            inner = patch[int(y0) + 2 : int(y1) - 2, int(x0) + 2 : int(x1) - 2]
+            if inner.size:
+                assert inner.mean() > 200  # the white block is where its box says
+    out, _ = augment(rng, img, box, (192, 160), cfg)
+    assert out.shape == (160, 192, 3) and out.dtype == np.uint8
+
+
+def test_training_runs_end_to_end_and_writes_a_usable_model(tmp_path: Path) -> None:
+    cfg = TrainConfig(synthetic=3, synthetic_val=2, steps=2, batch=2, width=4, threads=1)
+    out = tmp_path / "m.onnx"
+    meta = train(cfg, out, log=lambda _: None)
+    assert out.is_file() and out.with_suffix(".pt").is_file()
+    saved = json.loads(metadata_path(out).read_text())
+    assert saved["trained_on"] == meta["trained_on"] and "validation" in saved
+    assert saved["score_threshold"] == meta["score_threshold"]
+    CnnDetector(out).detect(np.zeros((240, 320, 3), np.uint8))
+    with pytest.raises(DatasetError, match="nothing to train on"):
+        train(TrainConfig(), out)
