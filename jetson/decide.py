@@ -32,6 +32,7 @@ from protocol.messages import Alliance, GpsStatus, MatchPhase, State
 from sim.observation import FrameStack, RobotView, build_frame
 
 DEFAULT_DECISION_HZ = 12.0  # sim.config.WorldConfig.control_hz: what policies are trained at
+RINGS_UNKNOWN = 255  # State.rings_held when the Brain has no ring counter
 _NO_RINGS = np.zeros((0, 2))
 
 
@@ -129,6 +130,11 @@ class Decider:
             return _NO_RINGS, "stale"
         return perception.rings_robot_xy, "fresh"
 
+    def _rings_held(self, state: State) -> int:
+        """The Brain's ring counter when it has one (255 means none is fitted), else the
+        configured stand-in."""
+        return self.config.rings_held if state.rings_held == RINGS_UNKNOWN else state.rings_held
+
     def _observation(self, state: State, rings: NDArray[np.float64]) -> NDArray[np.float32]:
         t = state.phase_ms / 1000.0
         if state.phase == MatchPhase.DRIVER:
@@ -140,7 +146,7 @@ class Decider:
             alliance="red" if state.alliance == Alliance.RED else "blue",
             time_s=t,
             rings_robot_xy=rings,
-            rings_held=self.config.rings_held,
+            rings_held=self._rings_held(state),
         )
         frame = build_frame(self.spec, view)
         now_ms = float(state.time_ms)

@@ -59,7 +59,7 @@ class DecisionConfig:
     valid_ms: int = 250  # Command.valid_ms: the Brain stops if no newer Command comes in this
     decision_hz: float | None = None  # None: the policy's control rate, else 12 Hz
     driver_time_offset_s: float = 0.0  # match time at the start of driver control
-    rings_held: int = 0  # the State does not report it: what the observation says
+    rings_held: int = 0  # what the observation says when the Brain has no ring counter
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "drive_phases", tuple(self.drive_phases))

@@ -393,6 +393,17 @@ def test_side_channel_rejects_bad_input_with_a_reason(brain: BrainHost) -> None:
     assert brain.side("until 0").startswith("ok t=0 ")
     brain.advance(50)
     assert brain.side("until 10").startswith("error time 10 is before now (50)")
+    assert brain.side("rings 255").startswith("error rings N (0..254)")
+    assert brain.side("rings 2.5").startswith("error rings N (0..254)")
+
+
+def test_ring_counter_reaches_the_jetson_in_the_state(brain: BrainHost) -> None:
+    assert brain.side("rings 3") == "ok"
+    brain.advance(20)
+    assert " rings=3 " in brain.side("get")
+    assert brain.side("rings unknown") == "ok"
+    brain.advance(20)
+    assert " rings=255 " in brain.side("get")
 
 
 def test_realtime_mode_streams_state_on_the_wall_clock() -> None:

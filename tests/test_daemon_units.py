@@ -150,6 +150,16 @@ def test_observation_is_sim_observation_in_the_alliance_frame() -> None:
     assert np.allclose(slots[0], [0.0, 0.5 / UNIT, 1.0]) and slots[2:, 2].sum() == 0
 
 
+def test_rings_held_come_from_the_brains_counter_or_the_configured_stand_in() -> None:
+    policy = ProbePolicy()
+    policy.keep_observations = True
+    d = Decider(policy, DecisionConfig(rings_held=2))
+    d.decide(state(0, rings_held=255), None)  # 255: the Brain has no ring counter
+    assert policy.observations[-1][5] == pytest.approx(2 / SPEC.ring_capacity_norm)
+    d.decide(state(20, rings_held=7), None)
+    assert policy.observations[-1][5] == pytest.approx(7 / SPEC.ring_capacity_norm)
+
+
 def test_frames_enter_the_stack_at_the_policys_control_rate() -> None:
     policy = ProbePolicy()
     policy.keep_observations = True

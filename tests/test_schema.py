@@ -117,7 +117,7 @@ def _change_stream(raw: Raw) -> None:
 
 
 def _change_version(raw: Raw) -> None:
-    raw["protocol"]["version"] = 2
+    raw["protocol"]["version"] += 1
 
 
 def _change_direction(raw: Raw) -> None:

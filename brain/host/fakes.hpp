@@ -82,7 +82,9 @@ class FakeDrivetrain final : public core::Drivetrain {
 class FakeIntake final : public core::Intake {
  public:
   void set(bool on_) override { on = on_; }
+  uint8_t rings_held() override { return rings; }
   bool on = false;
+  uint8_t rings = core::kRingsUnknown;
 };
 
 class FakeCompetition final : public core::Competition {

@@ -14,7 +14,8 @@ constexpr const char* kHelp =
     "ok commands: get | advance MS [rx=BYTES] | until MS [rx=BYTES] | "
     "phase disabled|autonomous|driver | gps X Y HEADING [ERROR] | "
     "gps calibrating|error|absent | sticks FORWARD TURN [intake] | sticks off | "
-    "measured LEFT_MPS RIGHT_MPS | measured auto | motor_fault 0|1 | help | quit";
+    "measured LEFT_MPS RIGHT_MPS | measured auto | rings N|unknown | motor_fault 0|1 | "
+    "help | quit";
 
 std::vector<std::string> split(const std::string& line) {
   std::istringstream in(line);
@@ -167,6 +168,19 @@ std::string SideChannel::handle(const std::string& line) {
     rig_.drive.measured_override = true;
     rig_.drive.measured.left_rpm = model.wheel_to_motor_rpm(static_cast<float>(l));
     rig_.drive.measured.right_rpm = model.wheel_to_motor_rpm(static_cast<float>(r));
+    return "ok";
+  }
+  if (cmd == "rings") {
+    if (n == 2 && t[1] == "unknown") {
+      rig_.intake.rings = core::kRingsUnknown;
+      return "ok";
+    }
+    double count = 0.0;
+    if (n != 2 || !parse_number(t[1], count) || count < 0.0 || count > 254.0 ||
+        count != static_cast<double>(static_cast<int>(count))) {
+      return error("rings N (0..254) | rings unknown");
+    }
+    rig_.intake.rings = static_cast<uint8_t>(count);
     return "ok";
   }
   if (cmd == "motor_fault") {

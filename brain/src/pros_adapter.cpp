@@ -202,6 +202,9 @@ class ProsIntake final : public core::Intake {
       group_->set_brake_mode_all(pros::MotorBrake::coast);
     }
   }
+  // No ring counter is wired by default. A team that fits one (an optical sensor at the intake's
+  // exit, say) counts its rising edges here; the Jetson then sees real counts in the State.
+  uint8_t rings_held() override { return core::kRingsUnknown; }
   void set(bool on) override {
     if (!group_ || on == on_) return;
     on_ = on;

@@ -370,6 +370,16 @@ TEST(Robot, ReportsMotorFaultsAndMeasuredSpeeds) {
   EXPECT_TRUE(msg::has(s.faults, msg::Fault::motor_fault));
 }
 
+TEST(Robot, StateCarriesTheRingCounterOrSaysThereIsNone) {
+  Rig r;
+  connected_in(r, msg::MatchPhase::autonomous);
+  r.run(2 * kPeriod);
+  EXPECT_EQ(last_state(r).rings_held, kRingsUnknown);
+  r.sim.intake.rings = 4;
+  r.run(2 * kPeriod);
+  EXPECT_EQ(last_state(r).rings_held, 4u);
+}
+
 TEST(Robot, StateCarriesTimePhaseAndAlliance) {
   Config c = kRobotConfig;
   c.alliance = msg::Alliance::blue;

@@ -148,6 +148,7 @@ void Robot::step() {
   s.left_speed = std::isfinite(fb.left_rpm) ? model.motor_rpm_to_wheel(fb.left_rpm) : 0.0f;
   s.right_speed = std::isfinite(fb.right_rpm) ? model.motor_rpm_to_wheel(fb.right_rpm) : 0.0f;
   s.last_command_seq = last_command_seq_;
+  s.rings_held = hw_.intake.rings_held();
   s.faults = faults(now, gps, fb);
   link_.transmit(hw_.serial, now, s);
 

@@ -62,9 +62,14 @@ class Drivetrain {
   ~Drivetrain() = default;
 };
 
+/// What Intake::rings_held() says when no ring counter is fitted (the State carries it as is).
+inline constexpr uint8_t kRingsUnknown = 255;
+
 class Intake {
  public:
   virtual void set(bool on) = 0;
+  /// Rings in the intake as a sensor counts them, or kRingsUnknown. The core never guesses.
+  virtual uint8_t rings_held() = 0;
 
  protected:
   ~Intake() = default;
