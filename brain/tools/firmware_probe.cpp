@@ -30,6 +30,7 @@ struct Drive final : core::Drivetrain {
 };
 struct Intake final : core::Intake {
   void set(bool on) override { g_sink = on ? 1.0f : 0.0f; }
+  uint8_t rings_held() override { return core::kRingsUnknown; }
 };
 struct Serial final : core::SerialLink {
   core::ByteRing<256> rx;  // as the PROS adapter uses it, so its atomics are linked too
