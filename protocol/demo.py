@@ -262,7 +262,7 @@ def handshake_scene(tool: CodecTool) -> None:
     print("\n3. HANDSHAKE  a Brain built from another schema says Hello (C++ encodes it)")
     foreign = Hello(
         fingerprint=0x1BADB002,
-        protocol_version=2,
+        protocol_version=3,
         role=Role.BRAIN,
         boot_id=0x5EED,
         software_version="0.2.0-dev",
