@@ -5,8 +5,13 @@ from __future__ import annotations
 
 import argparse
 import importlib.metadata
+import signal
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from sim.evaluate import PlayerSpec
 
 DESCRIPTION = """\
 The simulator side of Pac-Man Pete: a PyBullet twin of the Tipping Point field, Gymnasium and
@@ -14,6 +19,15 @@ PettingZoo environments, PPO self-play training and evaluation.
 
   pete-sim versions        the simulation stack this environment has installed
   pete-sim view            a PNG of a seeded field and a GIF of a scripted match
+  pete-sim train           PPO self-play from a TOML config (sim/configs/), --resume to go on
+  pete-sim export          a checkpoint to policy.onnx + policy.json (onnxruntime only)
+  pete-sim eval            seeded matches of a policy against another: rings, score, wins
+  pete-sim play            one match as a top-down GIF with a score overlay + reward plots
+  pete-sim match           the whole robot stack (Brain core, wire, Jetson daemon) on the
+                           simulated field, or --stack sim: summary, replay GIF, plots
+
+Players for eval/play: a policy.onnx, a checkpoint .pt, a run folder, original:PATH (the
+original team's ONNX), planner, planner-nearest, scripted, random, idle (and none as opponent).
 """
 
 _STACK = ("pacman-pete", "pybullet", "gymnasium", "pettingzoo", "torch", "numpy", "onnxruntime")
@@ -54,6 +68,138 @@ def _cmd_view(args: argparse.Namespace) -> int:
     return 0
 
 
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def _cmd_train(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from sim.config import ConfigError
+    from sim.training.config import load_config
+    from sim.training.rollout import WorkerError
+    from sim.training.trainer import train
+
+    try:
+        cfg = load_config(args.config)
+        if args.steps is not None:
+            cfg = replace(cfg, total_steps=args.steps)
+        if args.seed is not None:
+            cfg = replace(cfg, seed=args.seed)
+        run_dir = args.run_dir or Path("runs") / cfg.name
+        # SIGTERM stops like Ctrl-C: a checkpoint and an export, then exit.
+        signal.signal(signal.SIGTERM, _interrupt)
+        result = train(cfg, run_dir, resume=args.resume, progress=not args.no_progress)
+    except (ConfigError, ValueError, FileNotFoundError, WorkerError) as e:
+        print(f"pete-sim train: {e}", file=sys.stderr)
+        return 2
+    stopped = " (interrupted: --resume goes on)" if result.interrupted else ""
+    print(f"{result.steps} steps in {result.wall_s:.0f} s, {result.episodes} matches{stopped}")
+    print(f"run folder: {result.run_dir}")
+    if result.policy is not None:
+        print(f"policy: {result.policy}")
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from sim.match import make_config
+    from sim.training.checkpoint import agent_from_checkpoint, load_checkpoint
+    from sim.training.export import export_policy
+
+    try:
+        state = load_checkpoint(args.checkpoint)
+        agent, spec, cfg = agent_from_checkpoint(state)
+        env = make_config(cfg.env_config(), observation=spec)
+        training = {"config": cfg.name, "seed": cfg.seed, "steps": int(state["step"])}
+        onnx_path, meta = export_policy(agent, spec, env, args.out, training)
+    except (ValueError, FileNotFoundError, KeyError) as e:
+        print(f"pete-sim export: {e}", file=sys.stderr)
+        return 2
+    print(onnx_path)
+    print(meta)
+    return 0
+
+
+def _opponent(word: str) -> PlayerSpec | None:
+    from sim.evaluate import load_player
+
+    return None if word == "none" else load_player(word)
+
+
+def _cmd_eval(args: argparse.Namespace) -> int:
+    import json
+
+    from sim.evaluate import EvalError, evaluate, load_player
+    from sim.original_policy import OriginalPolicyError
+
+    try:
+        a = load_player(args.policy)
+        b = _opponent(args.opponent)
+        summary = evaluate(
+            a, b, args.matches, args.seed, scenario=args.scenario, fidelity=args.fidelity
+        )
+    except (EvalError, OriginalPolicyError) as e:
+        print(f"pete-sim eval: {e}", file=sys.stderr)
+        return 2
+    print(summary.table())
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(summary.as_dict(), indent=1) + "\n")
+        print(f"wrote {args.json}")
+    return 0
+
+
+def _cmd_play(args: argparse.Namespace) -> int:
+    from sim.evaluate import EvalError, load_player
+    from sim.original_policy import OriginalPolicyError
+    from sim.replay import write_replay
+
+    try:
+        a = load_player(args.policy)
+        b = _opponent(args.opponent)
+        written, record = write_replay(
+            a,
+            b,
+            args.out,
+            seed=args.seed,
+            scenario=args.scenario,
+            fidelity=args.fidelity,
+            a_alliance=args.side,
+            stride=args.stride,
+            size=args.size,
+            seconds=args.seconds,
+            plot=args.plot,
+        )
+    except (EvalError, OriginalPolicyError, OSError) as e:
+        print(f"pete-sim play: {e}", file=sys.stderr)
+        return 2
+    for path in written:
+        print(path)
+    print(
+        f"{a.label} ({args.side}): {record.rings[0]} rings, {record.score[0]:.0f} points; "
+        f"{b.label if b else 'nobody'}: {record.rings[1]} rings, {record.score[1]:.0f} points"
+    )
+    return 0
+
+
+def _add_match_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--seed", type=int, default=0, help="first match seed (default 0)")
+    p.add_argument(
+        "--scenario",
+        choices=("capped", "uncapped"),
+        default="capped",
+        help="capped: the report's 10-ring task; uncapped: every ring counts (default capped)",
+    )
+    p.add_argument("--fidelity", choices=("training", "high"), default="training")
+
+
+def _add_match(sub: argparse._SubParsersAction) -> None:
+    # The full-stack match lives in sim/fullstack (sim/fullstack/README.md).
+    from sim.fullstack.cli import add_match_command
+
+    add_match_command(sub)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="pete-sim",
@@ -79,6 +225,58 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-gif", action="store_true", help="only the start images")
     p.add_argument("--no-camera", action="store_true", help="skip the camera render")
     p.set_defaults(func=_cmd_view)
+
+    p = sub.add_parser(
+        "train",
+        help="train a policy with PPO self-play from a TOML config",
+        description="Train with PPO self-play. Writes config.json, run.json, TensorBoard logs "
+        "(tb/), checkpoints/ and the exported policy.onnx + policy.json to the run folder.",
+    )
+    p.add_argument(
+        "--config", required=True, help="a TOML file, or the name of one in sim/configs/"
+    )
+    p.add_argument("--run-dir", type=Path, default=None, help="default runs/<config name>")
+    p.add_argument("--resume", action="store_true", help="continue from checkpoints/latest.pt")
+    p.add_argument("--steps", type=int, default=None, help="override total_steps")
+    p.add_argument("--seed", type=int, default=None, help="override the config's seed")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_train)
+
+    p = sub.add_parser("export", help="export a checkpoint to policy.onnx + policy.json")
+    p.add_argument("--checkpoint", type=Path, required=True)
+    p.add_argument("--out", type=Path, required=True, help="an .onnx path or a folder")
+    p.set_defaults(func=_cmd_export)
+
+    p = sub.add_parser(
+        "eval",
+        help="evaluate a policy against an opponent on seeded matches",
+        description="Deterministic seeded matches, sides swapped per seed: mean and 95 %% "
+        "interval of rings, score and pins, win rate by match score, fill time of 10 rings.",
+    )
+    p.add_argument("--policy", required=True, help="player A")
+    p.add_argument("--opponent", default="planner", help="player B, or none (default planner)")
+    p.add_argument("--matches", type=int, default=20)
+    _add_match_options(p)
+    p.add_argument("--json", type=Path, default=None, help="also write the summary as JSON")
+    p.set_defaults(func=_cmd_eval)
+
+    p = sub.add_parser(
+        "play",
+        help="replay one match as a GIF with a score overlay, and plot its rewards",
+        description="One seeded match, top-down, with the score in the caption; beside the GIF "
+        "a PNG of every reward component, the rings and the score over time.",
+    )
+    p.add_argument("--policy", required=True, help="player A")
+    p.add_argument("--opponent", default="planner", help="player B, or none (default planner)")
+    p.add_argument("--out", type=Path, default=Path("match.gif"))
+    p.add_argument("--plot", type=Path, default=None, help="default <out>_rewards.png")
+    p.add_argument("--side", choices=("red", "blue"), default="red", help="A's alliance")
+    p.add_argument("--stride", type=int, default=3, help="control steps per GIF frame")
+    p.add_argument("--size", type=int, default=480, help="image width in pixels")
+    p.add_argument("--seconds", type=float, default=None, help="stop the match early")
+    _add_match_options(p)
+    p.set_defaults(func=_cmd_play)
+    _add_match(sub)
     return parser
 
 

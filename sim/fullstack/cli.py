@@ -1,0 +1,141 @@
+"""`pete-sim match`: the command line of the full-stack match (sim/fullstack/README.md).
+
+Light at import (argparse only): `pete-sim --help` must not load PyBullet or onnxruntime.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+FAULT_NAMES = ("link-cut", "corruption", "jetson-killed", "schema-mismatch", "camera-stops")
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(
+            f"expected WIDTHxHEIGHT, e.g. 320x240, got {text!r}"
+        ) from exc
+    return w, h
+
+
+def add_match_command(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "match",
+        help="one match of the whole stack (brain_host + wire + Jetson daemon) or of the policy",
+        description="One seeded match. --stack full: brain_host runs the Brain core against the "
+        "simulated hardware, the Jetson daemon runs perception on rendered frames and the "
+        "policy, and they talk over a pty with the V5 USB bytes; lockstep (deterministic, "
+        "faster than real time) unless --realtime. --stack sim: the policy directly in the "
+        "simulator. Writes summary.txt/json, replay.gif (camera inset), plots.png, timeline.csv "
+        "and the daemon's log to --out.",
+    )
+    p.add_argument("--stack", choices=("full", "sim"), default="full")
+    p.add_argument("--seed", type=int, default=0, help="match seed (default 0)")
+    p.add_argument(
+        "--policy",
+        type=Path,
+        default=None,
+        help="policy.onnx (policy.json beside it); default models/policy/policy.onnx",
+    )
+    p.add_argument(
+        "--opponent", default="planner", help="planner, scripted, idle, a policy.onnx, or none"
+    )
+    p.add_argument("--seconds", type=float, default=None, help="stop the match early")
+    p.add_argument("--realtime", action="store_true", help="run on the wall clock, not lockstep")
+    p.add_argument("--fault", choices=FAULT_NAMES, default=None, help="a fault scenario")
+    p.add_argument(
+        "--fault-at", type=float, default=None, help="match time of the fault, s (default: 1/3)"
+    )
+    p.add_argument("--scenario", choices=("capped", "uncapped"), default="capped")
+    p.add_argument("--no-camera", action="store_true", help="no frames: the policy sees no rings")
+    p.add_argument(
+        "--no-ring-counter",
+        action="store_true",
+        help="a robot without an intake ring counter (the State says 255; the daemon assumes 0)",
+    )
+    p.add_argument(
+        "--camera-size", type=_size, default=(320, 240), help="rendered frames (default 320x240)"
+    )
+    p.add_argument(
+        "--camera-hz", type=float, default=5.0, help="frames per second (default 5: 200 ms)"
+    )
+    p.add_argument(
+        "--detector",
+        choices=("auto", "cnn", "classical"),
+        default="auto",
+        help="auto: the CNN when models/ringnet.onnx exists, else classical",
+    )
+    p.add_argument("--detector-model", type=Path, default=None)
+    p.add_argument(
+        "--perception-latency",
+        type=float,
+        default=0.05,
+        help="s from a frame to its result reaching the policy (lockstep; default 0.05)",
+    )
+    p.add_argument("--no-gif", action="store_true")
+    p.add_argument("--gif-every", type=float, default=0.5, help="match seconds per GIF frame")
+    p.add_argument("--gif-size", type=int, default=400)
+    p.add_argument("--no-plots", action="store_true")
+    p.add_argument(
+        "--record", action="store_true", help="keep the daemon's session (pete-jetson replay)"
+    )
+    p.add_argument("--out", type=Path, default=None, help="run folder (default runs/match-...)")
+    p.add_argument("--brain-host", type=Path, default=None, help="the brain_host binary")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.set_defaults(func=cmd_match)
+
+
+def cmd_match(args: argparse.Namespace) -> int:
+    import json
+
+    from sim.fullstack.runner import DEFAULT_POLICY, MatchError, MatchOptions, run_match
+
+    out = args.out
+    if out is None:
+        tag = args.stack + (f"-{args.fault}" if args.fault else "") + f"-seed{args.seed}"
+        out = Path("runs") / f"match-{tag}"
+    try:
+        options = MatchOptions(
+            stack=args.stack,
+            seed=args.seed,
+            policy=args.policy or DEFAULT_POLICY,
+            opponent=args.opponent,
+            seconds=args.seconds,
+            realtime=args.realtime,
+            fault=args.fault,
+            fault_at_s=args.fault_at,
+            scenario=args.scenario,
+            camera=not args.no_camera,
+            ring_counter=not args.no_ring_counter,
+            camera_width=args.camera_size[0],
+            camera_height=args.camera_size[1],
+            camera_hz=args.camera_hz,
+            detector=args.detector,
+            detector_model=args.detector_model,
+            perception_latency_s=args.perception_latency,
+            gif=not args.no_gif,
+            gif_every_s=args.gif_every,
+            gif_size=args.gif_size,
+            plots=not args.no_plots,
+            record=args.record,
+            out=out,
+            brain_host=args.brain_host,
+        )
+        progress = None if args.quiet or args.json else (lambda m: print(m, flush=True))
+        result = run_match(options, progress)
+    except MatchError as exc:
+        print(f"pete-sim match: {exc}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(result.as_dict(), indent=1, default=str))
+    else:
+        print(result.table())
+        print(f"run folder: {out}")
+        if "gif" in result.files:
+            print(f"replay: {result.files['gif']}")
+    return 0 if result.passed else 1

@@ -1,0 +1,110 @@
+"""The robot's hardware as the Brain sees it, played by the simulator: the bridge World <-> Brain.
+
+Each 10 ms loop step the Brain reads its sensors and drives its motors. Here:
+
+    sensors  (World -> Brain)  the GPS reading (World.gps: the pose `latency_s` ago plus Gaussian
+                               noise), the wheel encoders (the speeds the robot really moved at
+                               over the last step, so a robot pushing a wall reads ~0), the
+                               intake's ring counter (the rings the robot holds; optional, as on
+                               a real robot) and the competition status from the match clock;
+    motors   (Brain -> World)  the wheel surface speeds the Brain told the drive motors, turned
+                               into the simulator's DriveCommand by the robot's track width
+                               (DriveCommand.from_wheels), and the intake.
+
+The World's own drive model (acceleration and speed limits of the real robot) then applies them.
+
+Competition status (VEX AI): before the match the robot is powered and disabled (the two sides
+connect); the isolation period is autonomous, the interaction period driver control (the Jetson
+drives in both: brain/include/pete/core/config.hpp); after the match it is disabled again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.fullstack.brain_host import BrainHost, BrainReport
+from sim.world import DriveCommand, RobotState, World
+
+
+def competition_phase(match_time_s: float, isolation_s: float, started: bool, over: bool) -> str:
+    """The competition switch at a moment of the match: disabled / autonomous / driver."""
+    if not started or over:
+        return "disabled"
+    return "autonomous" if match_time_s < isolation_s else "driver"
+
+
+@dataclass(frozen=True)
+class SensorReading:
+    """What the Brain's sensors read at one loop step."""
+
+    gps: tuple[float, float, float, float] | None  # x, y, heading (deg cw), error; None: failed
+    gps_failure: str | None  # calibrating | error | absent when gps is None
+    left_mps: float
+    right_mps: float
+    phase: str
+    rings: int | None = None  # the ring counter; None: no counter fitted
+
+
+class RobotHardware:
+    """One simulated robot's GPS, encoders, motors and competition switch."""
+
+    def __init__(
+        self,
+        world: World,
+        index: int,
+        rng: np.random.Generator | None,
+        ring_counter: bool = True,
+    ) -> None:
+        if not 0 <= index < len(world.robots):
+            raise ValueError(f"robot {index} is not in this world ({len(world.robots)} robots)")
+        self.world = world
+        self.index = index
+        self.rng = rng  # None: a noiseless GPS
+        self.gps_failure: str | None = None  # set to make the GPS fail this way
+        self.ring_counter = ring_counter
+        self._sent_phase: str | None = None
+        self._sent_rings: int | None = None
+        self.last_command = DriveCommand(0.0, 0.0, intake=False)
+
+    @property
+    def robot(self) -> RobotState:
+        return self.world.robots[self.index]
+
+    def read(self, phase: str) -> SensorReading:
+        gps = None
+        if self.gps_failure is None:
+            g = self.world.gps(self.index, self.rng)
+            gps = (g.x, g.y, g.heading_deg, g.error_m)
+        left, right = self.robot.wheel_speeds()
+        rings = min(self.robot.held, 254) if self.ring_counter else None
+        return SensorReading(gps, self.gps_failure, left, right, phase, rings)
+
+    def sensor_lines(self, reading: SensorReading) -> list[str]:
+        """Side-channel commands that put this reading into brain_host (the phase and the ring
+        count only when they change: brain_host keeps them, and a line costs a parse)."""
+        lines = []
+        if reading.phase != self._sent_phase:
+            lines.append(BrainHost.phase_line(reading.phase))
+            self._sent_phase = reading.phase
+        if reading.rings is not None and reading.rings != self._sent_rings:
+            lines.append(BrainHost.rings_line(reading.rings))
+            self._sent_rings = reading.rings
+        if reading.gps is not None:
+            lines.append(BrainHost.gps_line(*reading.gps))
+        else:
+            lines.append(BrainHost.gps_failure_line(reading.gps_failure or "absent"))
+        lines.append(BrainHost.measured_line(reading.left_mps, reading.right_mps))
+        return lines
+
+    def command(self, report: BrainReport) -> DriveCommand:
+        """The Brain's motor outputs as the simulator's command for this robot. Stopped motors
+        (brake) are zero speed; the intake runs only when the Brain runs it."""
+        if report.stopped:
+            cmd = DriveCommand(0.0, 0.0, intake=report.intake)
+        else:
+            rc = self.robot.config
+            cmd = DriveCommand.from_wheels(rc, report.left_mps, report.right_mps, report.intake)
+        self.last_command = cmd
+        return cmd

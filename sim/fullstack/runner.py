@@ -1,0 +1,884 @@
+"""One match, `pete-sim match`: the whole robot stack on the simulated field, or the policy alone.
+
+--stack full (lockstep, the default), every 10 ms loop step of the Brain:
+
+    1. the simulator reads the robot's sensors (GPS, encoders, competition switch) and hands them
+       to brain_host with the step itself, in one side-channel round trip;
+    2. brain_host runs the Brain core's step: it writes its State (and Logs, Hellos) on its pty;
+    3. the cable carries those bytes to the daemon's pty; the daemon, its clock set to the step's
+       time, reads them and answers the State with a Command (policy + perception);
+    4. the cable carries the Command back; brain_host waits for those bytes before its next step,
+       where it applies them;
+    5. the World moves the robot by what the Brain told its motors for these 10 ms (the opponent
+       decides at the policy's 12 Hz); every 1 / camera_hz the robot's camera renders a frame,
+       which goes to the daemon's camera thread over the frame stream.
+
+Everything is ordered by the simulated clock, so a seed gives the same match every time, as fast
+as the machine allows. --realtime instead runs brain_host on its own wall clock and the daemon in
+its own thread, as on the robot; the simulator keeps up with the wall clock.
+
+--stack sim runs the same policy directly in the simulator at 12 Hz with the simulator's own
+observation (what `pete-sim eval` measures): the reference the full stack is compared against.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import tempfile
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sim.fullstack.report import (
+    MatchResult,
+    PerceptionScore,
+    Sample,
+    compose_frame,
+    percentiles_ms,
+    plot,
+    project_rings,
+    write_summary,
+    write_timeline,
+)
+from sim.geometry import field_to_robot
+
+ROOT = Path(__file__).resolve().parents[2]
+DEFAULT_POLICY = ROOT / "models" / "policy" / "policy.onnx"
+DEFAULT_DETECTOR_MODEL = ROOT / "models" / "ringnet.onnx"
+STACKS = ("full", "sim")
+PREROLL_MS = 1000  # powered and disabled before the match: the two sides shake hands
+LOOP_MS = 10  # the Brain's loop period (brain_host reports it; checked at start)
+SAMPLE_MS = 100
+POLICY_HZ = 12.0
+# Pixels (at 640x480) a ring must cover in a frame to count as shown: a whole ring 3 m away
+# covers about 120.
+MIN_RING_PX = 40
+
+
+class MatchError(ValueError):
+    """Options that cannot make a match, or a stack that could not be started, named."""
+
+
+@dataclass(frozen=True)
+class MatchOptions:
+    stack: str = "full"
+    seed: int = 0
+    policy: Path = DEFAULT_POLICY
+    opponent: str = "planner"  # a sim player word (sim.evaluate.load_player) or "none"
+    seconds: float | None = None  # stop the match early (the match clock still says 105 s)
+    realtime: bool = False
+    fault: str | None = None
+    fault_at_s: float | None = None  # match time of the fault (default: a third of the match)
+    scenario: str = "capped"
+    camera: bool = True
+    ring_counter: bool = True  # the simulated intake counts its rings (the State's rings_held)
+    camera_width: int = 320
+    camera_height: int = 240
+    camera_hz: float = 5.0
+    detector: str = "auto"  # auto (cnn when its model is there, else classical) | cnn | classical
+    detector_model: Path | None = None
+    perception_latency_s: float = 0.05
+    gif: bool = True
+    gif_every_s: float = 0.5
+    gif_size: int = 400
+    plots: bool = True
+    record: bool = False  # keep the daemon's session recording (sessions/ in the run folder)
+    out: Path = Path("runs/match")
+    brain_host: Path | None = None
+
+    def __post_init__(self) -> None:
+        if self.stack not in STACKS:
+            raise MatchError(f"stack must be one of {STACKS}, got {self.stack!r}")
+        if self.seconds is not None and not (self.seconds > 0 and math.isfinite(self.seconds)):
+            raise MatchError(f"seconds must be a positive number, got {self.seconds}")
+        if not 16 <= self.camera_width <= 1280 or not 12 <= self.camera_height <= 960:
+            raise MatchError(
+                f"camera size {self.camera_width}x{self.camera_height} is outside 16x12..1280x960"
+            )
+        period = 1000.0 / self.camera_hz if self.camera_hz > 0 else math.inf
+        if not (math.isfinite(period) and abs(period / LOOP_MS - round(period / LOOP_MS)) < 1e-6):
+            raise MatchError(
+                f"camera_hz {self.camera_hz} must give a frame period that is a whole number of "
+                f"{LOOP_MS} ms loop steps (e.g. 10, 5, 4, 2.5)"
+            )
+        if self.detector not in ("auto", "cnn", "classical"):
+            raise MatchError(f"detector must be auto, cnn or classical, got {self.detector!r}")
+        if not 0 <= self.perception_latency_s < period / 1000.0:
+            raise MatchError(
+                f"perception_latency_s must be >= 0 and shorter than the frame period "
+                f"({period:g} ms): one frame is processed at a time"
+            )
+        if not self.gif_every_s > 0 or not 64 <= self.gif_size <= 2048:
+            raise MatchError("gif_every_s must be > 0 and gif_size within 64..2048")
+        if self.fault is not None and self.stack != "full":
+            raise MatchError("faults are scenarios of the full stack: use --stack full")
+
+    @property
+    def frame_period_ms(self) -> int:
+        return round(1000.0 / self.camera_hz)
+
+    def detector_choice(self) -> tuple[str, Path | None]:
+        if self.detector == "auto":
+            model = self.detector_model or DEFAULT_DETECTOR_MODEL
+            return ("cnn", model) if model.is_file() else ("classical", None)
+        return self.detector, self.detector_model
+
+
+def run_match(options: MatchOptions, progress: Callable[[str], None] | None = None) -> MatchResult:
+    """Play one match and write its run folder (options.out); returns the result."""
+    if not options.policy.is_file():
+        raise MatchError(
+            f"no policy at {options.policy}: the shipped one is models/policy/policy.onnx "
+            "(pete-sim train, then export), or pass --policy"
+        )
+    folder = options.out
+    folder.mkdir(parents=True, exist_ok=True)
+    if options.stack == "sim":
+        return SimStackMatch(options, folder, progress).run()
+    if options.realtime:
+        return FullStackMatch(options, folder, progress).run_realtime()
+    return FullStackMatch(options, folder, progress).run()
+
+
+# --- shared pieces ------------------------------------------------------------------------------
+
+
+def _load_players(options: MatchOptions) -> tuple[Any, Any]:
+    from sim.evaluate import EvalError, load_player
+
+    try:
+        a = load_player(str(options.policy))
+        b = None if options.opponent == "none" else load_player(options.opponent)
+    except (EvalError, ValueError) as exc:
+        raise MatchError(str(exc)) from exc
+    specs = [x.spec for x in (a, b) if x is not None and x.spec is not None]
+    if len({spec.fingerprint() for spec in specs}) > 1:
+        raise MatchError(
+            "the opponent policy expects another observation than ours; pick another opponent"
+        )
+    return a, b
+
+
+def _env(options: MatchOptions, spec: Any, opponent: bool) -> Any:
+    from sim.evaluate import EvalError, eval_env
+
+    try:
+        env = eval_env(options.scenario, "training", spec)
+    except EvalError as exc:
+        raise MatchError(str(exc)) from exc
+    if not opponent:
+        env = replace(env, world=replace(env.world, blue=()))
+    return env
+
+
+def _caption(world: Any, labels: tuple[str, str]) -> str:
+    s = world.score()
+    parts = [f"t {world.time_s:5.1f}s"]
+    for r in world.robots:
+        label = labels[0] if r.alliance == "red" else labels[1]
+        parts.append(f"{label}: {r.collected} rings {s[r.alliance].total} pts")
+    return "  ".join(parts)
+
+
+class _Replay:
+    """GIF frames and samples while a match runs."""
+
+    def __init__(self, options: MatchOptions) -> None:
+        self.options = options
+        self.frames: list[np.ndarray] = []
+        self.interest: list[int] = []  # rings circled in each frame: replay.png shows the most
+        self.samples: list[Sample] = []
+        self.events: list[tuple[float, str]] = []
+        self._next_gif = 0.0
+        self._next_sample = SAMPLE_MS / 1000.0
+
+    def gif_due(self, t_s: float) -> bool:
+        if not self.options.gif or t_s + 1e-9 < self._next_gif:
+            return False
+        self._next_gif += self.options.gif_every_s
+        return True
+
+    def sample_due(self, t_s: float) -> bool:
+        if t_s + 1e-9 < self._next_sample:
+            return False
+        self._next_sample += SAMPLE_MS / 1000.0
+        return True
+
+    def event(self, t_s: float, text: str) -> None:
+        self.events.append((round(t_s, 3), text))
+
+    def write(self, folder: Path, latencies_s: list[float], title: str) -> dict[str, str]:
+        from sim.render import save_gif, save_png
+
+        files = {"timeline": str(write_timeline(self.samples, folder / "timeline.csv"))}
+        if self.frames:
+            fps = min(25.0, max(2.0, 4.0 / self.options.gif_every_s))
+            files["gif"] = str(save_gif(self.frames, folder / "replay.gif", fps=fps))
+            best = int(np.argmax(self.interest)) if self.interest else len(self.frames) // 3
+            files["png"] = str(save_png(self.frames[best], folder / "replay.png"))
+        if self.options.plots and self.samples:
+            files["plots"] = str(
+                plot(self.samples, latencies_s, folder / "plots.png", title, self.events)
+            )
+        if self.events:
+            (folder / "events.txt").write_text(
+                "".join(f"{t:8.2f}  {what}\n" for t, what in self.events)
+            )
+            files["events"] = str(folder / "events.txt")
+        return files
+
+
+# --- the full stack -----------------------------------------------------------------------------
+
+
+@dataclass
+class BrainTrack:
+    """What the Brain did over the match, from its reports."""
+
+    applied: int = 0  # distinct Commands that drove the motors
+    last_seq: int = 0
+    source_ms: dict[str, int] = field(default_factory=dict)
+    faults_seen: set[str] = field(default_factory=set)
+    link_states: set[str] = field(default_factory=set)
+    answered_at: dict[int, int] = field(default_factory=dict)  # Command seq -> State time, ms
+    ages_ms: list[float] = field(default_factory=list)
+    moved_ms: int = 0  # match time with the motors driven
+    last: Any = None
+
+    def note(self, report: Any, in_match: bool) -> None:
+        self.last = report
+        if in_match:
+            self.source_ms[report.source] = self.source_ms.get(report.source, 0) + LOOP_MS
+            if report.moving:
+                self.moved_ms += LOOP_MS
+        self.faults_seen.update(report.faults)
+        self.link_states.add(report.link)
+        if report.last_command_seq != self.last_seq and report.last_command_seq != 0:
+            self.last_seq = report.last_command_seq
+            self.applied += 1
+            answered = self.answered_at.pop(report.last_command_seq, None)
+            if answered is not None:
+                self.ages_ms.append(report.last_step_ms - answered)
+
+    def as_dict(self) -> dict[str, Any]:
+        last = self.last
+        return {
+            "commands_applied": self.applied,
+            "command_timeouts": last.timeouts if last else 0,
+            "steps": last.steps if last else 0,
+            "faults_seen": sorted(self.faults_seen),
+            "link_states": sorted(self.link_states),
+            "source_s": {k: v / 1000 for k, v in sorted(self.source_ms.items())},
+            "driven_s": self.moved_ms / 1000,
+            "command_age": percentiles_ms([a / 1000 for a in self.ages_ms]),
+        }
+
+
+class FullStackMatch:
+    """brain_host + cable + in-process daemon + World, stepped together."""
+
+    def __init__(
+        self, options: MatchOptions, folder: Path, progress: Callable[[str], None] | None
+    ) -> None:
+        from sim.fullstack.faults import make_scenario
+
+        self.options = options
+        self.folder = folder
+        self.progress = progress or (lambda _msg: None)
+        self.scenario = make_scenario(options.fault, options.fault_at_s, options)
+        self.replay = _Replay(options)
+        self.brain_track = BrainTrack()
+        self.truth: dict[int, np.ndarray] = {}
+        self.extra_lines: list[str] = []  # side-channel commands a fault adds to the next step
+        self.t_ms = 0
+        self.frame_index = 0
+        # The last few frames' images by index: the GIF shows the one the policy's rings came
+        # from (the newest may still be in perception).
+        self.camera_rgb: dict[int, np.ndarray] = {}
+        self.camera_stopped = False
+        self.realtime = False
+        self.server: Any = None
+        self.jetson: Any = None
+        self.brain: Any = None
+        self.cable: Any = None
+        self._sent_seq = 0
+
+    # --- setup ----------------------------------------------------------------------------------
+
+    @property
+    def match_ms(self) -> int:
+        return self.t_ms - PREROLL_MS
+
+    def brain_now_ms(self) -> int:
+        """brain_host's clock now: the tick's time in lockstep; asked for in realtime."""
+        return self.brain.get().t_ms if self.realtime else self.t_ms
+
+    def step_match_ms(self, report: Any) -> int:
+        """Match time of the Brain step a report describes, on the simulator's clock. In
+        realtime brain_host keeps its own clock: its last step was (t - last_step_ms) before the
+        report, which the simulator asked for at its current tick."""
+        if self.realtime:
+            return self.t_ms - (report.t_ms - report.last_step_ms) - PREROLL_MS
+        return report.last_step_ms - PREROLL_MS
+
+    def _setup(self, tmp: Path, realtime: bool) -> None:
+        from jetson.clock import ManualClock, MonotonicClock
+        from jetson.perception.camera import CameraConfig as JetsonCamera
+        from jetson.perception.camera import CameraMount
+        from jetson.perception.frame import Intrinsics
+        from sim.fullstack.brain_host import BrainHost, BrainHostError
+        from sim.fullstack.cable import Cable
+        from sim.fullstack.hardware import RobotHardware
+        from sim.fullstack.jetson import JetsonError, JetsonOptions, SimJetson
+        from sim.match import MatchCore
+
+        o = self.options
+        a, b = _load_players(o)
+        self.labels = (a.label, b.label if b else "-")
+        env = _env(o, a.spec, b is not None)
+        world_cfg = replace(env.world, control_hz=1000.0 / LOOP_MS)
+        self.core = MatchCore(env, world_cfg)
+        self.core.reset(np.random.default_rng(o.seed))
+        self.world = self.core.world
+        self.ia = 0
+        self.ib = 1 if b is not None else None
+        self.opponent = b.make() if b is not None else None
+        if self.opponent is not None:
+            self.opponent.reset(self.core, self.ib, np.random.default_rng((o.seed, self.ib)))
+        self.opp_spec = b.spec if b is not None else None
+        self.opp_stack: Any = None
+        self.opp_command: Any = None
+        self.hardware = RobotHardware(
+            self.world, self.ia, np.random.default_rng((o.seed, 77)), o.ring_counter
+        )
+        limit = self.world.match_length_s if o.seconds is None else o.seconds
+        self.match_len_ms = round(min(limit, self.world.match_length_s) * 1000 / LOOP_MS) * LOOP_MS
+        self.cam_cfg = self.world.robots[self.ia].config.camera.scaled(
+            o.camera_width, o.camera_height
+        )
+
+        try:
+            self.brain = BrainHost.start(
+                lockstep=not realtime,
+                alliance="red",
+                boot_id=0x5EED0000 + (o.seed & 0xFFFF),
+                phase="disabled",
+                binary=o.brain_host,
+                stderr_path=self.folder / "brain_host.stderr",
+            )
+        except BrainHostError as exc:
+            raise MatchError(str(exc)) from exc
+        if self.brain.period_ms != LOOP_MS:
+            raise MatchError(
+                f"brain_host's loop period is {self.brain.period_ms} ms, not {LOOP_MS}"
+            )
+        self.cable = Cable(self.brain.pty_path, tmp / "brain-usb", seed=o.seed)
+
+        frames_address = None
+        camera_file = None
+        if o.camera:
+            from jetson.perception.sources.stream import FrameStreamServer
+
+            frames_address = f"unix:{tmp / 'frames.sock'}"
+            self.server = FrameStreamServer(frames_address)
+            c = self.cam_cfg
+            camera_file = self.folder / "camera.json"
+            JetsonCamera(
+                Intrinsics(c.width, c.height, c.fx, c.fy, c.cx, c.cy),
+                CameraMount(c.forward_m, c.right_m, c.height_m, c.tilt_deg),
+            ).save(camera_file)
+        kind, model = o.detector_choice()
+        self.detector = kind
+        jopts = JetsonOptions(
+            policy=o.policy,
+            camera=o.camera,
+            detector=kind,
+            detector_model=model,
+            camera_config=camera_file,
+            perception_latency_s=o.perception_latency_s,
+            boot_id=0x7E750000 + (o.seed & 0xFFFF),
+            fingerprint=self.scenario.jetson_fingerprint(),
+            record_dir=self.folder / "sessions" if o.record else None,
+        )
+        self.clock = MonotonicClock() if realtime else ManualClock(0.0)
+        self.daemon_log = (self.folder / "daemon.jsonl").open("w")
+        try:
+            self.jetson = SimJetson(
+                jopts, self.clock, self.cable.port_path, frames_address, self.daemon_log,
+                realtime=realtime,
+            )  # fmt: skip
+        except JetsonError as exc:
+            raise MatchError(str(exc)) from exc
+        self.jetson.start()
+        if self.server is not None and not self.server.wait_for_client(10.0):
+            raise MatchError("the daemon's camera thread never connected to the frame stream")
+
+    def _teardown(self) -> None:
+        # The stream first: the camera thread is blocked reading it and ends at its close.
+        if self.server is not None:
+            with contextlib.suppress(Exception):
+                self.server.close()
+        if self.jetson is not None:
+            with contextlib.suppress(Exception):
+                self.jetson.shutdown()
+        if self.cable is not None:
+            self.cable.close()
+        if self.brain is not None:
+            self.brain_status = self.brain.close()
+        if getattr(self, "daemon_log", None) is not None:
+            self.daemon_log.close()
+        if getattr(self, "core", None) is not None:
+            self.core.close()
+
+    # --- lockstep -------------------------------------------------------------------------------
+
+    def run(self) -> MatchResult:
+        wall0 = time.perf_counter()
+        with tempfile.TemporaryDirectory(prefix="pete-match-") as tmp:
+            try:
+                self._setup(Path(tmp), realtime=False)
+                self.progress(
+                    f"full stack, lockstep: brain_host {self.brain.pty_path}, daemon on "
+                    f"{self.cable.port_path}, detector {self.detector}"
+                )
+                end_ms = PREROLL_MS + self.match_len_ms
+                while self.t_ms < end_ms:
+                    self._tick()
+                    self.t_ms += LOOP_MS
+                    if self.match_ms > 0 and self.match_ms % 10_000 == 0:
+                        self.progress(
+                            f"  {self.match_ms / 1000:5.0f} s  {_caption(self.world, self.labels)}"
+                        )
+            finally:
+                self._teardown()
+        return self._result(time.perf_counter() - wall0, "lockstep")
+
+    def _tick(self) -> None:
+        from sim.fullstack.brain_host import BrainReport
+        from sim.fullstack.hardware import competition_phase
+
+        t = self.t_ms
+        started = t >= PREROLL_MS
+        self.scenario.before_tick(self)
+        w = self.world
+        over = started and self.match_ms >= self.match_len_ms
+        phase = competition_phase(w.time_s, w.isolation_s, started, over or w.over)
+        reading = self.hardware.read(phase)
+        lines = self.hardware.sensor_lines(reading) + self.extra_lines
+        self.extra_lines = []
+        lines.append(self.brain.step_line("until", t + LOOP_MS, self.cable.delivered_down))
+        report = BrainReport.parse(self.brain.run_batch(lines)[-1])
+        self.cable.pump_up(report.tx)
+        self.clock.set(t / 1000.0)
+        j = self.jetson
+        if j.alive:
+            j.service(self.cable.delivered_up_on_connection)
+            cmd = j.daemon.last_command
+            if cmd is not None and cmd.seq != self._sent_seq:
+                self._sent_seq = cmd.seq
+                self.brain_track.answered_at[cmd.seq] = t
+            if j.connected and self.cable.plugged:
+                self.cable.pump_down(j.tx_on_connection)
+        self.brain_track.note(report, started)
+        self.scenario.after_tick(self, report)
+        if started and not w.over:
+            if w.steps == 0 and self.options.camera:
+                self._send_frame(t / 1000.0)  # the camera is on when the match starts
+            self._step_world(report)
+
+    def _step_world(self, report: Any) -> None:
+        w = self.world
+        commands = [self.hardware.command(report)]
+        if self.ib is not None:
+            commands.append(self._opponent_command())
+        w.step(commands)
+        t_s = w.time_s
+        world_ms = round(t_s * 1000)
+        if (
+            self.options.camera
+            and not self.camera_stopped
+            and world_ms % self.options.frame_period_ms == 0
+        ):
+            self._send_frame((self.t_ms + LOOP_MS) / 1000.0)
+        if self.replay.sample_due(t_s):
+            self._sample(report)
+        if self.replay.gif_due(t_s):
+            self._gif_frame()
+
+    def _opponent_command(self) -> Any:
+        """The opponent decides at the policy rate, as in the simulator's own matches."""
+        w = self.world
+        k = math.floor(w.time_s * POLICY_HZ + 1e-6)
+        if self.opp_command is None or k != self._opp_k:
+            self._opp_k = k
+            obs = None
+            if self.opp_spec is not None:
+                from sim.observation import FrameStack
+
+                frame = self.core.frame(self.ib)
+                if self.opp_stack is None:
+                    self.opp_stack = FrameStack(self.core.spec)
+                    obs = self.opp_stack.reset(frame)
+                else:
+                    obs = self.opp_stack.push(frame)
+            self.opp_command = self.opponent.act(self.core, self.ib, obs)
+        return self.opp_command
+
+    def _send_frame(self, stamp_s: float) -> None:
+        from jetson.perception.frame import Frame, Intrinsics
+        from sim.camera import render_camera
+
+        c = self.cam_cfg
+        f = render_camera(self.world, self.ia, c)
+        self.frame_index += 1
+        k = self.frame_index
+        frame = Frame(
+            np.ascontiguousarray(f.rgb[:, :, ::-1]),
+            f.depth,
+            Intrinsics(c.width, c.height, c.fx, c.fy, c.cx, c.cy),
+            stamp_s,
+            k,
+        )
+        if not self.server.send(frame):
+            self.camera_stopped = True
+            self.replay.event(self.match_ms / 1000, "camera stream: the daemon hung up")
+            return
+        self.jetson.frame_sent(k, stamp_s)
+        self.truth[k] = self._truth(f)
+        self.camera_rgb[k] = f.rgb
+        self.camera_rgb.pop(k - 4, None)
+
+    def _truth(self, f: Any) -> np.ndarray:
+        """The rings this frame shows, robot frame: every ring covering at least MIN_RING_PX
+        pixels of the render (scaled from 640x480), within the camera's range. A ring cut by
+        the image's edge counts when enough of it shows; one hidden behind another does not."""
+        ids, counts = np.unique(f.ring_ids[f.ring_ids >= 0], return_counts=True)
+        c = self.cam_cfg
+        min_px = max(3.0, MIN_RING_PX * c.width * c.height / (640 * 480))
+        shown = ids[counts >= min_px].astype(np.int64)
+        if len(shown) == 0:
+            return np.zeros((0, 2))
+        w = self.world
+        r = w.robots[self.ia]
+        pts = np.column_stack([w.ring_xy[shown], w.ring_z[shown]])
+        near = np.linalg.norm(f.pose.to_camera(pts), axis=1) <= c.max_range_m
+        return field_to_robot(w.ring_xy[shown[near]], r.xy, r.heading).reshape(-1, 2)
+
+    def _perceived(self) -> Any:
+        feed = self.jetson.feed if self.jetson is not None else None
+        return feed.latest() if feed is not None else None
+
+    def _sample(self, report: Any) -> None:
+        w = self.world
+        r = w.robots[self.ia]
+        s = w.score()
+        opp = w.robots[self.ib] if self.ib is not None else None
+        p = self._perceived()
+        self.replay.samples.append(
+            Sample(
+                t_s=round(w.time_s, 3),
+                x=round(r.x, 4),
+                y=round(r.y, 4),
+                heading=round(r.heading, 2),
+                rings=r.collected,
+                held=r.held,
+                score=s[r.alliance].total,
+                opponent_rings=opp.collected if opp else 0,
+                opponent_score=s["blue"].total,
+                v_cmd=round(0.0 if report.stopped else report.linear, 4),
+                w_cmd=round(0.0 if report.stopped else report.angular, 4),
+                v_actual=round(r.measured_v, 4),
+                w_actual=round(r.measured_w, 4),
+                source=report.source,
+                link=report.link,
+                faults="+".join(report.faults) or "none",
+                perceived=-1 if p is None else len(p.rings_robot_xy),
+                visible=len(w.visible_rings(self.ia)),
+            )
+        )
+
+    def _gif_frame(self) -> None:
+        from sim.render import top_down
+
+        w = self.world
+        top = top_down(w, self.options.gif_size, title=_caption(w, self.labels))
+        p = self._perceived()
+        rgb = None if p is None else self.camera_rgb.get(p.frame_index)
+        uv = None
+        if p is not None and rgb is not None:
+            uv = project_rings(p.rings_robot_xy, self.cam_cfg, w.field.ring.thickness / 2)
+        n = 0 if uv is None else len(uv)
+        label = None
+        if rgb is not None:
+            age = self.clock.now() - p.stamp_s
+            label = f"the frame the policy sees ({age * 1000:.0f} ms old): {n} rings (yellow)"
+        self.replay.frames.append(compose_frame(top, rgb, uv, label))
+        self.replay.interest.append(n)
+
+    # --- realtime -------------------------------------------------------------------------------
+
+    def run_realtime(self) -> MatchResult:
+        from sim.fullstack.brain_host import BrainReport
+        from sim.fullstack.hardware import competition_phase
+
+        wall0 = time.perf_counter()
+        stop = threading.Event()
+        threads: list[threading.Thread] = []
+        with tempfile.TemporaryDirectory(prefix="pete-match-") as tmp:
+            try:
+                self.realtime = True
+                self._setup(Path(tmp), realtime=True)
+                self.progress(
+                    f"full stack, realtime: brain_host {self.brain.pty_path}, daemon on "
+                    f"{self.cable.port_path}, detector {self.detector}"
+                )
+                threads.append(self.cable.start_forwarding(stop))
+                threads.append(self.jetson.start_thread(stop))
+                origin = time.monotonic()
+                end_ms = PREROLL_MS + self.match_len_ms
+                while self.t_ms < end_ms:
+                    # The simulator follows the wall clock: each 10 ms of it, one World step.
+                    due = origin + self.t_ms / 1000.0
+                    delay = due - time.monotonic()
+                    if delay > 0:
+                        time.sleep(delay)
+                    started = self.t_ms >= PREROLL_MS
+                    self.scenario.before_tick(self)
+                    w = self.world
+                    over = started and self.match_ms >= self.match_len_ms
+                    phase = competition_phase(w.time_s, w.isolation_s, started, over or w.over)
+                    lines = self.hardware.sensor_lines(self.hardware.read(phase))
+                    lines += [*self.extra_lines, "get"]
+                    self.extra_lines = []
+                    report = BrainReport.parse(self.brain.run_batch(lines)[-1])
+                    self.brain_track.note(report, started)
+                    self.scenario.after_tick(self, report)
+                    if started and not w.over:
+                        self._step_world(report)
+                    self.t_ms += LOOP_MS
+            finally:
+                stop.set()
+                for th in threads:
+                    th.join(2.0)
+                self._teardown()
+        return self._result(time.perf_counter() - wall0, "realtime")
+
+    # --- the result -----------------------------------------------------------------------------
+
+    def _result(self, wall_s: float, mode: str) -> MatchResult:
+        o = self.options
+        w = self.world
+        score = w.score()
+        r = w.robots[self.ia]
+        opp = w.robots[self.ib] if self.ib is not None else None
+        perception = None
+        if o.camera:
+            ps = PerceptionScore()
+            results = self.jetson.results
+            for k, truth in sorted(self.truth.items()):
+                got = results.get(k)
+                if got is not None:
+                    ps.add(got.rings_robot_xy, truth)
+                elif k in self.jetson.failed_frames:
+                    ps.add(np.zeros((0, 2)), truth)
+            perception = ps.as_dict()
+            perception["frames_sent"] = len(self.truth)
+            perception["frames_failed"] = len(self.jetson.failed_frames)
+            perception["detector"] = self.detector
+            perception["resolution"] = f"{o.camera_width}x{o.camera_height}"
+            perception["rate_hz"] = o.camera_hz
+        d = self.jetson.daemon
+        latencies = list(d.latency.recent)
+        daemon = {
+            "counters": d.counters.as_dict(),
+            "link_errors": d.link_errors(),
+            "handshake": d.state,
+        }
+        result = MatchResult(
+            stack="full",
+            seed=o.seed,
+            mode=mode,
+            fault=o.fault,
+            policy=str(o.policy),
+            opponent=o.opponent,
+            sim_s=w.time_s,
+            wall_s=wall_s,
+            rings=r.collected,
+            score=score[r.alliance].total,
+            opponent_rings=opp.collected if opp else 0,
+            opponent_score=score["blue"].total,
+            latency=percentiles_ms(latencies),
+            messages=self.cable.as_dict(),
+            perception=perception,
+            brain={
+                **self.brain_track.as_dict(),
+                "exit_status": getattr(self, "brain_status", None),
+            },
+            daemon=daemon,
+            settings=_settings(o, self.detector),
+        )
+        result.checks = self.scenario.checks(self)
+        title = f"full stack, seed {o.seed}" + (f", fault {o.fault}" if o.fault else "")
+        result.files = self.replay.write(self.folder, latencies, title)
+        lat_file = self.folder / "latencies_ms.json"
+        lat_file.write_text(json.dumps([round(x * 1e3, 4) for x in latencies]) + "\n")
+        result.files["latencies"] = str(lat_file)
+        result.files["daemon_log"] = str(self.folder / "daemon.jsonl")
+        result.files["brain_stderr"] = str(self.folder / "brain_host.stderr")
+        _finish(result, self.folder)
+        return result
+
+
+def _finish(result: MatchResult, folder: Path) -> None:
+    result.files["summary"] = str(folder / "summary.txt")
+    result.files["summary_json"] = str(folder / "summary.json")
+    write_summary(result, folder)
+
+
+def _settings(o: MatchOptions, detector: str) -> dict[str, Any]:
+    return {
+        "scenario": o.scenario,
+        "seconds": o.seconds,
+        "camera": o.camera,
+        "ring_counter": o.ring_counter,
+        "camera_size": f"{o.camera_width}x{o.camera_height}",
+        "camera_hz": o.camera_hz,
+        "detector": detector,
+        "perception_latency_s": o.perception_latency_s,
+        "fault_at_s": o.fault_at_s,
+    }
+
+
+# --- the simulator stack ------------------------------------------------------------------------
+
+
+class _TimedPlayer:
+    """A player whose decisions are timed (the sim stack's "loop latency")."""
+
+    def __init__(self, inner: Any) -> None:
+        self.inner = inner
+        self.name = getattr(inner, "name", "policy")
+        self.times_s: list[float] = []
+
+    def reset(self, core: Any, index: int, rng: np.random.Generator) -> None:
+        self.inner.reset(core, index, rng)
+
+    def act(self, core: Any, index: int, obs: np.ndarray) -> Any:
+        t0 = time.perf_counter()
+        cmd = self.inner.act(core, index, obs)
+        self.times_s.append(time.perf_counter() - t0)
+        return cmd
+
+
+class SimStackMatch:
+    """The policy straight in the simulator: sim.evaluate's match, recorded like the full one."""
+
+    def __init__(
+        self, options: MatchOptions, folder: Path, progress: Callable[[str], None] | None
+    ) -> None:
+        self.options = options
+        self.folder = folder
+        self.progress = progress or (lambda _msg: None)
+        self.replay = _Replay(options)
+
+    def run(self) -> MatchResult:
+        from sim.camera import render_camera
+        from sim.evaluate import make_cores, play_match
+        from sim.render import top_down
+
+        o = self.options
+        wall0 = time.perf_counter()
+        a, b = _load_players(o)
+        labels = (a.label, b.label if b else "-")
+        env = _env(o, a.spec, True)
+        if o.seconds is not None:
+            env = replace(env, max_steps=max(1, round(o.seconds * env.world.control_hz)))
+        cores = make_cores(env)
+        player = _TimedPlayer(a.make())
+        opponent = b.make() if b is not None else None
+        cam_cfg = None
+        last = {"t": -1.0}
+        pace0 = time.monotonic()
+
+        def on_step(core: Any, results: list[Any]) -> None:
+            w = core.world
+            nonlocal cam_cfg
+            if o.realtime:
+                delay = pace0 + w.time_s - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+            r = w.robots[0 if w.robots[0].alliance == "red" else 1]
+            idx = r.index
+            if self.replay.sample_due(w.time_s):
+                s = w.score()
+                opp = next((x for x in w.robots if x.index != idx), None)
+                self.replay.samples.append(
+                    Sample(
+                        t_s=round(w.time_s, 3),
+                        x=round(r.x, 4),
+                        y=round(r.y, 4),
+                        heading=round(r.heading, 2),
+                        rings=r.collected,
+                        held=r.held,
+                        score=s[r.alliance].total,
+                        opponent_rings=opp.collected if opp else 0,
+                        opponent_score=s["blue"].total,
+                        v_cmd=round(r.v, 4),
+                        w_cmd=round(r.w, 4),
+                        v_actual=round(r.measured_v, 4),
+                        w_actual=round(r.measured_w, 4),
+                        source="policy",
+                        link="-",
+                        faults="-",
+                        perceived=len(w.visible_rings(idx)),
+                        visible=len(w.visible_rings(idx)),
+                    )
+                )
+            if self.replay.gif_due(w.time_s):
+                if cam_cfg is None:
+                    cam_cfg = r.config.camera.scaled(o.camera_width, o.camera_height)
+                cam = render_camera(w, idx, cam_cfg) if o.camera else None
+                uv = None
+                if cam is not None:
+                    uv = project_rings(cam.rings_robot_xy, cam_cfg, w.field.ring.thickness / 2)
+                top = top_down(w, o.gif_size, title=_caption(w, labels))
+                n = 0 if uv is None else len(uv)
+                label = f"robot's camera: {n} rings the policy sees (yellow)" if cam else None
+                self.replay.frames.append(
+                    compose_frame(top, None if cam is None else cam.rgb, uv, label)
+                )
+                self.replay.interest.append(n)
+            last["t"] = w.time_s
+
+        try:
+            record = play_match(cores, player, opponent, o.seed, "red", on_step=on_step)
+        finally:
+            for core in cores.values():
+                core.close()
+        wall = time.perf_counter() - wall0
+        result = MatchResult(
+            stack="sim",
+            seed=o.seed,
+            mode="realtime" if o.realtime else "lockstep",
+            fault=None,
+            policy=str(o.policy),
+            opponent=o.opponent,
+            sim_s=record.length_s,
+            wall_s=wall,
+            rings=record.rings[0],
+            score=int(record.score[0]),
+            opponent_rings=record.rings[1],
+            opponent_score=int(record.score[1]),
+            latency=percentiles_ms(player.times_s),
+            settings=_settings(o, "-"),
+        )
+        result.files = self.replay.write(self.folder, player.times_s, f"sim stack, seed {o.seed}")
+        _finish(result, self.folder)
+        return result

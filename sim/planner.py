@@ -1,0 +1,443 @@
+"""The traditional baseline: drive to rings in a good order with a pure-pursuit controller.
+
+This is what the original report recommends instead of learning: keep a map of the rings the
+robot knows about, pick an order to collect them in, and follow the path with pure pursuit.
+
+Knowledge (what a real robot has): its GPS pose and the rings its camera sees right now, both via
+MatchCore.view (the same sensors the learned policy gets, without the observation noise). With
+`prior` the map starts from the field file's starting layout, as a team's autonomous routine
+would; a remembered ring is forgotten once the camera looks at its place and finds nothing, and a
+seen ring updates the remembered one nearby.
+
+Order (`strategy`):
+  nearest  the ring with the lowest distance + turning cost, with hysteresis;
+  route    a tour heuristic over the known rings: for each of the `route_rings` cheapest
+           candidates as the first stop, a nearest-neighbour tour through the rest, improved by
+           2-opt, as long as the robot has room; the cheapest tour's first ring is the target.
+
+Control: pure pursuit (Coulter 1992) along the polyline robot -> target -> next stop: the point
+`lookahead_m` along the path gives the curvature 2 x / d^2 of the arc through it; speed drops
+only where the turn-rate limit demands. Targets far off the nose are turned to in place, rings
+beside the bumper (where no arc reaches) are backed away from, a robot that stops moving backs
+off, and a ring chased too long is left for a while. With `endgame`, the robot drives onto its
+alliance platform (robot elevated) when the time left is what it needs to get there, or when its
+intake is full.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from sim.geometry import field_to_robot, robot_to_field
+from sim.match import MatchCore
+from sim.visibility import camera_pose, in_frustum
+from sim.world import DriveCommand, World
+
+Strategy = Literal["nearest", "route"]
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    strategy: Strategy = "route"
+    prior: bool = True  # start from the field file's ring layout
+    route_rings: int = 6  # candidates the tour heuristic orders
+    lookahead_m: float = 0.3
+    max_speed: float = 1.0  # fraction of the robot's top speed
+    turn_gain: float = 4.0  # rad/s per rad of heading error when turning in place
+    turn_in_place_rad: float = 1.1  # targets further off the nose are turned to first
+    turn_cost_m_per_rad: float = 0.15  # distance a needed turn is worth when ordering
+    switch_margin_m: float = 0.1  # a new first stop must be this much cheaper to switch
+    merge_radius_m: float = 0.12  # a seen ring this close to a remembered one is that ring
+    forget_margin_m: float = 0.25  # forget unseen rings this far inside the camera's range
+    stuck_window_s: float = 1.2
+    stuck_distance_m: float = 0.04
+    backoff_s: float = 0.6
+    give_up_s: float = 5.0  # leave a ring chased this long, for as long again
+    fetch_goal: bool = True  # when the intake is full, back onto a goal so rings score
+    endgame: bool = True
+    endgame_margin_s: float = 2.5
+    endgame_speed_fraction: float = 0.7  # average speed assumed when timing the drive home
+
+    def __post_init__(self) -> None:
+        if self.strategy not in ("nearest", "route"):
+            raise ValueError(f"planner strategy must be 'nearest' or 'route': {self.strategy!r}")
+        if self.route_rings < 1 or self.lookahead_m <= 0 or not 0 < self.max_speed <= 1:
+            raise ValueError("planner: route_rings >= 1, lookahead_m > 0, max_speed in (0, 1]")
+
+
+class Planner:
+    """Drives one robot; create one per robot and call reset() at the start of every match."""
+
+    def __init__(self, config: PlannerConfig | None = None) -> None:
+        self.config = config or PlannerConfig()
+        self.name = f"planner-{self.config.strategy}"
+        self.known = np.zeros((0, 2))
+        self._ignored_until = np.zeros(0)
+        self._target: np.ndarray | None = None
+        self._target_since = 0.0
+        self._trail: list[tuple[float, float, float]] = []
+        self._backoff_until = -1.0
+        self._backoff_turn = 1.0
+        self._parked = False
+
+    # --- the Player interface ----------------------------------------------------------------
+
+    def reset(self, core: MatchCore, index: int, rng: np.random.Generator | None = None) -> None:
+        world = core.world
+        self.known = world.field.ring_positions.copy() if self.config.prior else np.zeros((0, 2))
+        self._ignored_until = np.full(len(self.known), -1.0)
+        self._target = None
+        self._target_since = 0.0
+        self._trail = []
+        self._backoff_until = -1.0
+        self._parked = False
+
+    def act(self, core: MatchCore, index: int, obs: np.ndarray | None = None) -> DriveCommand:
+        view = core.view(index)
+        world = core.world
+        robot = world.robots[index]
+        pose = (view.x, view.y, view.heading_deg)
+        self._update_map(world, index, pose, view.rings_robot_xy)
+        return self._drive(world, index, pose, robot.room)
+
+    # --- the map ------------------------------------------------------------------------------
+
+    def _update_map(
+        self,
+        world: World,
+        index: int,
+        pose: tuple[float, float, float],
+        rings_robot_xy: np.ndarray,
+    ) -> None:
+        c = self.config
+        x, y, h = pose
+        seen = robot_to_field(np.asarray(rings_robot_xy).reshape(-1, 2), (x, y), h)
+        known, until = self.known, self._ignored_until
+        if len(known):
+            cam = world.robots[index].config.camera
+            z = np.full((len(known), 1), world.field.ring.thickness / 2)
+            in_view, _, pc = in_frustum(np.hstack([known, z]), camera_pose((x, y), h, cam), cam)
+            # Only well inside the range: at its edge a ring may flicker in and out of view.
+            in_view &= np.linalg.norm(pc, axis=1) < cam.max_range_m - c.forget_margin_m
+            matched = np.zeros(len(known), dtype=bool)
+            if len(seen):
+                d = np.linalg.norm(known[:, None, :] - seen[None, :, :], axis=2)
+                matched = d.min(axis=1) <= c.merge_radius_m
+            # A ring in the intake's path is being (or was just) collected.
+            local = field_to_robot(known, (x, y), h)
+            rc = world.robots[index].config
+            front = rc.length_m / 2
+            eaten = (np.abs(local[:, 0]) < rc.intake_width_m / 2) & (
+                (local[:, 1] > front - 0.1) & (local[:, 1] < front + 0.06)
+            )
+            keep = ~((in_view & ~matched) | eaten)
+            known, until = known[keep], until[keep]
+        if len(seen):
+            if len(known):
+                d = np.linalg.norm(seen[:, None, :] - known[None, :, :], axis=2)
+                nearest = d.argmin(axis=1)
+                close = d[np.arange(len(seen)), nearest] <= c.merge_radius_m
+                known = known.copy()
+                known[nearest[close]] = seen[close]
+                new = seen[~close]
+            else:
+                new = seen
+            known = np.vstack([known, new])
+            until = np.concatenate([until, np.full(len(new), -1.0)])
+        self.known, self._ignored_until = known, until
+
+    # --- ordering -----------------------------------------------------------------------------
+
+    def _leg_costs(self, pose: tuple[float, float, float], pts: np.ndarray) -> np.ndarray:
+        x, y, h = pose
+        local = field_to_robot(pts, (x, y), h)
+        dist = np.hypot(local[:, 0], local[:, 1])
+        bearing = np.abs(np.arctan2(local[:, 0], local[:, 1]))
+        return dist + self.config.turn_cost_m_per_rad * bearing
+
+    def _route(
+        self, start_cost: np.ndarray, pts: np.ndarray, stops: int
+    ) -> tuple[float, list[int]]:
+        """Cheapest open tour of `stops` points: each candidate as the first, nearest neighbour
+        after it, then 2-opt. Returns (cost, order)."""
+        pair = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
+        best: tuple[float, list[int]] = (math.inf, [])
+        for first in range(len(pts)):
+            order = [first]
+            left = set(range(len(pts))) - {first}
+            while left and len(order) < stops:
+                nxt = min(left, key=lambda j: pair[order[-1], j])
+                order.append(nxt)
+                left.remove(nxt)
+            order = _two_opt(order, pair, fixed_first=True)
+            cost = start_cost[order[0]] + sum(pair[a, b] for a, b in itertools.pairwise(order))
+            if cost < best[0]:
+                best = (cost, order)
+        return best
+
+    def _choose(
+        self, pose: tuple[float, float, float], room: int, now: float
+    ) -> tuple[np.ndarray, np.ndarray | None] | None:
+        """(target, the stop after it or None), or None when no ring is known."""
+        c = self.config
+        free = np.flatnonzero(self._ignored_until <= now)
+        if len(free) == 0:
+            free = np.arange(len(self.known))
+        if len(free) == 0:
+            return None
+        pts = self.known[free]
+        cost = self._leg_costs(pose, pts)
+        current = None
+        if self._target is not None:
+            d = np.linalg.norm(pts - self._target, axis=1)
+            if d.min() <= c.merge_radius_m:
+                current = int(d.argmin())
+        if c.strategy == "nearest" or room <= 1 or len(pts) == 1:
+            best = int(cost.argmin())
+            if current is not None and cost[current] <= cost[best] + c.switch_margin_m:
+                best = current
+            rest = np.delete(np.arange(len(pts)), best)
+            after = None
+            if len(rest) and room > 1:
+                nxt = rest[np.linalg.norm(pts[rest] - pts[best], axis=1).argmin()]
+                after = pts[nxt]
+            return pts[best], after
+        cand = np.argsort(cost, kind="stable")[: c.route_rings]
+        stops = min(room, len(cand))
+        total, order = self._route(cost[cand], pts[cand], stops)
+        if current is not None and current in cand and int(cand[order[0]]) != current:
+            # Keep the current target unless the best tour is clearly cheaper than one from it.
+            k = int(np.flatnonzero(cand == current)[0])
+            alt_cost = self._route_from(k, cost[cand], pts[cand], stops)
+            if alt_cost <= total + c.switch_margin_m:
+                order = [k, *(j for j in order if j != k)]
+        target = pts[cand[order[0]]]
+        after = pts[cand[order[1]]] if len(order) > 1 else None
+        return target, after
+
+    def _route_from(self, first: int, start_cost: np.ndarray, pts: np.ndarray, stops: int) -> float:
+        pair = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
+        order = [first]
+        left = set(range(len(pts))) - {first}
+        while left and len(order) < stops:
+            nxt = min(left, key=lambda j: pair[order[-1], j])
+            order.append(nxt)
+            left.remove(nxt)
+        order = _two_opt(order, pair, fixed_first=True)
+        return float(start_cost[first] + sum(pair[a, b] for a, b in itertools.pairwise(order)))
+
+    # --- driving ------------------------------------------------------------------------------
+
+    def _drive(
+        self, world: World, index: int, pose: tuple[float, float, float], room: int
+    ) -> DriveCommand:
+        c = self.config
+        robot = world.robots[index]
+        rc = robot.config
+        now = world.time_s
+        x, y, _h = pose
+        self._trail.append((now, x, y))
+        while self._trail and self._trail[0][0] < now - c.stuck_window_s:
+            self._trail.pop(0)
+        if now < self._backoff_until:
+            return DriveCommand(
+                -0.6 * rc.max_linear_mps, self._backoff_turn * 0.5 * rc.max_angular_rad_s
+            )
+
+        if c.fetch_goal and robot.carried_goal is None and room <= 0 and not self._parked:
+            goal = self._free_goal(world, index, pose)
+            if goal is not None:
+                return self._reverse_onto(world, index, pose, goal, now)
+
+        if c.endgame and self._go_home(world, index, pose, room):
+            plat = world.field.platform(robot.alliance)
+            cx, cy = plat.center
+            # Aim for the platform's middle; stop once well on it.
+            inner = abs(x - cx) < plat.size[0] / 2 - 0.2 and abs(y - cy) < plat.size[1] / 2 - 0.2
+            if inner or self._parked:
+                self._parked = True
+                return DriveCommand(0.0, 0.0)
+            return self._pursue(world, index, pose, np.array([cx, cy]), None, now)
+
+        choice = self._choose(pose, room, now)
+        if choice is None:
+            # Nothing left that we know of: wait on the platform, looking around on the way.
+            if c.endgame:
+                plat = world.field.platform(robot.alliance)
+                if plat.contains_point(x, y):
+                    return DriveCommand(0.0, 0.3 * rc.max_angular_rad_s)
+                return self._pursue(world, index, pose, np.array(plat.center), None, now)
+            return DriveCommand(0.0, 0.4 * rc.max_angular_rad_s)
+        target, after = choice
+        if self._target is None or np.linalg.norm(target - self._target) > c.merge_radius_m:
+            self._target_since = now
+        self._target = target
+        if now - self._target_since > c.give_up_s:
+            self._ignore(target, now + c.give_up_s)
+            self._target = None
+        return self._pursue(world, index, pose, target, after, now)
+
+    def _free_goal(
+        self, world: World, index: int, pose: tuple[float, float, float]
+    ) -> np.ndarray | None:
+        """The nearest goal nobody carries that scores for us: our alliance's first (its rings
+        count wherever it is), else a neutral one."""
+        robot = world.robots[index]
+        best, best_key = None, (2, math.inf)
+        for g in world.goals:
+            if g.carried_by is not None or g.spec.alliance not in (None, robot.alliance):
+                continue
+            key = (
+                0 if g.spec.alliance == robot.alliance else 1,
+                math.hypot(g.x - pose[0], g.y - pose[1]),
+            )
+            if key < best_key:
+                best, best_key = np.array([g.x, g.y]), key
+        return best
+
+    def _reverse_onto(
+        self,
+        world: World,
+        index: int,
+        pose: tuple[float, float, float],
+        goal: np.ndarray,
+        now: float,
+    ) -> DriveCommand:
+        """Drive near the goal, then turn the back to it and reverse until the clamp takes it."""
+        rc = world.robots[index].config
+        x, y, h = pose
+        dist = math.hypot(goal[0] - x, goal[1] - y)
+        if dist > 1.0:
+            stage = goal + 0.5 * (np.array([x, y]) - goal) / dist
+            return self._pursue(world, index, pose, stage, None, now)
+        gx, gy = field_to_robot(goal[None, :], (x, y), h)[0]
+        # Bearing of the goal seen from the robot's back: positive means turn clockwise.
+        back = math.atan2(-gx, -gy)
+        w = float(
+            np.clip(self.config.turn_gain * back, -rc.max_angular_rad_s, rc.max_angular_rad_s)
+        )
+        v = -0.7 * rc.max_linear_mps * max(0.0, math.cos(back)) ** 3
+        if self._stuck(now, abs(v)):
+            self._backoff_until = now + self.config.backoff_s / 2
+            self._backoff_turn = 1.0
+            self._trail.clear()
+            # Forward, not backward, to get clear of whatever blocks the reverse.
+            return DriveCommand(0.5 * rc.max_linear_mps, 0.0)
+        return DriveCommand(v, w)
+
+    def _go_home(
+        self, world: World, index: int, pose: tuple[float, float, float], room: int
+    ) -> bool:
+        if self._parked:
+            return True
+        c = self.config
+        robot = world.robots[index]
+        plat = world.field.platform(robot.alliance)
+        dist = math.hypot(pose[0] - plat.center[0], pose[1] - plat.center[1])
+        speed = c.endgame_speed_fraction * robot.config.max_linear_mps
+        time_left = world.match_length_s - world.time_s
+        full = room <= 0 and (robot.carried_goal is None or not c.fetch_goal)
+        return full or time_left <= dist / speed + c.endgame_margin_s
+
+    def _ignore(self, point: np.ndarray, until: float) -> None:
+        if len(self.known):
+            d = np.linalg.norm(self.known - point, axis=1)
+            self._ignored_until[d <= self.config.merge_radius_m] = until
+
+    def _pursue(
+        self,
+        world: World,
+        index: int,
+        pose: tuple[float, float, float],
+        target: np.ndarray,
+        after: np.ndarray | None,
+        now: float,
+    ) -> DriveCommand:
+        c = self.config
+        rc = world.robots[index].config
+        x, y, h = pose
+        path = [target] if after is None else [target, after]
+        local = field_to_robot(np.array(path), (x, y), h)
+        tx, ty = local[0]
+        bearing = math.atan2(tx, ty)  # positive: to the right, a clockwise turn
+        v_max = c.max_speed * rc.max_linear_mps
+        w_max = rc.max_angular_rad_s
+        if abs(bearing) > math.radians(60) and math.hypot(tx, ty) < rc.length_m * 0.9:
+            # Beside the bumper: no arc brings it into the intake; back away while turning.
+            return DriveCommand(-0.4 * rc.max_linear_mps, math.copysign(0.6 * w_max, bearing))
+        if abs(bearing) > c.turn_in_place_rad:
+            return DriveCommand(0.0, float(np.clip(c.turn_gain * bearing, -w_max, w_max)))
+        px, py = pursuit_point(local, c.lookahead_m)
+        d2 = px * px + py * py
+        curvature = 2.0 * px / d2 if d2 > 1e-9 else 0.0
+        v = v_max
+        if abs(curvature) * v > w_max:
+            v = w_max / abs(curvature)
+        w = v * curvature
+        if self._stuck(now, v):
+            self._backoff_until = now + c.backoff_s
+            self._backoff_turn = -1.0 if bearing > 0 else 1.0
+            self._ignore(target, now + c.give_up_s)
+            self._target = None
+            self._trail.clear()
+        return DriveCommand(v, w)
+
+    def _stuck(self, now: float, v: float) -> bool:
+        c = self.config
+        if v < 0.2 or len(self._trail) < 2 or now - self._trail[0][0] < c.stuck_window_s * 0.95:
+            return False
+        _, x0, y0 = self._trail[0]
+        _, x1, y1 = self._trail[-1]
+        return math.hypot(x1 - x0, y1 - y0) < c.stuck_distance_m
+
+
+def pursuit_point(path_robot: np.ndarray, lookahead: float) -> tuple[float, float]:
+    """The pure-pursuit goal point: where the polyline origin -> path[0] -> path[1] ... first
+    leaves the circle of radius `lookahead` about the robot (robot frame). When the whole path
+    lies inside the circle, its end."""
+    prev = np.zeros(2)
+    for q in np.asarray(path_robot, dtype=np.float64).reshape(-1, 2):
+        if np.hypot(*q) >= lookahead:
+            d = q - prev
+            a = float(d @ d)
+            b = 2.0 * float(prev @ d)
+            cc = float(prev @ prev) - lookahead * lookahead
+            disc = b * b - 4 * a * cc
+            if a > 1e-12 and disc >= 0:
+                t = (-b + math.sqrt(disc)) / (2 * a)
+                t = min(max(t, 0.0), 1.0)
+                p = prev + t * d
+                return float(p[0]), float(p[1])
+            return float(q[0]), float(q[1])
+        prev = q
+    return float(prev[0]), float(prev[1])
+
+
+def _two_opt(order: list[int], pair: np.ndarray, fixed_first: bool = False) -> list[int]:
+    """Reverse sub-paths of an open tour while that shortens it (the start leg is not counted,
+    so the first stop is free to change unless fixed_first)."""
+    best = list(order)
+    lo = 1 if fixed_first else 0
+    improved = True
+    while improved:
+        improved = False
+        for i in range(lo, len(best) - 1):
+            for k in range(i + 1, len(best)):
+                a = best[i - 1] if i > 0 else None
+                b, cpt = best[i], best[k]
+                d = best[k + 1] if k + 1 < len(best) else None
+                before = (pair[a, b] if a is not None else 0.0) + (
+                    pair[cpt, d] if d is not None else 0.0
+                )
+                after = (pair[a, cpt] if a is not None else 0.0) + (
+                    pair[b, d] if d is not None else 0.0
+                )
+                if after < before - 1e-9:
+                    best[i : k + 1] = reversed(best[i : k + 1])
+                    improved = True
+    return best

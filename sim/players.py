@@ -1,0 +1,87 @@
+"""Who drives a robot in a match: one interface for policies, the planner, scripts and baselines.
+
+    player.reset(core, index, rng)                 # a new match; `index` is the robot it drives
+    command = player.act(core, index, obs)         # every control step; obs: sim.observation's
+
+A player may read the World through `core` (the planner and the scripted chaser do: they see what
+the robot's sensors give, via core.view); a learned policy only uses `obs`. Everything here is
+deterministic for a given rng, so evaluations on the same seeds are comparable.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Protocol
+
+import numpy as np
+
+from sim.match import MatchCore
+from sim.scripted import GreedyChaser
+from sim.world import DriveCommand
+
+ActionFn = Callable[[np.ndarray], np.ndarray]
+
+
+class Player(Protocol):
+    name: str
+
+    def reset(self, core: MatchCore, index: int, rng: np.random.Generator) -> None: ...
+
+    def act(self, core: MatchCore, index: int, obs: np.ndarray) -> DriveCommand: ...
+
+
+class IdlePlayer:
+    """Stands still at its start: an opponent that only takes up space."""
+
+    name = "idle"
+
+    def reset(self, core: MatchCore, index: int, rng: np.random.Generator) -> None:
+        pass
+
+    def act(self, core: MatchCore, index: int, obs: np.ndarray) -> DriveCommand:
+        return DriveCommand(0.0, 0.0)
+
+
+class RandomPlayer:
+    """Uniform random actions in [-1, 1]: the floor every metric must be measured against."""
+
+    name = "random"
+
+    def __init__(self) -> None:
+        self._rng = np.random.default_rng(0)
+
+    def reset(self, core: MatchCore, index: int, rng: np.random.Generator) -> None:
+        self._rng = np.random.default_rng(rng.integers(2**63))
+
+    def act(self, core: MatchCore, index: int, obs: np.ndarray) -> DriveCommand:
+        return core.command(index, self._rng.uniform(-1.0, 1.0, core.config.action_size))
+
+
+class ScriptedPlayer:
+    """sim.scripted's greedy ring-chaser (ground-truth rings): the simulator's stock opponent."""
+
+    name = "scripted"
+
+    def __init__(self) -> None:
+        self._chaser: GreedyChaser | None = None
+
+    def reset(self, core: MatchCore, index: int, rng: np.random.Generator) -> None:
+        self._chaser = GreedyChaser(index)
+
+    def act(self, core: MatchCore, index: int, obs: np.ndarray) -> DriveCommand:
+        assert self._chaser is not None, "act() before reset()"
+        return self._chaser.act(core.world)
+
+
+class PolicyPlayer:
+    """A policy that maps the stacked observation to an action in [-1, 1]^n."""
+
+    def __init__(self, fn: ActionFn, name: str = "policy") -> None:
+        self.fn = fn
+        self.name = name
+
+    def reset(self, core: MatchCore, index: int, rng: np.random.Generator) -> None:
+        pass
+
+    def act(self, core: MatchCore, index: int, obs: np.ndarray) -> DriveCommand:
+        return core.command(index, self.fn(obs))

@@ -1,0 +1,464 @@
+"""Self-play matches stepped in batches, on worker processes so both cores simulate.
+
+    envs = VecMatches(env_config, RolloutConfig(workers=2, envs_per_worker=8), seed=1)
+    step = envs.reset(kinds)                        # StepResult: learner and opponent observations
+    step = envs.step(learner_actions, opponent_actions)
+    envs.close()
+
+Every slot is one 1v1 match on its own PyBullet client. One robot is the learner (its side drawn
+per match when learner_side is "random": the observation is alliance-symmetric, so one policy
+plays both); the other is the opponent, of a kind chosen per slot:
+
+    policy     actions come from the caller (the self-play pool runs in the training process)
+    planner    sim.planner's route planner     scripted  sim.scripted's greedy chaser
+    random     uniform random actions          idle      stands still
+    none       no opponent robot on the field
+
+A slot's kind and tag (the caller's opponent id) change only when its match ends, so each match
+has exactly one opponent, which is what ELO needs. Finished matches reset on their own; their
+statistics come back as EpisodeStats. Each match draws its randomness from
+np.random.default_rng((seed, slot, match number)), so a run is reproducible.
+
+This module does not import torch: workers only simulate.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing as mp
+import signal
+import traceback
+from dataclasses import dataclass, field, replace
+from typing import Any, Literal
+
+import numpy as np
+
+from sim.config import ConfigError
+from sim.geometry import other_alliance
+from sim.match import REWARD_COMPONENTS, EnvConfig, MatchCore
+from sim.planner import Planner
+from sim.players import IdlePlayer, Player, RandomPlayer, ScriptedPlayer
+from sim.world import DriveCommand
+
+OPPONENT_KINDS = ("policy", "planner", "scripted", "random", "idle", "none")
+LearnerSide = Literal["random", "red", "blue"]
+
+
+@dataclass(frozen=True)
+class RolloutConfig:
+    """How experience is collected. buffer size = workers (or 1) x envs_per_worker x steps_per_env.
+
+    workers = 0 steps every match in the training process (tests, debugging).
+    """
+
+    workers: int = 2
+    envs_per_worker: int = 8
+    steps_per_env: int = 128
+    learner_side: LearnerSide = "random"
+    fill_target: int = 10  # rings: the time a learner reaches this many is its "fill time"
+    start_method: Literal["spawn", "forkserver", "fork"] = "spawn"
+    # A share of the slots plays only the first short_steps of every match (truncated, with the
+    # value bootstrapped): the opening, where the first rings are won, then gets several times
+    # the experience it gets from full matches alone.
+    short_share: float = 0.0
+    short_steps: int = 240
+
+    def __post_init__(self) -> None:
+        if self.workers < 0 or self.envs_per_worker < 1 or self.steps_per_env < 1:
+            raise ConfigError("rollout: workers >= 0, envs_per_worker >= 1, steps_per_env >= 1")
+        if not 0.0 <= self.short_share <= 1.0 or self.short_steps < 1:
+            raise ConfigError("rollout: short_share within [0, 1] and short_steps >= 1")
+        if self.learner_side not in ("random", "red", "blue"):
+            raise ConfigError(
+                f"rollout.learner_side must be random, red or blue: {self.learner_side!r}"
+            )
+        if self.start_method not in ("spawn", "forkserver", "fork"):
+            raise ConfigError(f"rollout.start_method: {self.start_method!r}")
+
+    @property
+    def n_envs(self) -> int:
+        return max(1, self.workers) * self.envs_per_worker
+
+    @property
+    def buffer_size(self) -> int:
+        return self.n_envs * self.steps_per_env
+
+    def slot_limit(self, slot: int) -> int | None:
+        """Truncation of slot `slot`'s matches: short_steps for every 1/short_share-th position
+        within a worker (the same count on every worker), else None."""
+        k = slot % self.envs_per_worker
+        n_short = round(self.short_share * self.envs_per_worker)
+        # Spread the short positions evenly over the worker's slots.
+        short = {int(i * self.envs_per_worker / n_short) for i in range(n_short)}
+        return self.short_steps if k in short else None
+
+
+@dataclass
+class EpisodeStats:
+    """One finished match, from the learner's side."""
+
+    slot: int
+    kind: str
+    tag: int  # the caller's opponent id for policy opponents, else -1
+    reward: float
+    components: dict[str, float]
+    rings: int
+    fill_time_s: float | None
+    score: float
+    opponent_score: float
+    opponent_rings: int
+    result: float | None  # 1 win, 0.5 draw, 0 loss by match score; None without an opponent
+    pins: int
+    length: int
+    ended_by_pin: bool
+
+
+@dataclass
+class StepResult:
+    learner_obs: np.ndarray  # (n_envs, obs_size), the observation to act on next
+    opponent_obs: np.ndarray  # (n_envs, obs_size), zeros where the opponent is not a policy
+    rewards: np.ndarray  # (n_envs,) the learner's reward for the step just taken
+    dones: np.ndarray  # (n_envs,) the match ended (terminated or truncated) with this step
+    truncated: np.ndarray  # (n_envs,) ended by EnvConfig.max_steps: bootstrap from final_obs
+    final_obs: np.ndarray  # (n_envs, obs_size), the last observation where truncated
+    episodes: list[EpisodeStats] = field(default_factory=list)
+
+
+class _Slot:
+    """One match with its learner, opponent and bookkeeping."""
+
+    def __init__(self, config: EnvConfig, rollout: RolloutConfig, seed: int, slot: int) -> None:
+        self.config = config
+        self.rollout = rollout
+        self.seed = seed
+        self.slot = slot
+        self.episode = 0
+        self._cores: dict[tuple[str, bool], MatchCore] = {}
+        self.kind = "idle"
+        self.tag = -1
+        self.pending: tuple[str, int] | None = None
+        self.core: MatchCore
+        self.learner = 0
+        self.opponent: int | None = None
+        self.player: Player | None = None
+        self.obs: list[np.ndarray] = []
+        self.steps = 0
+        self.reward = 0.0
+        self.fill_time: float | None = None
+
+    def _core(self, alliance: str, solo: bool) -> MatchCore:
+        key = (alliance, solo)
+        if key not in self._cores:
+            wc = self.config.world
+            if solo:
+                wc = replace(wc, **{other_alliance(alliance): ()})  # type: ignore[arg-type]
+            if not getattr(wc, alliance):
+                raise ConfigError(f"the learner plays {alliance} but world.{alliance} is empty")
+            self._cores[key] = MatchCore(self.config, wc)
+        return self._cores[key]
+
+    def set_kind(self, kind: str, tag: int) -> None:
+        if kind not in OPPONENT_KINDS:
+            raise ConfigError(f"opponent kind must be one of {OPPONENT_KINDS}, got {kind!r}")
+        self.pending = (kind, tag)
+
+    def reset(self) -> None:
+        if self.pending is not None:
+            self.kind, self.tag = self.pending
+            self.pending = None
+        rng = np.random.default_rng((self.seed, self.slot, self.episode))
+        self.episode += 1
+        side = self.rollout.learner_side
+        alliance = ("red" if rng.random() < 0.5 else "blue") if side == "random" else side
+        self.core = self._core(alliance, self.kind == "none")
+        self.obs = self.core.reset(rng)
+        lineup = self.core.world.lineup
+        self.learner = next(i for i, (a, _) in enumerate(lineup) if a == alliance)
+        others = [i for i, (a, _) in enumerate(lineup) if a != alliance]
+        if len(lineup) - 1 != len(others) or len(others) > 1:
+            raise ConfigError("training matches are 1v1: one robot per alliance")
+        self.opponent = others[0] if others else None
+        self.player = _make_player(self.kind) if self.opponent is not None else None
+        if self.player is not None and self.opponent is not None:
+            self.player.reset(self.core, self.opponent, rng)
+        self.steps = 0
+        self.reward = 0.0
+        self.fill_time = None
+
+    def step(self, action: np.ndarray, opponent_action: np.ndarray) -> tuple[float, bool, bool]:
+        core = self.core
+        commands: list[DriveCommand] = [DriveCommand(0.0, 0.0)] * len(core.world.robots)
+        commands[self.learner] = core.command(self.learner, action)
+        if self.opponent is not None:
+            if self.kind == "policy":
+                commands[self.opponent] = core.command(self.opponent, opponent_action)
+            else:
+                assert self.player is not None
+                commands[self.opponent] = self.player.act(
+                    core, self.opponent, self.obs[self.opponent]
+                )
+        results, ended, _ = core.step(commands)
+        self.obs = [r.observation for r in results]
+        self.steps += 1
+        me = results[self.learner]
+        self.reward += me.reward
+        robot = core.world.robots[self.learner]
+        if self.fill_time is None and robot.collected >= self.rollout.fill_target:
+            self.fill_time = core.world.time_s
+        limits = [x for x in (self.config.max_steps, self.rollout.slot_limit(self.slot)) if x]
+        limit = min(limits) if limits else None
+        truncated = bool(not ended and limit is not None and self.steps >= limit)
+        return me.reward, bool(ended) or truncated, truncated
+
+    def stats(self) -> EpisodeStats:
+        core = self.core
+        world = core.world
+        me = world.robots[self.learner]
+        score = world.score()
+        mine = float(score[me.alliance].total)
+        theirs = float(score[other_alliance(me.alliance)].total)
+        result = None
+        opp_rings = 0
+        if self.opponent is not None:
+            result = 1.0 if mine > theirs else 0.5 if mine == theirs else 0.0
+            opp_rings = world.robots[self.opponent].collected
+        return EpisodeStats(
+            slot=self.slot,
+            kind=self.kind,
+            tag=self.tag,
+            reward=self.reward,
+            components={k: float(core.totals[self.learner][k]) for k in REWARD_COMPONENTS},
+            rings=me.collected,
+            fill_time_s=self.fill_time,
+            score=mine,
+            opponent_score=theirs,
+            opponent_rings=opp_rings,
+            result=result,
+            pins=core.pins[self.learner],
+            length=self.steps,
+            ended_by_pin=core.ended_by_pin,
+        )
+
+    def observations(self) -> tuple[np.ndarray, np.ndarray]:
+        mine = self.obs[self.learner]
+        if self.opponent is not None and self.kind == "policy":
+            return mine, self.obs[self.opponent]
+        return mine, np.zeros_like(mine)
+
+    def close(self) -> None:
+        for core in self._cores.values():
+            core.close()
+
+
+def _make_player(kind: str) -> Player | None:
+    if kind == "planner":
+        return Planner()
+    if kind == "scripted":
+        return ScriptedPlayer()
+    if kind == "random":
+        return RandomPlayer()
+    if kind == "idle":
+        return IdlePlayer()
+    return None  # policy: the caller acts; none: no robot
+
+
+class _Group:
+    """The slots one process steps."""
+
+    def __init__(
+        self, config: EnvConfig, rollout: RolloutConfig, seed: int, first_slot: int, count: int
+    ) -> None:
+        self.slots = [_Slot(config, rollout, seed, first_slot + k) for k in range(count)]
+
+    def set_kinds(self, kinds: list[tuple[str, int]]) -> None:
+        for s, (kind, tag) in zip(self.slots, kinds, strict=True):
+            s.set_kind(kind, tag)
+
+    def reset(self) -> StepResult:
+        for s in self.slots:
+            s.reset()
+        return self._gather(
+            np.zeros(len(self.slots), np.float32), np.zeros(len(self.slots), bool), None, []
+        )
+
+    def step(self, actions: np.ndarray, opponent_actions: np.ndarray) -> StepResult:
+        n = len(self.slots)
+        rewards = np.zeros(n, np.float32)
+        dones = np.zeros(n, bool)
+        truncs = np.zeros(n, bool)
+        final: np.ndarray | None = None
+        episodes = []
+        for k, s in enumerate(self.slots):
+            r, done, trunc = s.step(actions[k], opponent_actions[k])
+            rewards[k], dones[k], truncs[k] = r, done, trunc
+            if trunc:
+                if final is None:
+                    final = np.zeros((n, len(s.obs[s.learner])), np.float32)
+                final[k] = s.obs[s.learner]
+            if done:
+                episodes.append(s.stats())
+                s.reset()
+        result = self._gather(rewards, dones, final, episodes)
+        result.truncated = truncs
+        return result
+
+    def _gather(
+        self,
+        rewards: np.ndarray,
+        dones: np.ndarray,
+        final: np.ndarray | None,
+        episodes: list[EpisodeStats],
+    ) -> StepResult:
+        pairs = [s.observations() for s in self.slots]
+        mine = np.stack([p[0] for p in pairs]).astype(np.float32)
+        theirs = np.stack([p[1] for p in pairs]).astype(np.float32)
+        return StepResult(
+            mine,
+            theirs,
+            rewards,
+            dones,
+            np.zeros(len(self.slots), bool),
+            final if final is not None else np.zeros_like(mine),
+            episodes,
+        )
+
+    def close(self) -> None:
+        for s in self.slots:
+            s.close()
+
+
+def _worker(conn: Any, config: EnvConfig, rollout: RolloutConfig, seed: int, first: int) -> None:
+    # Ctrl-C reaches the whole process group: the training process decides, and closes us.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    group: _Group | None = None
+    try:
+        group = _Group(config, rollout, seed, first, rollout.envs_per_worker)
+        conn.send(("ok", None))
+        while True:
+            cmd, data = conn.recv()
+            if cmd == "step":
+                conn.send(("ok", group.step(*data)))
+            elif cmd == "reset":
+                conn.send(("ok", group.reset()))
+            elif cmd == "kinds":
+                group.set_kinds(data)
+                conn.send(("ok", None))
+            elif cmd == "close":
+                break
+    except Exception:  # the training process re-raises it with the worker's traceback
+        conn.send(("error", traceback.format_exc()))
+    finally:
+        if group is not None:
+            group.close()
+        conn.close()
+
+
+def _merge(results: list[StepResult]) -> StepResult:
+    if len(results) == 1:
+        return results[0]
+    return StepResult(
+        np.concatenate([r.learner_obs for r in results]),
+        np.concatenate([r.opponent_obs for r in results]),
+        np.concatenate([r.rewards for r in results]),
+        np.concatenate([r.dones for r in results]),
+        np.concatenate([r.truncated for r in results]),
+        np.concatenate([r.final_obs for r in results]),
+        [e for r in results for e in r.episodes],
+    )
+
+
+class WorkerError(RuntimeError):
+    """A rollout worker failed; the message carries its traceback."""
+
+
+class VecMatches:
+    """n_envs matches, split over `workers` processes (or stepped here when workers = 0)."""
+
+    def __init__(self, config: EnvConfig, rollout: RolloutConfig, seed: int) -> None:
+        self.config = config
+        self.rollout = rollout
+        self.n_envs = rollout.n_envs
+        self._local: _Group | None = None
+        self._conns: list[Any] = []
+        self._procs: list[Any] = []
+        per = rollout.envs_per_worker
+        if rollout.workers == 0:
+            self._local = _Group(config, rollout, seed, 0, per)
+            return
+        ctx = mp.get_context(rollout.start_method)
+        for w in range(rollout.workers):
+            parent, child = ctx.Pipe()
+            proc = ctx.Process(
+                target=_worker, args=(child, config, rollout, seed, w * per), daemon=True
+            )
+            proc.start()
+            child.close()
+            self._conns.append(parent)
+            self._procs.append(proc)
+        for conn in self._conns:
+            self._receive(conn)
+
+    def _receive(self, conn: Any) -> Any:
+        try:
+            status, payload = conn.recv()
+        except EOFError as e:
+            raise WorkerError("a rollout worker exited without a reply") from e
+        if status == "error":
+            self.close()
+            raise WorkerError(f"rollout worker failed:\n{payload}")
+        return payload
+
+    def _split(self, array: np.ndarray) -> list[np.ndarray]:
+        per = self.rollout.envs_per_worker
+        return [array[w * per : (w + 1) * per] for w in range(len(self._conns))]
+
+    def set_kinds(self, kinds: list[tuple[str, int]]) -> None:
+        """Opponent (kind, tag) per slot, applied when each slot's current match ends (and to
+        every slot at reset())."""
+        if len(kinds) != self.n_envs:
+            raise ValueError(f"expected {self.n_envs} opponent kinds, got {len(kinds)}")
+        if self._local is not None:
+            self._local.set_kinds(kinds)
+            return
+        per = self.rollout.envs_per_worker
+        for w, conn in enumerate(self._conns):
+            conn.send(("kinds", kinds[w * per : (w + 1) * per]))
+        for conn in self._conns:
+            self._receive(conn)
+
+    def reset(self) -> StepResult:
+        if self._local is not None:
+            return self._local.reset()
+        for conn in self._conns:
+            conn.send(("reset", None))
+        return _merge([self._receive(c) for c in self._conns])
+
+    def step(self, actions: np.ndarray, opponent_actions: np.ndarray) -> StepResult:
+        actions = np.asarray(actions, dtype=np.float32)
+        opponent_actions = np.asarray(opponent_actions, dtype=np.float32)
+        if self._local is not None:
+            return self._local.step(actions, opponent_actions)
+        for conn, a, b in zip(
+            self._conns, self._split(actions), self._split(opponent_actions), strict=True
+        ):
+            conn.send(("step", (a, b)))
+        return _merge([self._receive(c) for c in self._conns])
+
+    def close(self) -> None:
+        if self._local is not None:
+            self._local.close()
+            self._local = None
+        for conn in self._conns:
+            with contextlib.suppress(BrokenPipeError, OSError):
+                conn.send(("close", None))
+        for proc in self._procs:
+            proc.join(timeout=5)
+            if proc.is_alive():
+                proc.terminate()
+        self._conns, self._procs = [], []
+
+    def __enter__(self) -> VecMatches:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,225 @@
+"""sim.fullstack.brain_host: the Python driver of brain_host, against the real binary."""
+
+from __future__ import annotations
+
+import os
+import select
+import signal
+import time
+from collections.abc import Iterator
+
+import pytest
+
+from protocol import framing
+from protocol.framing import Received
+from protocol.messages import (
+    FINGERPRINT,
+    PROTOCOL_VERSION,
+    Command,
+    GpsStatus,
+    Hello,
+    MatchPhase,
+    Role,
+    State,
+)
+from sim.fullstack.brain_host import (
+    DEFAULT_BINARY,
+    BrainHost,
+    BrainHostError,
+    BrainReport,
+    find_binary,
+)
+
+pytestmark = pytest.mark.skipif(
+    not DEFAULT_BINARY.exists(), reason="brain_host is not built: run `make build` first"
+)
+
+
+class Port:
+    """The Jetson's end of brain_host's pty, with byte counts for lockstep."""
+
+    def __init__(self, path: str) -> None:
+        self.fd = os.open(path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+        self.written = 0
+        self.read_total = 0
+        self.decoder = framing.UplinkDecoder()
+        self.messages: list[object] = []
+        self.seq = 0
+
+    def send(self, msg: object) -> None:
+        self.written += os.write(self.fd, framing.encode_downlink(msg, self.seq))
+        self.seq += 1
+
+    def collect(self, total: int) -> None:
+        deadline = time.monotonic() + 5.0
+        while self.read_total < total:
+            assert time.monotonic() < deadline, f"uplink stalled at {self.read_total}/{total}"
+            ready, _, _ = select.select([self.fd], [], [], 0.5)
+            if ready:
+                chunk = os.read(self.fd, 65536)
+                self.read_total += len(chunk)
+                for ev in self.decoder.feed(chunk):
+                    if isinstance(ev, Received):
+                        self.messages.append(ev.message)
+
+    def states(self) -> list[State]:
+        return [m for m in self.messages if isinstance(m, State)]
+
+    def close(self) -> None:
+        os.close(self.fd)
+
+
+@pytest.fixture
+def brain() -> Iterator[BrainHost]:
+    host = BrainHost.start(boot_id=0x5EED0001)
+    try:
+        yield host
+    finally:
+        assert host.close() == 0
+
+
+@pytest.fixture
+def port(brain: BrainHost) -> Iterator[Port]:
+    p = Port(brain.pty_path)
+    yield p
+    p.close()
+
+
+def hello(fingerprint: int = FINGERPRINT) -> Hello:
+    return Hello(fingerprint, PROTOCOL_VERSION, Role.JETSON, 0xA11CE, "test")
+
+
+def test_ready_line_names_the_pty_and_the_schema(brain: BrainHost) -> None:
+    assert os.path.exists(brain.pty_path)
+    assert brain.ready.mode == "lockstep"
+    assert brain.period_ms == 10
+    assert brain.ready.boot_id == 0x5EED0001
+    assert brain.ready.fingerprint == FINGERPRINT
+
+
+def test_handshake_and_a_command_drive_the_wheels(brain: BrainHost, port: Port) -> None:
+    brain.set_phase("driver")
+    brain.set_gps(0.5, -1.25, 90.0, 0.02)
+    port.send(hello())
+    report = brain.until(10, rx=port.written)
+    assert isinstance(report, BrainReport)
+    assert report.link == "connected" and report.phase == "driver"
+    assert report.stopped and not report.moving, "connected, but no Command yet"
+    assert "command_timeout" in report.faults
+    port.send(Command(seq=1, linear=0.4, angular=0.0, intake=True, valid_ms=250))
+    report = brain.until(100, rx=port.written)
+    assert report.source == "jetson" and report.moving and report.intake
+    assert report.last_command_seq == 1
+    assert report.left_mps == pytest.approx(report.right_mps)
+    assert 0.0 < report.left_mps <= 0.4 + 1e-6
+    assert report.steps == 10 and report.t_ms == 100 and report.last_step_ms == 90
+    port.collect(report.tx)
+    states = port.states()
+    assert states, "States follow the handshake"
+    last = states[-1]
+    assert last.phase == MatchPhase.DRIVER and last.gps_status == GpsStatus.OK
+    assert (last.x, last.y, last.heading) == pytest.approx((0.5, -1.25, 90.0), abs=1e-5)
+
+
+def test_the_command_expires_after_its_validity_window(brain: BrainHost, port: Port) -> None:
+    brain.set_phase("autonomous")
+    port.send(hello())
+    port.send(Command(seq=1, linear=0.3, angular=0.0, intake=False, valid_ms=100))
+    assert brain.until(50, rx=port.written).moving
+    report = brain.until(200)
+    assert report.stopped and report.timeouts == 1 and "command_timeout" in report.faults
+
+
+def test_measured_speeds_reach_the_state(brain: BrainHost, port: Port) -> None:
+    brain.set_phase("disabled")
+    port.send(hello())
+    brain.set_measured(0.25, -0.125)
+    report = brain.until(60, rx=port.written)
+    port.collect(report.tx)
+    state = port.states()[-1]
+    assert (state.left_speed, state.right_speed) == pytest.approx((0.25, -0.125), abs=1e-3)
+    brain.measured_auto()
+
+
+def test_the_ring_counter_reaches_the_state(brain: BrainHost, port: Port) -> None:
+    port.send(hello())
+    report = brain.until(40, rx=port.written)
+    assert report.rings == 255, "no counter fitted by default"
+    brain.set_rings(3)
+    report = brain.until(80)
+    assert report.rings == 3
+    port.collect(report.tx)
+    assert port.states()[-1].rings_held == 3
+    brain.set_rings(None)
+    assert brain.until(100).rings == 255
+    with pytest.raises(ValueError, match=r"0\.\.254"):
+        brain.set_rings(300)
+
+
+def test_a_batch_is_one_round_trip(brain: BrainHost) -> None:
+    before = brain.round_trips
+    replies = brain.run_batch(
+        [brain.phase_line("driver"), brain.gps_line(0, 0, 0), brain.step_line("until", 30, None)]
+    )
+    assert brain.round_trips == before + 1
+    assert replies[0] == {} and replies[1] == {}
+    assert BrainReport.parse(replies[2]).steps == 3
+
+
+def test_sticks_drive_in_driver_control(brain: BrainHost) -> None:
+    brain.set_phase("driver")
+    brain.set_sticks(0.8, 0.0)
+    report = brain.until(100)
+    assert report.source == "driver" and report.moving
+    brain.sticks_off()
+
+
+def test_refusals_carry_brain_hosts_reason(brain: BrainHost) -> None:
+    brain.until(50)
+    with pytest.raises(BrainHostError, match="before now"):
+        brain.until(20)
+    with pytest.raises(BrainHostError, match="unknown command"):
+        brain.command("jump 3")
+    # The driver refuses bad values itself, before anything is sent.
+    with pytest.raises(ValueError, match="phase"):
+        brain.set_phase("overtime")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="finite"):
+        brain.set_gps(float("nan"), 0.0, 0.0)
+    with pytest.raises(ValueError, match=r"\[-1, 1\]"):
+        brain.set_sticks(2.0, 0.0)
+    assert brain.get().t_ms == 50, "nothing changed on an error"
+
+
+def test_gps_failures_are_reported(brain: BrainHost, port: Port) -> None:
+    port.send(hello())
+    brain.set_gps_failure("calibrating")
+    report = brain.until(40, rx=port.written)
+    assert report.gps == "calibrating" and "gps_fault" in report.faults
+    with pytest.raises(ValueError, match="GPS failure"):
+        brain.set_gps_failure("lost")
+
+
+def test_a_dead_brain_host_is_named() -> None:
+    host = BrainHost.start()
+    os.kill(host.proc.pid, signal.SIGKILL)
+    host.proc.wait()
+    with pytest.raises(BrainHostError, match=r"exited|gone"):
+        host.until(10)
+    assert host.close() == -signal.SIGKILL
+
+
+def test_missing_binary_says_how_to_build(tmp_path) -> None:
+    with pytest.raises(BrainHostError, match="make build"):
+        find_binary(tmp_path / "nope")
+    with pytest.raises(BrainHostError, match="make build"):
+        BrainHost.start(binary=tmp_path / "nope")
+
+
+def test_stderr_goes_to_a_file(tmp_path) -> None:
+    log = tmp_path / "brain_host.stderr"
+    host = BrainHost.start(stderr_path=log, extra_args=["--alliance", "blue"])
+    try:
+        assert host.get().t_ms == 0
+    finally:
+        assert host.close() == 0
+    assert log.exists()
