@@ -44,6 +44,7 @@ def tiny_model(tmp_path_factory: pytest.TempPathFactory) -> tuple[RingNet, Path]
     return net, path
 
 
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")  # the legacy exporter, on purpose
 def test_onnx_forward_agrees_with_torch(tiny_model: tuple[RingNet, Path], tmp_path: Path) -> None:
     net, _ = tiny_model
     raw_path = tmp_path / "raw.onnx"

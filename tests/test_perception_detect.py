@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import cv2
@@ -12,6 +13,7 @@ from jetson.perception.camera import CameraConfig
 from jetson.perception.classical import ClassicalDetector
 from jetson.perception.dataset import (
     RingDataset,
+    fingerprint,
     holdout_names,
     parse_labels,
     source_group,
@@ -218,11 +220,17 @@ def test_a_model_is_scored_only_on_what_it_held_out(tmp_path: Path) -> None:
     for i in range(12):
         write_sample(tmp_path, f"S{i}_jpg.rf.x", np.zeros((16, 16, 3), np.uint8), np.zeros((0, 4)))
     names = RingDataset(tmp_path).names
-    meta = {"holdout": {"fraction": 0.5, "seed": 3, "folders": [str(tmp_path.resolve())]},
-            "training": {"data": [str(tmp_path)]}}  # fmt: skip
+    fp = fingerprint(names)
+    meta = {"holdout": {"fraction": 0.5, "seed": 3, "fingerprints": [fp]},
+            "data_fingerprints": [fp]}  # fmt: skip
     held = heldout_of(meta, tmp_path)
     assert held == holdout_names(names, 0.5, 3)
-    assert heldout_of(meta, tmp_path / "other") is None
-    assert heldout_of({"training": {"data": [str(tmp_path)]}}, tmp_path) is None
+    # The same images elsewhere are the same folder; other images are not.
+    moved = tmp_path / "moved"
+    shutil.copytree(tmp_path, moved, ignore=shutil.ignore_patterns("moved"))
+    assert heldout_of(meta, moved) == held
+    write_sample(moved, "extra", np.zeros((16, 16, 3), np.uint8), np.zeros((0, 4)))
+    assert heldout_of(meta, moved) is None and not trained_on(meta, moved)
+    assert heldout_of({"data_fingerprints": [fp]}, tmp_path) is None
     assert trained_on(meta, tmp_path) and not trained_on({}, tmp_path)
     assert len(RingDataset(tmp_path, held)) == len(held)

@@ -239,14 +239,21 @@ def _split(
     if xs.size < n:
         return [Detection(x, y, x + bw, y + bh, score)]
     px = np.stack([xs, ys], axis=1).astype(np.float32) + np.float32(0.5)
+    # The centres are found on at most ~600 of the blob's pixels (a regular subsample keeps
+    # the shape), which keeps a big cluster of rings within a millisecond; every pixel is then
+    # given to its nearest centre.
+    sample = px[:: max(1, len(px) // 600)]
     if len(blob.holes) == n:
         centres = np.array([_centre(hc) - (x, y) for hc in blob.holes], dtype=np.float32)
     else:
-        centres = _kmeans(px, n)
-    for _ in range(5):  # a few Lloyd steps from the seeds
-        owner = np.argmin(((px[:, None, :] - centres[None, :, :]) ** 2).sum(-1), axis=1)
+        centres = _kmeans(sample, n)
+    for _ in range(4):  # a few Lloyd steps from the seeds
+        owner = np.argmin(((sample[:, None, :] - centres[None, :, :]) ** 2).sum(-1), axis=1)
         centres = np.array(
-            [px[owner == k].mean(axis=0) if np.any(owner == k) else centres[k] for k in range(n)],
+            [
+                sample[owner == k].mean(axis=0) if np.any(owner == k) else centres[k]
+                for k in range(n)
+            ],
             dtype=np.float32,
         )
     owner = np.argmin(((px[:, None, :] - centres[None, :, :]) ** 2).sum(-1), axis=1)
@@ -270,7 +277,7 @@ def _kmeans(px: NDArray[np.float32], n: int) -> NDArray[np.float32]:
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 20, 0.5)
     # A fixed seed keeps detections deterministic frame to frame.
     cv2.setRNGSeed(12345)
-    _, _, centres = cv2.kmeans(px, n, None, criteria, 3, cv2.KMEANS_PP_CENTERS)
+    _, _, centres = cv2.kmeans(px, n, None, criteria, 2, cv2.KMEANS_PP_CENTERS)
     return centres.astype(np.float32)
 
 

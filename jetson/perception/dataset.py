@@ -23,6 +23,7 @@ a model validated on a blurred copy of a training image would be measured on wha
 
 from __future__ import annotations
 
+import hashlib
 import json
 import zlib
 from dataclasses import dataclass
@@ -117,6 +118,11 @@ def holdout_names(names: list[str], fraction: float, seed: int = 0) -> set[str]:
         if h < cut:
             out.add(name)
     return out
+
+
+def fingerprint(names: list[str]) -> str:
+    """A short hash of a folder's image names: the same folder on any machine, at any path."""
+    return hashlib.sha1("\n".join(sorted(names)).encode()).hexdigest()[:16]
 
 
 class RingDataset:

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from jetson.perception.dataset import RingDataset, holdout_names
+from jetson.perception.dataset import RingDataset, fingerprint, holdout_names
 from jetson.perception.detection import Detection, iou_matrix
 from jetson.perception.errors import DatasetError
 from jetson.perception.frame import Frame, Intrinsics
@@ -146,17 +146,19 @@ def score_dataset(
 
 def heldout_of(model_meta: dict[str, object] | None, folder: Path) -> set[str] | None:
     """The images of `folder` that a model held out of its training, or None when the model
-    never trained on that folder. A model's score on images it trained on means little."""
+    never trained on that folder. A model's score on images it trained on means little.
+
+    Folders are recognised by their image names (dataset.fingerprint), wherever they are."""
     if not model_meta or not isinstance(model_meta.get("holdout"), dict):
         return None
     h = model_meta["holdout"]
     assert isinstance(h, dict)
-    if str(Path(folder).resolve()) not in h.get("folders", []):
+    names = RingDataset(folder).names
+    if fingerprint(names) not in h.get("fingerprints", []):
         return None
-    return holdout_names(RingDataset(folder).names, float(h["fraction"]), int(h["seed"]))
+    return holdout_names(names, float(h["fraction"]), int(h["seed"]))
 
 
 def trained_on(model_meta: dict[str, object] | None, folder: Path) -> bool:
-    training = (model_meta or {}).get("training")
-    data = training.get("data", []) if isinstance(training, dict) else []
-    return str(Path(folder).resolve()) in {str(Path(p).resolve()) for p in data}
+    prints = (model_meta or {}).get("data_fingerprints", [])
+    return isinstance(prints, list) and fingerprint(RingDataset(folder).names) in prints

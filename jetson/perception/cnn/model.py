@@ -12,6 +12,7 @@ the Jetson's decoding (cnn/runtime.py) is a threshold and a gather in numpy.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import torch
@@ -83,8 +84,16 @@ def export_onnx(net: RingNet, path: Path, height: int = 240, width: int = 320) -
     wrapper = ExportWrapper(net).eval()
     dummy = torch.zeros(1, 3, height, width)
     path.parent.mkdir(parents=True, exist_ok=True)
+    with warnings.catch_warnings():
+        # The legacy exporter is deliberate (see dynamo=False); its deprecation notice is noise.
+        warnings.simplefilter("ignore", DeprecationWarning)
+        _export(wrapper, dummy, path)
+    net.train(was_training)
+
+
+def _export(module: nn.Module, dummy: torch.Tensor, path: Path) -> None:
     torch.onnx.export(
-        wrapper,
+        module,
         (dummy,),
         str(path),
         input_names=["rgb"],
@@ -97,4 +106,3 @@ def export_onnx(net: RingNet, path: Path, height: int = 240, width: int = 320) -
         opset_version=17,
         dynamo=False,  # the TorchScript exporter needs no onnxscript (REFERENCE section 7)
     )
-    net.train(was_training)

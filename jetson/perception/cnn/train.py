@@ -29,7 +29,7 @@ from jetson.perception.camera import CameraMount
 from jetson.perception.cnn.augment import AugmentConfig, augment
 from jetson.perception.cnn.model import STRIDE, RingNet, export_onnx
 from jetson.perception.cnn.runtime import MODEL_FORMAT, MODEL_VERSION, CnnDetector, metadata_path
-from jetson.perception.dataset import RingDataset, holdout_names
+from jetson.perception.dataset import RingDataset, fingerprint, holdout_names
 from jetson.perception.errors import DatasetError
 from jetson.perception.evaluate import Counts, match
 from jetson.perception.frame import Intrinsics
@@ -247,11 +247,13 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
     }
     meta["training"]["data"] = [str(p) for p in cfg.data]  # type: ignore[index]
     meta["training"]["val_data"] = [str(p) for p in cfg.val_data]  # type: ignore[index]
+    prints = [fingerprint(RingDataset(p).names) for p in cfg.data]
+    meta["data_fingerprints"] = prints
     if cfg.holdout > 0:
         meta["holdout"] = {
             "fraction": cfg.holdout,
             "seed": cfg.holdout_seed,
-            "folders": [str(Path(p).resolve()) for p in cfg.data],
+            "fingerprints": prints,
         }
     metadata_path(out).write_text(json.dumps(meta, indent=2) + "\n")
     detector = CnnDetector(out)
