@@ -25,6 +25,7 @@ PettingZoo environments, PPO self-play training and evaluation.
   pete-sim play            one match as a top-down GIF with a score overlay + reward plots
   pete-sim match           the whole robot stack (Brain core, wire, Jetson daemon) on the
                            simulated field, or --stack sim: summary, replay GIF, plots
+  pete-sim dataset         labelled camera frames as a perception dataset folder
 
 Players for eval/play: a policy.onnx, a checkpoint .pt, a run folder, original:PATH (the
 original team's ONNX), planner, planner-nearest, scripted, random, idle (and none as opponent).
@@ -200,6 +201,49 @@ def _add_match(sub: argparse._SubParsersAction) -> None:
     add_match_command(sub)
 
 
+def _add_dataset(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "dataset",
+        help="render labelled camera frames as a perception dataset folder",
+        description="Render N camera frames from seeded random robot poses, ring layouts, "
+        "lighting and colours, and write images/, YOLO labels/, depth/ (uint16 mm), truth/ "
+        "(ring positions in the robot frame), dataset.json and frames.jsonl: the folder "
+        "`pete-jetson detector train --data` and `detector eval --images` read.",
+    )
+    p.add_argument("--frames", type=int, required=True, help="how many frames")
+    p.add_argument("--out", type=Path, required=True, help="an empty or new folder")
+    p.add_argument("--seed", type=int, default=0, help="frame k is drawn from (seed, k)")
+    p.add_argument("--width", type=int, default=640)
+    p.add_argument("--height", type=int, default=480)
+    p.add_argument("--robots", default="15in,24in", help="observing robots, comma-separated (both)")
+    p.add_argument("--no-augment", action="store_true", help="no blur or noise on the images")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_dataset)
+
+
+def _cmd_dataset(args: argparse.Namespace) -> int:
+    from jetson.perception.errors import DatasetError
+    from sim.config import ConfigError
+    from sim.dataset import DatasetConfig, write_dataset
+
+    try:
+        robots = tuple(n.strip() for n in args.robots.split(",") if n.strip())
+        cfg = DatasetConfig(
+            frames=args.frames,
+            seed=args.seed,
+            width=args.width,
+            height=args.height,
+            robots=robots,
+            augment=not args.no_augment,
+        )
+        labels = write_dataset(cfg, args.out, progress=not args.no_progress)
+    except (ConfigError, OSError, DatasetError) as e:
+        print(f"pete-sim dataset: {e}", file=sys.stderr)
+        return 2
+    print(f"wrote {cfg.frames} frames, {labels} labelled rings to {args.out}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="pete-sim",
@@ -277,6 +321,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_match_options(p)
     p.set_defaults(func=_cmd_play)
     _add_match(sub)
+    _add_dataset(sub)
     return parser
 
 
