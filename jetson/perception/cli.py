@@ -146,6 +146,12 @@ def cmd_eval(args: argparse.Namespace) -> int:
     if dataset.meta is not None and "mount" in dataset.meta and not args.camera:
         camera = CameraConfig(camera.intrinsics, CameraMount.from_dict(dataset.meta["mount"]))
         known_camera = True
+    elif dataset.meta is not None and dataset.meta.get("mounts") and not args.camera:
+        # A simulator folder with several robots: the first robot's mount sets the detector's
+        # ring-size prior; localisation uses each frame's own mount (frames.jsonl).
+        first = next(iter(dataset.meta["mounts"].values()))
+        camera = CameraConfig(camera.intrinsics, CameraMount.from_dict(first))
+        known_camera = True
     pipeline = _pipeline(args, camera)
     if not known_camera and isinstance(pipeline.detector, ClassicalDetector):
         # Photos from an unknown camera: the ring-size prior of the robot's mount would mislead.

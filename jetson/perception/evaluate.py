@@ -3,16 +3,19 @@
 from __future__ import annotations
 
 import itertools
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
+from jetson.perception.camera import CameraConfig, CameraMount
 from jetson.perception.dataset import RingDataset, fingerprint, holdout_names
 from jetson.perception.detection import Detection, iou_matrix
 from jetson.perception.errors import DatasetError
 from jetson.perception.frame import Frame, Intrinsics
+from jetson.perception.localise import Localiser
 from jetson.perception.pipeline import Pipeline
 
 
@@ -100,6 +103,24 @@ class DatasetScore:
         return out
 
 
+def frame_mounts(root: Path) -> dict[str, CameraMount]:
+    """Per-frame camera mounts from a `pete-sim dataset` folder's frames.jsonl (empty if none)."""
+    path = Path(root) / "frames.jsonl"
+    if not path.exists():
+        return {}
+    mounts: dict[str, CameraMount] = {}
+    for n, line in enumerate(path.read_text().splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            entry = json.loads(line)
+            if "mount" in entry:
+                mounts[str(entry["name"])] = CameraMount.from_dict(entry["mount"])
+        except (ValueError, KeyError, TypeError) as exc:
+            raise DatasetError(f"{path}:{n}: not a frame entry ({exc})") from None
+    return mounts
+
+
 def score_dataset(
     pipeline: Pipeline,
     dataset: RingDataset,
@@ -115,6 +136,8 @@ def score_dataset(
     intr = None
     if dataset.meta is not None and "intrinsics" in dataset.meta:
         intr = Intrinsics.from_dict(dataset.meta["intrinsics"])
+    mounts = frame_mounts(dataset.root)
+    localisers: dict[CameraMount, Localiser] = {}
     for i in range(n):
         img = dataset.image(i)
         h, w = img.shape[:2]
@@ -123,7 +146,17 @@ def score_dataset(
         if (frame_intr.width, frame_intr.height) != (w, h):
             frame_intr = frame_intr.scaled(w, h)
         frame = Frame(img, dataset.depth(i), frame_intr, 0.0, i)
-        result = pipeline.process(frame)
+        mount = mounts.get(dataset.samples[i].name)
+        if mount is None:
+            result = pipeline.process(frame)
+        else:
+            # A simulator folder mixes robots whose cameras sit differently: place each frame's
+            # rings from its own robot's mount, or the errors measure the mount, not perception.
+            if mount not in localisers:
+                localisers[mount] = Localiser(
+                    CameraConfig(pipeline.camera.intrinsics, mount), pipeline.localiser.config
+                )
+            result = pipeline.process(frame, localiser=localisers[mount])
         pairs = match(result.detections, truth, iou_threshold)
         counts.add(len(result.detections), len(truth), len(pairs))
         true_xy = dataset.truth(i)

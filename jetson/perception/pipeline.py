@@ -73,7 +73,9 @@ class Pipeline:
         self.prefilter = prefilter_config or PrefilterConfig(enabled=False)
         self.localiser = Localiser(self.camera, localiser_config)
 
-    def process(self, frame: Frame) -> Result:
+    def process(self, frame: Frame, localiser: Localiser | None = None) -> Result:
+        """Detect and place the rings of one frame; `localiser` overrides the pipeline's own
+        (a frame taken from another camera mount)."""
         t0 = time.perf_counter()
         image = frame.color
         if self.prefilter.enabled:
@@ -84,7 +86,7 @@ class Pipeline:
         t1 = time.perf_counter()
         dets = self.detector.detect(image, frame.depth_m, mask)
         t2 = time.perf_counter()
-        rings = self.localiser.localise(dets, frame.depth_m, mask, frame.intrinsics)
+        rings = (localiser or self.localiser).localise(dets, frame.depth_m, mask, frame.intrinsics)
         t3 = time.perf_counter()
         return Result(
             dets,
