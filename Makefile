@@ -75,8 +75,9 @@ format: venv  ## apply ruff's formatting and fixable lints
 test: venv build check firmware-check  ## everything: lint, C++ build, firmware check, all tests
 	$(BIN)/pytest
 
-demo: venv build  ## the most complete thing the project can do so far
+demo: venv build  ## one full-stack match: Brain core + wire + Jetson daemon on the simulated field
 	$(BIN)/python -m protocol.demo --tool $(BUILD)/bin/pete_codec_tool
+	$(BIN)/pete-sim match --stack full --seed 0 --brain-host $(BUILD)/bin/brain_host --out runs/demo
 
 bench: venv build  ## run every benchmark; results land in bench/results/
 	@for b in bench/*.py; do \

@@ -91,7 +91,7 @@ def test_schema_mismatch(policy: Path, tmp_path: Path) -> None:
 
 def test_camera_stops(policy: Path, tmp_path: Path) -> None:
     r = play(policy, tmp_path, "camera-stops")
-    # Frames at 0, 0.2 ... 0.8 s were perceived; the 1.0 s one was in flight when it stopped.
-    assert r.perception["frames"] == 5 and r.perception["frames_sent"] == 6
+    # Frames at 0, 0.1 ... 0.9 s were perceived; the 1.0 s one was in flight when it stopped.
+    assert r.perception["frames"] == 10 and r.perception["frames_sent"] == 11
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["passed"] is True

@@ -58,11 +58,9 @@ def add_match_command(sub: argparse._SubParsersAction) -> None:
         help="a robot without an intake ring counter (the State says 255; the daemon assumes 0)",
     )
     p.add_argument(
-        "--camera-size", type=_size, default=(320, 240), help="rendered frames (default 320x240)"
+        "--camera-size", type=_size, default=(240, 180), help="rendered frames (default 240x180)"
     )
-    p.add_argument(
-        "--camera-hz", type=float, default=5.0, help="frames per second (default 5: 200 ms)"
-    )
+    p.add_argument("--camera-hz", type=float, default=10.0, help="frames per second (default 10)")
     p.add_argument(
         "--detector",
         choices=("auto", "cnn", "classical"),

@@ -325,7 +325,8 @@ def plot(
     t = np.array([s.t_s for s in samples])
     fig, axes = plt.subplots(5, 1, figsize=(9, 12), sharex=False)
     ax = axes[0]
-    ax.plot(t, [s.rings for s in samples], label="rings (ours)")
+    ax.plot(t, [s.rings for s in samples], label="rings collected (ours)")
+    ax.plot(t, [s.held for s in samples], ":", label="rings held (ours)")
     ax.plot(t, [s.score for s in samples], label="score (ours)")
     ax.plot(t, [s.opponent_rings for s in samples], "--", label="rings (opponent)")
     ax.plot(t, [s.opponent_score for s in samples], "--", label="score (opponent)")
