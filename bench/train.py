@@ -1,12 +1,13 @@
 """Benchmark of training and of the shipped policy (issue 5), deterministic evaluation only.
 
-    python -m bench.train [--config default] [--policy models/policy/policy.onnx]
+    python -m bench.train [--config capped] [--policy models/policy/policy.onnx]
                           [--original PATH] [--matches 100] [--matches-h2h 40]
-                          [--matches-high 6] [--skip-competence] [--skip-high]
+                          [--matches-high 4] [--skip-competence] [--skip-high] [--jobs 2]
 
 Three measurements, each with the random policy beside it (so a metric met by chance shows):
 
-competence  (the report's task, 10-ring cap) train the config from scratch and, every
+competence  (the report's task, 10-ring cap) train the config (sim/configs/capped.toml: our
+            settings on the report's task) from scratch and, every
             --eval-every steps, play 20 deterministic matches against the planner on seeds
             training never draws; competence = our robot fills all 10 rings in all 20 with a
             median fill time within 20 % of the planner's in the same matches. Reported: env
@@ -174,14 +175,14 @@ def parallel_eval(
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--config", default="default")
+    parser.add_argument("--config", default="capped", help="trained for competence")
     parser.add_argument("--policy", type=Path, default=DEFAULT_POLICY)
     parser.add_argument("--original", type=Path, default=DEFAULT_ORIGINAL)
     parser.add_argument("--matches", type=int, default=100, help="strength matches per player")
     parser.add_argument("--matches-h2h", type=int, default=40, help="head-to-head matches")
-    parser.add_argument("--matches-high", type=int, default=6, help="per row, high fidelity")
+    parser.add_argument("--matches-high", type=int, default=4, help="per row, high fidelity")
     parser.add_argument("--eval-every", type=int, default=10_240)
-    parser.add_argument("--competence-max-steps", type=int, default=400_000)
+    parser.add_argument("--competence-max-steps", type=int, default=200_000)
     parser.add_argument("--run-dir", type=Path, default=REPO / "runs" / "bench-competence")
     parser.add_argument("--skip-competence", action="store_true")
     parser.add_argument("--skip-high", action="store_true")
@@ -197,8 +198,12 @@ def main(argv: list[str] | None = None) -> int:
         comp = run_competence(args.config, args.eval_every, args.competence_max_steps, args.run_dir)
         details["competence"] = comp
         found = comp["found"]
-        result.add("competence_env_steps", found.get("step", -1.0))
-        result.add("competence_train_wall_s", round(found.get("wall_s", -1.0), 1))
+        last = comp["log"][-1] if comp["log"] else {"step": 0.0, "train_wall_s": 0.0}
+        # Not reached: the steps and time spent without reaching it (a lower bound).
+        result.add("competence_reached", 1.0 if found else 0.0)
+        result.add("competence_env_steps", found.get("step", last["step"]))
+        result.add("competence_train_wall_s", round(found.get("wall_s", last["train_wall_s"]), 1))
+        result.target("competence_reached", 1.0, ">=")
         result.target("competence_env_steps", 50_000, "<=")
         result.target("competence_train_wall_s", 180.0, "<=")
         result.add("competence_eval_overhead_s", round(comp["eval_s"], 1))

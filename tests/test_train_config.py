@@ -68,3 +68,28 @@ def test_opponent_shares_become_slots() -> None:
     assert Counter(slots) == {"pool": 12, "planner": 4}
     # Each worker gets the same mix.
     assert Counter(slots[:8]) == Counter(slots[8:]) == {"pool": 6, "planner": 2}
+
+
+def test_phases_apply_in_order_and_may_not_resize_buffers() -> None:
+    base = {
+        "rollout": {"workers": 0, "envs_per_worker": 4},
+        "opponents": {"pool": 1.0},
+        "phases": [
+            {"from_step": 100, "rollout": {"short_share": 0.5}, "env": {"reward": {"score": 0.2}}},
+            {"from_step": 200, "opponents": {"idle": 1.0}, "env": {"reward": {"ring": 2.0}}},
+        ],
+    }
+    cfg = parse_config(base)
+    assert [cfg.phase_index(s) for s in (0, 99, 100, 199, 200)] == [0, 0, 1, 1, 2]
+    late = cfg.at_step(250)
+    assert late.rollout.short_share == 0.5, "phases accumulate"
+    assert late.env_config().reward.score == 0.2 and late.env_config().reward.ring == 2.0
+    assert late.opponents == {"idle": 1.0} and late.phases == ()
+    assert cfg.at_step(0).env_config().reward.score == 0.0
+    default = load_config("default")
+    assert default.at_step(0).env_config().world.robots["15in"].ring_capacity is None
+    assert default.at_step(2_000_000).env_config().world.robots["15in"].ring_capacity == 10
+    with pytest.raises(ConfigError, match="may set only"):
+        parse_config({**base, "phases": [{"from_step": 10, "rollout": {"workers": 3}}]})
+    with pytest.raises(ConfigError, match="from_step"):
+        parse_config({**base, "phases": [{"from_step": 10}, {"from_step": 5}]})

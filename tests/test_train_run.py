@@ -125,3 +125,22 @@ def test_short_matches_go_to_an_even_share_of_slots() -> None:
     assert limits.count(240) == 8 and limits.count(None) == 8
     assert limits[:8] == limits[8:], "the same on every worker"
     assert RolloutConfig().slot_limit(3) is None
+
+
+def test_a_curriculum_phase_changes_the_matches_mid_run(tmp_path: Path) -> None:
+    data = {
+        **EASY,
+        "total_steps": 1024,
+        "env": {**EASY["env"], "max_steps": 40},
+        "rollout": {"workers": 0, "envs_per_worker": 4, "steps_per_env": 64},
+        "opponents": {"none": 1.0},
+        "phases": [{"from_step": 500, "opponents": {"idle": 1.0}}],
+    }
+    kinds: list[set[str]] = []
+
+    def record(p: Progress) -> bool:
+        kinds.append({e.kind for e in p.episodes})
+        return False
+
+    train(parse_config(data), tmp_path / "run", progress=False, callback=record, export=False)
+    assert kinds[0] == {"none"} and kinds[-1] == {"idle"}

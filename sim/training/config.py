@@ -12,6 +12,9 @@
     [opponents]                    # share of the matches per opponent kind; pool = self-play
     pool = 1.0
     [evaluation]                   # periodic deterministic evaluation (EvalConfig)
+    [[phases]]                     # optional curriculum: from_step = N, then [phases.env],
+                                   # [phases.rollout] (short_share, short_steps, learner_side),
+                                   # [phases.opponents], applied on top of what came before
 
 Unknown keys are errors naming the key. TOML has no null: in [env], the string "none" means
 None (ring_cap = "none" counts every ring). `load_config` returns the TrainConfig and the resolved
@@ -39,7 +42,8 @@ class EvalConfig:
     """Deterministic evaluation during training, on seeds training never draws.
 
     every_steps = 0 turns it off. The best checkpoint (best.pt) is the one with the highest
-    `fill rate, then shortest median fill time` against `opponent` in the capped scenario.
+    win rate + fill rate - 0.01 x median fill time (s) against `opponent` in the capped
+    scenario (sim.training.trainer.quality).
     """
 
     every_steps: int = 0
@@ -69,6 +73,9 @@ class TrainConfig:
     selfplay: SelfPlayConfig = field(default_factory=SelfPlayConfig)
     opponents: dict[str, float] = field(default_factory=lambda: {"pool": 1.0})
     evaluation: EvalConfig = field(default_factory=EvalConfig)
+    # A curriculum: from `from_step` on, [env] / [rollout] / [opponents] change (each phase
+    # applies on top of the ones before it). See at_step().
+    phases: tuple[dict[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
         if self.total_steps < 1 or self.checkpoint_steps < 1 or self.keep_checkpoints < 1:
@@ -80,6 +87,40 @@ class TrainConfig:
         if any(v < 0 for v in self.opponents.values()) or sum(self.opponents.values()) <= 0:
             raise ConfigError("opponents: shares must be >= 0 and not all zero")
         self.env_config()  # fail on a bad env table now, not in a worker
+        last = 0
+        for k, phase in enumerate(self.phases):
+            unknown = sorted(set(phase) - {"from_step", "env", "rollout", "opponents"})
+            if unknown:
+                raise ConfigError(f"phases[{k}]: unknown keys {unknown}")
+            start = phase.get("from_step")
+            if not isinstance(start, int) or start <= last:
+                raise ConfigError(f"phases[{k}].from_step must be an integer above {last}")
+            last = start
+            fixed = set(phase.get("rollout", {})) - _PHASE_ROLLOUT
+            if fixed:
+                # The buffers are sized once: only how matches are played may change.
+                raise ConfigError(f"phases[{k}].rollout may set only {sorted(_PHASE_ROLLOUT)}")
+        if self.phases:
+            self.at_step(self.phases[-1]["from_step"])
+
+    def at_step(self, step: int) -> TrainConfig:
+        """The config in force at learner step `step`: the base with every phase that has
+        started merged in order (no phases left in the result)."""
+        env = dict(self.env)
+        rollout = self.rollout
+        opponents = dict(self.opponents)
+        for k, phase in enumerate(self.phases):
+            if phase["from_step"] > step:
+                break
+            env = _deep_merge(env, phase.get("env", {}))
+            rollout = merge(rollout, phase.get("rollout"), f"phases[{k}].rollout")
+            if "opponents" in phase:
+                opponents = {str(n): float(v) for n, v in phase["opponents"].items()}
+        return replace(self, env=env, rollout=rollout, opponents=opponents, phases=())
+
+    def phase_index(self, step: int) -> int:
+        """0 before the first phase, k after phases[k - 1] has started."""
+        return sum(1 for p in self.phases if p["from_step"] <= step)
 
     def env_config(self) -> EnvConfig:
         return make_config(_nones(self.env))
@@ -101,6 +142,18 @@ class TrainConfig:
 
     def to_dict(self) -> dict[str, Any]:
         return _plain(asdict(self))
+
+
+_PHASE_ROLLOUT = {"short_share", "short_steps", "learner_side"}
+
+
+def _deep_merge(base: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for k, v in extra.items():
+        out[k] = (
+            _deep_merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+        )
+    return out
 
 
 def _nones(value: Any) -> Any:
@@ -130,11 +183,14 @@ def parse_config(data: dict[str, Any], where: str = "config") -> TrainConfig:
     opponents = data.pop("opponents", None)
     if opponents is not None and not isinstance(opponents, dict):
         raise ConfigError(f"{where}: [opponents] must be a table")
+    phases = data.pop("phases", [])
+    if not isinstance(phases, list) or not all(isinstance(p, dict) for p in phases):
+        raise ConfigError(f"{where}: phases must be an array of tables ([[phases]])")
     try:
         cfg = merge(TrainConfig(), data, where)
         if opponents is not None:
             cfg = replace(cfg, opponents={str(k): float(v) for k, v in opponents.items()})
-        return replace(cfg, env=env)
+        return replace(cfg, env=env, phases=tuple(phases))
     except (TypeError, ValueError) as e:
         if isinstance(e, ConfigError):
             raise

@@ -72,6 +72,12 @@ def plot_history(run_dir: Path, out: Path) -> Path:
     ax2.plot(*_smooth(x, y), color="tab:gray", alpha=0.6, label="steps/s")
     ax2.set_ylabel("steps/s (2 workers)", color="tab:gray")
 
+    # Curriculum phases (config.json) as dotted lines: the game changes there.
+    config = run_dir / "config.json"
+    if config.is_file():
+        for phase in json.loads(config.read_text()).get("phases", []):
+            for a in axes:
+                a.axvline(phase["from_step"] / 1e6, color="black", linestyle=":", alpha=0.5)
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=80)

@@ -131,6 +131,10 @@ class _Run:
         self.ckpt_dir = run_dir / "checkpoints"
         self.spec = observation_spec(cfg)
         self.env = replace(cfg.env_config(), observation=self.spec)
+        for phase in cfg.phases:  # a curriculum may change the game, never the observation
+            later = observation_spec(cfg.at_step(phase["from_step"]))
+            if later.fingerprint() != self.spec.fingerprint():
+                raise ValueError(f"phase from step {phase['from_step']} changes the observation")
         torch.manual_seed(cfg.seed)
         self.gen = torch.Generator().manual_seed(cfg.seed)
         self.agent = build_agent(cfg, self.spec)
@@ -152,6 +156,13 @@ class _Run:
             self.pool.start(0, _weights(self.agent))
         self.kinds = cfg.opponent_slots()
         self.opponents: dict[int, Agent] = {}
+
+    def enter_phase(self, step: int) -> TrainConfig:
+        """The config in force at `step`: the env and opponent kinds it plays."""
+        current = self.cfg.at_step(step)
+        self.env = replace(current.env_config(), observation=self.spec)
+        self.kinds = current.opponent_slots()
+        return current
 
     # --- checkpoints ------------------------------------------------------------------------
 
@@ -297,8 +308,16 @@ def train(
     size = run.spec.size
     action_size = run.env.action_size
     writer = SummaryWriter(str(run_dir / "tb"))
-    # A resumed run draws new matches: the seed stream continues from the start count.
-    vec = VecMatches(run.env, r, seed=cfg.seed * 1_000 + run.starts)
+    phase = cfg.phase_index(run.step)
+    phase_cfg = run.enter_phase(run.step)
+
+    def open_matches() -> VecMatches:
+        # A resumed run (or a new phase) draws new matches: the seed stream moves on.
+        return VecMatches(
+            run.env, phase_cfg.rollout, seed=cfg.seed * 1_000 + run.starts + 100 * phase
+        )
+
+    vec = open_matches()
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     history: list[dict[str, float]] = []
@@ -330,6 +349,21 @@ def train(
         done_buf = np.zeros((steps_per_env, n), bool)
         val_buf = np.zeros((steps_per_env, n), np.float32)
         while run.step < cfg.total_steps:
+            if cfg.phase_index(run.step) != phase:
+                vec.close()
+                phase = cfg.phase_index(run.step)
+                phase_cfg = run.enter_phase(run.step)
+                writer.add_text("phase", json.dumps(cfg.phases[phase - 1]), run.step)
+                vec = open_matches()
+                assert run.pool.current is not None
+                active = [
+                    ("policy", run.pool.current.id) if k == POOL else (k, -1) for k in run.kinds
+                ]
+                vec.set_kinds(active)
+                pending = list(active)
+                first = vec.reset()
+                next_obs, opp_obs = first.learner_obs, first.opponent_obs
+                run.scaler.ret[:] = 0.0
             t0 = time.perf_counter()
             if p.anneal_lr:
                 frac = max(0.0, 1.0 - run.step / cfg.total_steps)
