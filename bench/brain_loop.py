@@ -20,12 +20,11 @@ worst step must take under 5 % of the loop period here.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 from typing import Any
 
-from bench.common import Result, run_json_tool
+from bench.common import Result, positive_number, run_json_tool
 
 ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_BENCH = ROOT / "build" / "host" / "bin" / "brain_loop_bench"
@@ -49,14 +48,7 @@ def run_bench(binary: Path, steps: int) -> dict[str, Any]:
         if not isinstance(scenario, dict) or scenario.get("steps") != steps:
             raise SystemExit(f"bench.brain_loop: scenario {name!r} missing or short: {scenario!r}")
         for key in STAT_KEYS:
-            value = scenario.get(key)
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, int | float)
-                or not math.isfinite(value)
-                or value <= 0
-            ):
-                raise SystemExit(f"bench.brain_loop: {name}.{key} = {value!r}")
+            positive_number("brain_loop", f"{name}.{key}", scenario.get(key))
         if not scenario["p50_us"] <= scenario["p99_us"] <= scenario["max_us"]:
             raise SystemExit(f"bench.brain_loop: {name} percentiles out of order: {scenario}")
     return data

@@ -202,3 +202,15 @@ def run_json_tool(bench: str, argv: list[str], timeout_s: float) -> dict[str, ob
     if not isinstance(data, dict):
         raise SystemExit(f"bench.{bench}: {binary} printed {type(data).__name__}, not an object")
     return data
+
+
+def positive_number(bench: str, what: str, value: object) -> float:
+    """`value` as a float if it is a finite number above zero, else exit naming its source."""
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not math.isfinite(value)
+        or value <= 0
+    ):
+        raise SystemExit(f"bench.{bench}: {what} = {value!r}")
+    return float(value)

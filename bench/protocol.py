@@ -11,14 +11,13 @@ come from pete_codec_bench, built by `make build`; this script never makes them 
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from bench.common import Result, median_ns, per_second, run_json_tool
+from bench.common import Result, median_ns, per_second, positive_number, run_json_tool
 from protocol import framing
 from protocol.messages import (
     FINGERPRINT,
@@ -223,15 +222,7 @@ def cpp_times(binary: Path) -> dict[str, float]:
     data = run_json_tool("protocol", [str(binary)], CPP_TIMEOUT_S)
     out = {}
     for key in CPP_KEYS:
-        value = data.get(key)
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, int | float)
-            or not math.isfinite(value)
-            or value <= 0
-        ):
-            raise SystemExit(f"bench.protocol: {binary} gave {key} = {value!r}")
-        out[key] = value
+        out[key] = positive_number("protocol", f"{binary} gave {key}", data.get(key))
     return out
 
 
