@@ -44,3 +44,12 @@ def test_non_numbers_are_refused(bad: object) -> None:
 def test_unknown_operator_is_refused() -> None:
     with pytest.raises(ValueError, match="op"):
         Result("x").target("m", 1, "==")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("bad", [0, -1.5, float("nan"), float("inf"), True, "3", None])
+def test_binary_numbers_must_be_positive_and_finite(bad: object) -> None:
+    from bench.common import positive_number
+
+    with pytest.raises(SystemExit, match="bench.x: p99 ="):
+        positive_number("x", "p99", bad)
+    assert positive_number("x", "p99", 2) == 2.0
