@@ -50,6 +50,6 @@ def test_unknown_operator_is_refused() -> None:
 def test_binary_numbers_must_be_positive_and_finite(bad: object) -> None:
     from bench.common import positive_number
 
-    with pytest.raises(SystemExit, match="bench.x: p99 ="):
+    with pytest.raises(SystemExit, match=r"bench\.x: p99 ="):
         positive_number("x", "p99", bad)
     assert positive_number("x", "p99", 2) == 2.0
