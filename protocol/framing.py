@@ -23,6 +23,7 @@ from typing import Any
 from cobs import cobs
 
 from protocol import messages as _default_codec
+from protocol.schema import INTEGER_RANGES
 
 HEADER_SIZE = 3
 CRC_SIZE = 2
@@ -407,16 +408,6 @@ def message_from_dict(
     return msg
 
 
-_RANGES = {
-    "u8": (0, 0xFF),
-    "u16": (0, 0xFFFF),
-    "u32": (0, 0xFFFFFFFF),
-    "i8": (-0x80, 0x7F),
-    "i16": (-0x8000, 0x7FFF),
-    "i32": (-0x80000000, 0x7FFFFFFF),
-}
-
-
 def _coerce(cls: type, info: Any, value: Any, codec: ModuleType) -> Any:
     where = f"{cls.NAME}.{info.name} ({info.type})"
     ftype = info.type
@@ -480,7 +471,7 @@ def _scalar(where: str, base: str, value: Any) -> Any:
         return float(value)
     if isinstance(value, bool) or not isinstance(value, int):
         raise ValueError(f"{where}: expected an integer")
-    lo, hi = _RANGES[base]
+    lo, hi = INTEGER_RANGES[base]
     if not lo <= value <= hi:
         raise ValueError(f"{where}: {value} is outside {lo}..{hi}")
     return value
