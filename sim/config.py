@@ -184,6 +184,8 @@ class RewardConfig:
     pin: to both robots when a pin is called (the episode then ends when end_on_pin);
     goal_end: per mobile goal counting for the alliance in its own zone at the end;
     opponent_side_end: ending the match on the opponent's half;
+    elevated_end: ending the match on the alliance's own platform (the report had no platform;
+    the score term rewards it too, but only while the robot stays, which a policy rarely finds);
     score: weight on the change of the alliance's match-score margin (0: off).
     """
 
@@ -192,6 +194,7 @@ class RewardConfig:
     pin: float = -5.0
     goal_end: float = 12.0
     opponent_side_end: float = -17.5
+    elevated_end: float = 0.0
     score: float = 0.0
     goal_zone: Literal["home", "half"] = "home"
 

@@ -18,7 +18,7 @@ from sim.geometry import Alliance, field_to_robot
 from sim.observation import FrameStack, ObservationSpec, RobotView, build_frame
 from sim.world import DriveCommand, StepEvents, World
 
-REWARD_COMPONENTS = ("rings", "pin", "goals_end", "side_end", "score")
+REWARD_COMPONENTS = ("rings", "pin", "goals_end", "side_end", "elevated_end", "score")
 
 
 @dataclass(frozen=True)
@@ -235,6 +235,8 @@ class MatchCore:
                 comp["goals_end"] = cfg.goal_end * self.goals_counting(r.alliance)
                 if self.on_opponent_side(r.index):
                     comp["side_end"] = cfg.opponent_side_end
+                if w.robot_elevated(r):
+                    comp["elevated_end"] = cfg.elevated_end
             for k, v in comp.items():
                 self.totals[r.index][k] += v
             obs = self.stacks[r.index].push(self.frame(r.index))

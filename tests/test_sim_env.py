@@ -13,6 +13,7 @@ from PIL import Image
 
 import sim.env
 from sim.config import ConfigError
+from sim.geometry import INCH
 from sim.match import EnvConfig, MatchCore, make_config
 from sim.parallel_env import parallel_env
 from sim.world import DriveCommand
@@ -26,7 +27,7 @@ def test_registered_and_passes_check_env() -> None:
         check_env(env.unwrapped, skip_render_check=False)
         obs, info = env.reset(seed=0)
         assert obs.shape == env.observation_space.shape
-        assert set(info["reward_components"]) == {"rings", "pin", "goals_end", "side_end", "score"}
+        assert set(info["reward_components"]) == {"rings", "pin", "goals_end", "side_end", "elevated_end", "score"}
     finally:
         env.close()
 
@@ -129,7 +130,7 @@ def test_ring_reward_is_capped_and_end_rewards_are_paid_once() -> None:
     w.place_robot(0, 0.4, 0.0, 90.0)  # faces the blue side, rings ahead
     for i in range(len(w.goals)):
         w.place_goal(i, -1.5 + 0.5 * i, 1.6)
-    totals = dict.fromkeys(("rings", "pin", "goals_end", "side_end", "score"), 0.0)
+    totals = dict.fromkeys(("rings", "pin", "goals_end", "side_end", "elevated_end", "score"), 0.0)
     ended = False
     n = 0
     while not ended:
@@ -241,3 +242,26 @@ def test_env_config_merges_nested_overrides() -> None:
         make_config(world={"robots": {"15in": {"wheels": 6}}})
     with pytest.raises(ConfigError, match="n_rings"):
         make_config(observation={"n_rings": 0})
+
+
+def test_ending_the_match_on_the_own_platform_earns_elevated_end() -> None:
+    def end_on(x: float) -> float:
+        cfg = make_config(
+            world={"blue": [], "interaction_s": 1.0},
+            reward={"elevated_end": 7.0},
+            obs_noise=False,
+            gps_noise=False,
+        )
+        core = MatchCore(cfg)
+        core.reset(np.random.default_rng(0))
+        core.world.place_robot(0, x, 0.0, 0.0)
+        total, ended = 0.0, False
+        while not ended:
+            results, ended, _ = core.step([DriveCommand(0.0, 0.0)])
+            total += results[0].components["elevated_end"]
+        core.close()
+        return total
+
+    assert end_on(-60 * INCH) == pytest.approx(7.0), "parked on red's platform"
+    assert end_on(60 * INCH) == 0.0, "blue's platform does not count for red"
+    assert end_on(0.0) == 0.0
