@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from jetson.policy import Policy
 from jetson.settings import ConfigError, DecisionConfig
 from protocol.messages import Alliance, GpsStatus, MatchPhase, State
-from sim.observation import FrameStack, RobotView, build_frame
+from sim.observation import FrameStack, RingMemory, RobotView, build_frame
 
 DEFAULT_DECISION_HZ = 12.0  # sim.config.WorldConfig.control_hz: what policies are trained at
 RINGS_UNKNOWN = 255  # State.rings_held when the Brain has no ring counter
@@ -82,6 +82,7 @@ class Decider:
     def reset(self) -> None:
         """Forget the history: a new connection or a new match."""
         self._stack: FrameStack | None = None
+        self._memory = RingMemory(self.spec)
         self._next_push_ms = 0.0
         self._phase: MatchPhase | None = None
         self._phase_ms = 0
@@ -100,6 +101,7 @@ class Decider:
             return stop(f"phase {phase.name.lower()}")
         if entering:
             self._stack = None
+            self._memory.reset()
         if state.alliance == Alliance.UNKNOWN:
             return stop("alliance unknown: set it in the Brain's config")
         if state.gps_status != GpsStatus.OK:
@@ -108,7 +110,7 @@ class Decider:
         if seen == "fresh" and perception is not None and perception.error is not None:
             return Decision(0.0, 0.0, False, "perception error", seen, 0, perception.error)
         try:
-            obs = self._observation(state, rings)
+            obs = self._observation(state, rings, fresh=seen == "fresh")
             action = np.asarray(self.policy(obs), dtype=np.float64).reshape(-1)
         except Exception as exc:
             return Decision(
@@ -135,7 +137,9 @@ class Decider:
         configured stand-in."""
         return self.config.rings_held if state.rings_held == RINGS_UNKNOWN else state.rings_held
 
-    def _observation(self, state: State, rings: NDArray[np.float64]) -> NDArray[np.float32]:
+    def _observation(
+        self, state: State, rings: NDArray[np.float64], fresh: bool = True
+    ) -> NDArray[np.float32]:
         t = state.phase_ms / 1000.0
         if state.phase == MatchPhase.DRIVER:
             t += self.config.driver_time_offset_s
@@ -148,6 +152,8 @@ class Decider:
             rings_robot_xy=rings,
             rings_held=self._rings_held(state),
         )
+        # Only a fresh camera frame may tell the memory that a ring is gone.
+        view = self._memory.observe(view) if fresh else self._memory.recall(view)
         frame = build_frame(self.spec, view)
         now_ms = float(state.time_ms)
         if self._stack is None:

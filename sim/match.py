@@ -15,7 +15,7 @@ import numpy as np
 
 from sim.config import ConfigError, RewardConfig, WorldConfig, merge
 from sim.geometry import Alliance, field_to_robot
-from sim.observation import FrameStack, ObservationSpec, RobotView, build_frame
+from sim.observation import FrameStack, ObservationSpec, RingMemory, RobotView, build_frame
 from sim.world import DriveCommand, StepEvents, World
 
 REWARD_COMPONENTS = ("rings", "pin", "goals_end", "side_end", "elevated_end", "score")
@@ -90,6 +90,15 @@ def default_spec(world: World) -> ObservationSpec:
     )
 
 
+def with_prior(spec: ObservationSpec, world: World) -> ObservationSpec:
+    """A ring-memory spec without a prior gets the field's starting layout (red's frame is the
+    field frame, and the layout is the same seen from either side)."""
+    if not spec.ring_memory or spec.prior_rings:
+        return spec
+    xy = np.round(world.field.ring_positions, 4)
+    return replace(spec, prior_rings=tuple((float(x), float(y)) for x, y in xy))
+
+
 @dataclass
 class RobotStep:
     """One robot's share of a control step."""
@@ -104,13 +113,16 @@ class MatchCore:
     def __init__(self, config: EnvConfig, world_config: WorldConfig | None = None, client=None):
         self.config = config
         self.world = World(world_config or config.world, client=client)
-        self.spec = config.observation or default_spec(self._probe_spec_world())
+        self.spec = with_prior(
+            config.observation or default_spec(self._probe_spec_world()), self.world
+        )
         if abs(self.spec.match_length_s - self.world.match_length_s) > 1e-9:
             raise ConfigError(
                 f"observation.match_length_s is {self.spec.match_length_s} but the match lasts "
                 f"{self.world.match_length_s} s (isolation + interaction); set them equal"
             )
         self.stacks: list[FrameStack] = []
+        self.memories: list[RingMemory] = []
         self.totals: list[dict[str, float]] = []
         self.pins: list[int] = []
         self.rng = np.random.default_rng(0)
@@ -161,6 +173,7 @@ class MatchCore:
         self.rng = rng
         self.world.reset(rng)
         self.stacks = [FrameStack(self.spec) for _ in self.world.robots]
+        self.memories = [RingMemory(self.spec) for _ in self.world.robots]
         self.totals = [dict.fromkeys(REWARD_COMPONENTS, 0.0) for _ in self.world.robots]
         self.pins = [0 for _ in self.world.robots]
         self.ended_by_pin = False
@@ -193,8 +206,11 @@ class MatchCore:
         )
 
     def frame(self, index: int) -> np.ndarray:
+        """The robot's observation frame now; call once per control step (it feeds the ring
+        memory)."""
         rng = self.rng if self.config.obs_noise else None
-        return build_frame(self.spec, self.view(index), rng)
+        view = self.memories[index].observe(self.view(index))
+        return build_frame(self.spec, view, rng)
 
     def _score_margin(self, alliance: Alliance) -> float:
         s = self.world.score()

@@ -17,6 +17,14 @@ One frame (version 1), with `n_other_robots` = R and `n_rings` = K:
                                        distance, / length_unit_m; ok = 1 for a ring, 0 for an
                                        empty slot (whose x, y are 0 and never get noise)
 
+Version 2 adds an optional ring memory (`ring_memory`): the ring slots then hold the K nearest
+rings the robot KNOWS about, not only those in view. The memory (RingMemory) starts from the
+field's starting layout (`prior_rings`, alliance frame, metres), takes every ring the camera
+reports, and forgets a remembered ring once the camera looks at its place and does not see it,
+or once the robot stands on it (collected or pushed away). ok is 1 for a ring in view now and
+0.5 for one remembered. This is the knowledge a team's route planner starts a match with; a
+policy that sees only the camera's cone has to learn the layout from its own pose.
+
 The observation is the current frame followed by the `n_stack` previous ones, newest first:
 obs[f * frame_size + i] is item i of the frame f control steps ago. At reset every slot holds the
 first frame. Defaults: K = 10, R = 0, n_stack = 10, so 36 values per frame and 396 in all.
@@ -37,15 +45,16 @@ import hashlib
 import json
 import math
 from collections import deque
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sim.geometry import Alliance, to_alliance_frame
+from sim.geometry import Alliance, field_to_robot, robot_to_field, to_alliance_frame
 
-SPEC_VERSION = 1
-SUPPORTED_VERSIONS = (1,)
+SPEC_VERSION = 2
+SUPPORTED_VERSIONS = (1, 2)
+SEEN, REMEMBERED = 1.0, 0.5  # a ring slot's ok value
 SCALARS = ("time", "x", "y", "cos_h", "sin_h", "held")
 SCALAR_MEANINGS = {
     "time": "elapsed match time / match_length_s, clipped to [0, 1]",
@@ -55,6 +64,17 @@ SCALAR_MEANINGS = {
     "sin_h": "sin(own heading in the alliance frame)",
     "held": "rings held / ring_capacity_norm",
 }
+
+
+_MEMORY_FIELDS = (
+    "ring_memory",
+    "prior_rings",
+    "memory_fov_deg",
+    "memory_near_m",
+    "memory_far_m",
+    "memory_merge_m",
+    "memory_forget_m",
+)
 
 
 class ObservationError(ValueError):
@@ -74,12 +94,37 @@ class ObservationSpec:
     ring_capacity_norm: int = 10
     position_noise_m: float = 0.1
     relative_noise: float = 0.1
+    # Version 2: the ring memory. The view cone is a little inside the camera's real one
+    # (hfov 55.5 deg, floor visible from ~0.45 m ahead of the robot's centre, 3 m range), so a
+    # ring at the cone's edge is never forgotten for flickering out of view.
+    ring_memory: bool = False
+    prior_rings: tuple[tuple[float, float], ...] = ()
+    memory_fov_deg: float = 50.0
+    memory_near_m: float = 0.55
+    memory_far_m: float = 2.6
+    memory_merge_m: float = 0.12
+    memory_forget_m: float = 0.25
 
     def __post_init__(self) -> None:
         if self.version not in SUPPORTED_VERSIONS:
             raise ObservationError(
                 f"observation spec version {self.version} is not supported "
                 f"(this code reads {SUPPORTED_VERSIONS})"
+            )
+        if self.version < 2 and self.ring_memory:
+            raise ObservationError("ring_memory needs observation spec version 2")
+        try:
+            prior = tuple((float(x), float(y)) for x, y in self.prior_rings)
+        except (TypeError, ValueError) as e:
+            raise ObservationError(f"prior_rings must be (x, y) pairs: {e}") from e
+        if not all(math.isfinite(v) for xy in prior for v in xy):
+            raise ObservationError("prior_rings must be finite")
+        object.__setattr__(self, "prior_rings", prior)
+        near, far = self.memory_near_m, self.memory_far_m
+        if not (0 < self.memory_fov_deg < 180 and 0 <= near < far and self.memory_merge_m > 0):
+            raise ObservationError(
+                "ring memory: memory_fov_deg in (0, 180), 0 <= memory_near_m < memory_far_m, "
+                "memory_merge_m > 0"
             )
         for name in ("n_rings", "n_other_robots", "n_stack"):
             value = getattr(self, name)
@@ -151,6 +196,8 @@ class ObservationSpec:
             for k, v in self.to_dict().items()
             if k not in ("position_noise_m", "relative_noise")
         }
+        if not self.ring_memory:  # without a memory its settings mean nothing (version 1 hashes)
+            layout = {k: v for k, v in layout.items() if k not in _MEMORY_FIELDS}
         blob = json.dumps(layout, sort_keys=True).encode()
         return hashlib.sha256(blob).hexdigest()[:16]
 
@@ -162,6 +209,8 @@ def _meaning(name: str) -> str:
     what = "nearest-first other robot" if kind.startswith("robot") else "nearest-first visible ring"
     slot = kind.removeprefix("robot").removeprefix("ring")
     if part == "ok":
+        if kind.startswith("ring"):
+            return f"1 if ring slot {slot} is in view, 0.5 if remembered (ring_memory), else 0"
         return f"1 if {what} slot {slot} is filled, else 0"
     axis = "right" if part == "x" else "forward"
     return f"{what} slot {slot}, robot-frame {axis} / length_unit_m (0 when empty)"
@@ -179,6 +228,8 @@ class RobotView:
     rings_robot_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
     rings_held: int = 0
     others_robot_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    # Rings known but not in view (RingMemory.recall), robot frame: slots with ok = 0.5.
+    rings_remembered_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
 
 
 def _as_points(value: ArrayLike, what: str) -> NDArray[np.float64]:
@@ -200,18 +251,20 @@ def _fill_slots(
     unit: float,
     relative_noise: float,
     rng: np.random.Generator | None,
+    ok: NDArray[np.float64] | None = None,
 ) -> None:
     if len(points) == 0:
         return
     d2 = np.einsum("ij,ij->i", points, points)
     count = min(n_slots, len(points))
     # argsort with a stable kind keeps equal-distance items in input order: deterministic.
-    nearest = points[np.argsort(d2, kind="stable")[:count]]
+    order = np.argsort(d2, kind="stable")[:count]
+    nearest = points[order]
     if rng is not None and relative_noise > 0:
         nearest = nearest * (1.0 + rng.uniform(-relative_noise, relative_noise, nearest.shape))
     block = out[offset : offset + 3 * count].reshape(count, 3)
     block[:, :2] = nearest / unit
-    block[:, 2] = 1.0
+    block[:, 2] = 1.0 if ok is None else ok[order]
 
 
 def build_frame(
@@ -226,6 +279,7 @@ def build_frame(
     if view.rings_held < 0:
         raise ObservationError(f"rings_held must be >= 0, got {view.rings_held}")
     rings = _as_points(view.rings_robot_xy, "rings_robot_xy")
+    remembered = _as_points(view.rings_remembered_xy, "rings_remembered_xy")
     others = _as_points(view.others_robot_xy, "others_robot_xy")
     unit = spec.length_unit_m
     out = np.zeros(spec.frame_size, dtype=np.float32)
@@ -241,8 +295,78 @@ def build_frame(
     out[4] = math.sin(h)
     out[5] = view.rings_held / spec.ring_capacity_norm
     _fill_slots(out, len(SCALARS), spec.n_other_robots, others, unit, spec.relative_noise, rng)
-    _fill_slots(out, spec.ring_offset, spec.n_rings, rings, unit, spec.relative_noise, rng)
+    ok = None
+    if len(remembered):
+        ok = np.concatenate([np.full(len(rings), SEEN), np.full(len(remembered), REMEMBERED)])
+        rings = np.concatenate([rings, remembered])
+    _fill_slots(out, spec.ring_offset, spec.n_rings, rings, unit, spec.relative_noise, rng, ok)
     return out
+
+
+class RingMemory:
+    """The rings a robot knows about, in its alliance frame (see the module docstring).
+
+    Fed the camera's rings every control step by observe(); both the simulator and the Jetson
+    keep one per robot when spec.ring_memory is on, so a policy sees the same memory on both.
+    """
+
+    def __init__(self, spec: ObservationSpec) -> None:
+        self.spec = spec
+        self.known = np.zeros((0, 2))
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to the field's starting layout: a new match."""
+        self.known = np.asarray(self.spec.prior_rings, dtype=np.float64).reshape(-1, 2)
+
+    def observe(self, view: RobotView) -> RobotView:
+        """Update the memory with the view's rings and return the view with the remembered
+        rings (known, not in view) added. Nothing changes for a spec without ring_memory."""
+        if not self.spec.ring_memory:
+            return view
+        s = self.spec
+        pos, heading = to_alliance_frame((view.x, view.y), view.heading_deg, view.alliance)
+        assert heading is not None
+        seen_local = _as_points(view.rings_robot_xy, "rings_robot_xy")
+        seen = robot_to_field(seen_local, pos, heading) if len(seen_local) else np.zeros((0, 2))
+        known = self.known
+        if len(known):
+            local = field_to_robot(known, pos, heading)
+            dist = np.hypot(local[:, 0], local[:, 1])
+            bearing = np.degrees(np.abs(np.arctan2(local[:, 0], local[:, 1])))
+            in_view = (bearing <= s.memory_fov_deg / 2) & (dist >= s.memory_near_m)
+            in_view &= dist <= s.memory_far_m
+            matched = np.zeros(len(known), dtype=bool)
+            if len(seen):
+                d = np.linalg.norm(known[:, None, :] - seen[None, :, :], axis=2)
+                matched = d.min(axis=1) <= s.memory_merge_m
+            # Under the robot: collected, or pushed somewhere the camera will show.
+            gone = (in_view & ~matched) | (dist <= s.memory_forget_m)
+            known = known[~gone]
+        if len(seen):
+            if len(known):
+                d = np.linalg.norm(seen[:, None, :] - known[None, :, :], axis=2)
+                stale = d.min(axis=0) <= s.memory_merge_m  # replaced by their fresh sighting
+                known = known[~stale]
+            known = np.concatenate([known, seen])
+        self.known = known
+        return self._with_remembered(view, known[: len(known) - len(seen)], pos, heading)
+
+    def recall(self, view: RobotView) -> RobotView:
+        """The view with every known ring as remembered, the memory unchanged: for a step with
+        no camera frame (no rings seen is not the same as no picture)."""
+        if not self.spec.ring_memory:
+            return view
+        pos, heading = to_alliance_frame((view.x, view.y), view.heading_deg, view.alliance)
+        assert heading is not None
+        return self._with_remembered(view, self.known, pos, heading)
+
+    @staticmethod
+    def _with_remembered(
+        view: RobotView, rings: NDArray[np.float64], pos: NDArray[np.float64], heading: float
+    ) -> RobotView:
+        remembered = field_to_robot(rings, pos, heading) if len(rings) else np.zeros((0, 2))
+        return replace(view, rings_remembered_xy=remembered)
 
 
 class FrameStack:

@@ -470,3 +470,25 @@ def test_the_summary_line_says_what_a_person_needs_first() -> None:
         " | no perception"
     )
     assert summary_line(Snapshot(**{**base, "link": "mismatch"})).startswith("SCHEMA MISMATCH")
+
+
+def test_a_ring_memory_policy_remembers_through_a_stale_camera_and_forgets_on_a_fresh_one() -> None:
+    # Red robot at (0.5, -0.5) facing +x: prior ring A 1 m ahead (in view), B 1 m behind.
+    spec = ObservationSpec(ring_memory=True, prior_rings=((1.5, -0.5), (-0.5, -0.5)), n_stack=0)
+    policy = ProbePolicy(spec)
+    policy.keep_observations = True
+    d = Decider(policy, DecisionConfig(perception_max_age_s=0.2))
+
+    def oks() -> list[float]:
+        obs = policy.observations[-1]
+        return sorted(obs[spec.ring_offset + 2 : spec.frame_size : 3].tolist(), reverse=True)
+
+    d.decide(state(0), None)  # no camera yet: both prior rings remembered
+    assert oks()[:3] == [0.5, 0.5, 0.0]
+    d.decide(state(20), rings(0, age_s=0.5))  # a stale empty picture proves nothing
+    assert oks()[:3] == [0.5, 0.5, 0.0]
+    d.decide(state(40), rings(0))  # a fresh picture without A: A is gone, B is still behind
+    assert oks()[:2] == [0.5, 0.0]
+    d.decide(state(60, phase=MatchPhase.DISABLED), None)
+    d.decide(state(80), None)  # a new match starts from the layout again
+    assert oks()[:3] == [0.5, 0.5, 0.0]

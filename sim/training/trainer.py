@@ -80,7 +80,9 @@ class TrainResult:
 
 def observation_spec(cfg: TrainConfig) -> ObservationSpec:
     env = cfg.env_config()
-    if env.observation is not None:
+    if env.observation is not None and not (
+        env.observation.ring_memory and not env.observation.prior_rings
+    ):
         return env.observation
     core = MatchCore(env)  # the default spec depends on the world (match length, capacity)
     try:

@@ -1,0 +1,125 @@
+"""The ring memory (observation spec version 2): what the robot knows beyond the camera's cone."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from sim.observation import (
+    REMEMBERED,
+    SEEN,
+    ObservationError,
+    ObservationSpec,
+    RingMemory,
+    RobotView,
+    build_frame,
+)
+
+# Three prior rings for a red robot at the origin facing +y (heading 0): one straight ahead in
+# view, one behind, one far to the right outside the cone.
+PRIOR = ((0.0, 1.0), (0.0, -1.0), (1.5, 0.2))
+SPEC = ObservationSpec(ring_memory=True, prior_rings=PRIOR, n_stack=0)
+
+
+def view(rings: list[tuple[float, float]] | None = None, **kw) -> RobotView:
+    base = dict(x=0.0, y=0.0, heading_deg=0.0, alliance="red", time_s=5.0)
+    base.update(kw)
+    xy = np.array(rings, dtype=np.float64).reshape(-1, 2) if rings else np.zeros((0, 2))
+    return RobotView(rings_robot_xy=xy, **base)  # type: ignore[arg-type]
+
+
+def slots(spec: ObservationSpec, v: RobotView) -> np.ndarray:
+    frame = build_frame(spec, v)
+    return frame[spec.ring_offset :].reshape(spec.n_rings, 3)
+
+
+def test_a_prior_ring_in_view_but_not_seen_is_forgotten_the_others_remembered() -> None:
+    mem = RingMemory(SPEC)
+    out = mem.observe(view())
+    np.testing.assert_allclose(mem.known, [(0.0, -1.0), (1.5, 0.2)])
+    s = slots(SPEC, out)
+    # Nearest first, both remembered (ok 0.5), in the robot frame / length unit.
+    np.testing.assert_allclose(s[0], [0.0, -1.0 / SPEC.length_unit_m, REMEMBERED], rtol=1e-6)
+    assert s[1, 2] == REMEMBERED and s[2, 2] == 0.0
+
+
+def test_a_seen_ring_replaces_its_remembered_place_and_is_flagged_seen() -> None:
+    mem = RingMemory(SPEC)
+    out = mem.observe(view([(0.05, 1.02)]))
+    assert len(mem.known) == 3, "the sighting moved the prior ring, it did not add one"
+    s = slots(SPEC, out)
+    seen = s[s[:, 2] == SEEN]
+    np.testing.assert_allclose(seen[0, :2] * SPEC.length_unit_m, [0.05, 1.02], rtol=1e-6)
+    assert (s[:, 2] == REMEMBERED).sum() == 2
+
+
+def test_a_new_ring_is_added_and_a_ring_under_the_robot_is_forgotten() -> None:
+    mem = RingMemory(SPEC)
+    mem.observe(view([(0.0, 1.0), (-0.8, 1.6)]))
+    assert len(mem.known) == 4
+    mem.observe(view([(-0.8, 0.6)], y=1.0))  # drove onto the first ring
+    assert not np.any(np.linalg.norm(mem.known - (0.0, 1.0), axis=1) < 0.1)
+
+
+def test_recall_changes_nothing_and_reset_brings_back_the_layout() -> None:
+    mem = RingMemory(SPEC)
+    out = mem.recall(view())
+    assert len(out.rings_remembered_xy) == 3 and len(mem.known) == 3
+    mem.observe(view())
+    assert len(mem.known) == 2
+    mem.reset()
+    assert len(mem.known) == 3
+
+
+def test_blue_sees_the_mirrored_memory() -> None:
+    red = RingMemory(SPEC).observe(view(x=0.3, y=-0.2, heading_deg=30.0))
+    blue = RingMemory(SPEC).observe(view(x=-0.3, y=0.2, heading_deg=210.0, alliance="blue"))
+    np.testing.assert_allclose(build_frame(SPEC, red), build_frame(SPEC, blue), atol=1e-6)
+
+
+def test_without_ring_memory_nothing_changes() -> None:
+    spec = ObservationSpec(n_stack=0)
+    v = view([(0.0, 1.0)])
+    assert RingMemory(spec).observe(v) is v
+
+
+def test_spec_checks_and_json_round_trip() -> None:
+    with pytest.raises(ObservationError, match="version 2"):
+        ObservationSpec(version=1, ring_memory=True)
+    with pytest.raises(ObservationError, match="prior_rings"):
+        ObservationSpec(prior_rings=((0.0,),))  # type: ignore[arg-type]
+    with pytest.raises(ObservationError, match="memory_fov_deg"):
+        ObservationSpec(memory_fov_deg=0.0)
+    again = ObservationSpec.from_dict(json.loads(json.dumps(SPEC.to_dict())))
+    assert again == SPEC and again.fingerprint() == SPEC.fingerprint()
+    moved = ObservationSpec(ring_memory=True, prior_rings=PRIOR[:2], n_stack=0)
+    assert moved.fingerprint() != SPEC.fingerprint(), "the prior is part of the meaning"
+
+
+def test_a_version_1_spec_keeps_its_fingerprint() -> None:
+    # The shipped policy's spec, as written in its policy.json before version 2 existed.
+    v1 = ObservationSpec(version=1, n_stack=2)
+    assert v1.fingerprint() == ObservationSpec.from_dict(
+        {k: v for k, v in v1.to_dict().items() if not k.startswith(("memory", "ring_m", "prior"))}
+    ).fingerprint()
+    assert ObservationSpec(version=1, n_stack=2, memory_far_m=2.0).fingerprint() == (
+        v1.fingerprint()
+    )
+
+
+def test_the_simulator_fills_the_prior_from_the_field_and_feeds_the_memory() -> None:
+    pytest.importorskip("pybullet")
+    from sim.match import MatchCore, make_config
+
+    cfg = make_config(
+        world={"blue": []}, observation={"ring_memory": True}, obs_noise=False, gps_noise=False
+    )
+    core = MatchCore(cfg)
+    assert len(core.spec.prior_rings) == 42
+    obs = core.reset(np.random.default_rng(0))[0]
+    s = obs[core.spec.ring_offset : core.spec.frame_size].reshape(core.spec.n_rings, 3)
+    assert set(s[:, 2].tolist()) <= {SEEN, REMEMBERED} and (s[:, 2] == REMEMBERED).any()
+    assert len(core.memories[0].known) <= 42
+    core.close()
