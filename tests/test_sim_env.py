@@ -14,7 +14,7 @@ from PIL import Image
 import sim.env
 from sim.config import ConfigError
 from sim.geometry import INCH
-from sim.match import EnvConfig, MatchCore, make_config
+from sim.match import REWARD_COMPONENTS, EnvConfig, MatchCore, make_config
 from sim.parallel_env import parallel_env
 from sim.world import DriveCommand
 
@@ -27,7 +27,10 @@ def test_registered_and_passes_check_env() -> None:
         check_env(env.unwrapped, skip_render_check=False)
         obs, info = env.reset(seed=0)
         assert obs.shape == env.observation_space.shape
-        assert set(info["reward_components"]) == {"rings", "pin", "goals_end", "side_end", "elevated_end", "score"}
+        assert set(info["reward_components"]) == set(REWARD_COMPONENTS)
+        assert set(REWARD_COMPONENTS) == {
+            "rings", "pin", "goals_end", "side_end", "elevated_end", "score"
+        }  # fmt: skip
     finally:
         env.close()
 

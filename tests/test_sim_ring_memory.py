@@ -101,9 +101,16 @@ def test_spec_checks_and_json_round_trip() -> None:
 def test_a_version_1_spec_keeps_its_fingerprint() -> None:
     # The shipped policy's spec, as written in its policy.json before version 2 existed.
     v1 = ObservationSpec(version=1, n_stack=2)
-    assert v1.fingerprint() == ObservationSpec.from_dict(
-        {k: v for k, v in v1.to_dict().items() if not k.startswith(("memory", "ring_m", "prior"))}
-    ).fingerprint()
+    assert (
+        v1.fingerprint()
+        == ObservationSpec.from_dict(
+            {
+                k: v
+                for k, v in v1.to_dict().items()
+                if not k.startswith(("memory", "ring_m", "prior"))
+            }
+        ).fingerprint()
+    )
     assert ObservationSpec(version=1, n_stack=2, memory_far_m=2.0).fingerprint() == (
         v1.fingerprint()
     )
