@@ -186,6 +186,9 @@ class RewardConfig:
     opponent_side_end: ending the match on the opponent's half;
     elevated_end: ending the match on the alliance's own platform (the report had no platform;
     the score term rewards it too, but only while the robot stays, which a policy rarely finds);
+    approach: per metre the front of the robot gets closer to the nearest ring on the floor
+    while it has room, a potential-based shaping (Ng et al. 1999: the sum over a match is the
+    potential's change, so it cannot be farmed and leaves the best policy the best);
     score: weight on the change of the alliance's match-score margin (0: off).
     """
 
@@ -195,6 +198,7 @@ class RewardConfig:
     goal_end: float = 12.0
     opponent_side_end: float = -17.5
     elevated_end: float = 0.0
+    approach: float = 0.0
     score: float = 0.0
     goal_zone: Literal["home", "half"] = "home"
 

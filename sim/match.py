@@ -14,11 +14,19 @@ from typing import Any, Literal
 import numpy as np
 
 from sim.config import ConfigError, RewardConfig, WorldConfig, merge
-from sim.geometry import Alliance, field_to_robot
+from sim.geometry import Alliance, field_to_robot, heading_vector
 from sim.observation import FrameStack, ObservationSpec, RingMemory, RobotView, build_frame
-from sim.world import DriveCommand, StepEvents, World
+from sim.world import RING_FLOOR, DriveCommand, StepEvents, World
 
-REWARD_COMPONENTS = ("rings", "pin", "goals_end", "side_end", "elevated_end", "score")
+REWARD_COMPONENTS = (
+    "rings",
+    "pin",
+    "goals_end",
+    "side_end",
+    "elevated_end",
+    "approach",
+    "score",
+)
 
 
 @dataclass(frozen=True)
@@ -178,6 +186,7 @@ class MatchCore:
         self.pins = [0 for _ in self.world.robots]
         self.ended_by_pin = False
         self._margin = [self._score_margin(r.alliance) for r in self.world.robots]
+        self._near = [self._ring_potential(i) for i in range(len(self.world.robots))]
         return [s.reset(self.frame(i)) for i, s in enumerate(self.stacks)]
 
     def view(self, index: int) -> RobotView:
@@ -243,6 +252,10 @@ class MatchCore:
             if r.index in pinned:
                 comp["pin"] = cfg.pin
                 self.pins[r.index] += 1
+            if cfg.approach:
+                near = self._ring_potential(r.index)
+                comp["approach"] = cfg.approach * (self._near[r.index] - near)
+                self._near[r.index] = near
             if cfg.score:
                 margin = self._score_margin(r.alliance)
                 comp["score"] = cfg.score * (margin - self._margin[r.index])
@@ -260,6 +273,19 @@ class MatchCore:
             info["reward_components"] = comp
             results.append(RobotStep(obs, float(sum(comp.values())), comp, info))
         return results, ended, events
+
+    def _ring_potential(self, index: int) -> float:
+        """Distance (m) from the robot's front to the nearest ring on the floor; 0 when its
+        intake is full or no ring is left (the approach shaping's potential)."""
+        if not self.config.reward.approach:
+            return 0.0
+        w = self.world
+        r = w.robots[index]
+        floor = w.ring_xy[w.ring_state == RING_FLOOR]
+        if r.room <= 0 or len(floor) == 0:
+            return 0.0
+        front = np.asarray(r.xy) + r.config.length_m / 2 * heading_vector(r.heading)
+        return float(np.sqrt(((floor - front) ** 2).sum(axis=1).min()))
 
     def goals_counting(self, alliance: Alliance) -> int:
         """Mobile goals that count for the alliance in its own zone (RewardConfig.goal_zone)."""

@@ -29,7 +29,7 @@ def test_registered_and_passes_check_env() -> None:
         assert obs.shape == env.observation_space.shape
         assert set(info["reward_components"]) == set(REWARD_COMPONENTS)
         assert set(REWARD_COMPONENTS) == {
-            "rings", "pin", "goals_end", "side_end", "elevated_end", "score"
+            "rings", "pin", "goals_end", "side_end", "elevated_end", "approach", "score"
         }  # fmt: skip
     finally:
         env.close()
@@ -133,7 +133,7 @@ def test_ring_reward_is_capped_and_end_rewards_are_paid_once() -> None:
     w.place_robot(0, 0.4, 0.0, 90.0)  # faces the blue side, rings ahead
     for i in range(len(w.goals)):
         w.place_goal(i, -1.5 + 0.5 * i, 1.6)
-    totals = dict.fromkeys(("rings", "pin", "goals_end", "side_end", "elevated_end", "score"), 0.0)
+    totals = dict.fromkeys(REWARD_COMPONENTS, 0.0)
     ended = False
     n = 0
     while not ended:
@@ -268,3 +268,29 @@ def test_ending_the_match_on_the_own_platform_earns_elevated_end() -> None:
     assert end_on(-60 * INCH) == pytest.approx(7.0), "parked on red's platform"
     assert end_on(60 * INCH) == 0.0, "blue's platform does not count for red"
     assert end_on(0.0) == 0.0
+
+
+def test_approach_shaping_pays_for_getting_closer_and_sums_to_the_potential_change() -> None:
+    cfg = make_config(
+        world={"blue": [], "interaction_s": 2.0},
+        reward={"approach": 2.0, "ring": 0.0},
+        obs_noise=False,
+        gps_noise=False,
+    )
+    core = MatchCore(cfg)
+    core.reset(np.random.default_rng(0))
+    w = core.world
+    w.set_floor_rings(np.array([[1.0, 0.0], [-1.2, 0.0]]))
+    w.place_robot(0, 0.0, 0.0, 90.0)  # faces the ring at x = 1
+    core._near[0] = core._ring_potential(0)
+    front = w.robots[0].config.length_m / 2
+    assert core._near[0] == pytest.approx(1.0 - front)
+    total, first = 0.0, None
+    for _ in range(6):
+        results, _, _ = core.step([DriveCommand(0.5, 0.0)])
+        step = results[0].components["approach"]
+        first = step if first is None else first
+        total += step
+    assert first > 0, "driving at the ring pays"
+    assert total == pytest.approx(2.0 * (1.0 - front - core._ring_potential(0)))
+    core.close()
