@@ -1,12 +1,16 @@
 """Benchmark of ring perception: detection quality, localisation error, pipeline speed.
 
-    python -m bench.perception [--sim-data DIR] [--frames N] [--real DIR] [--model PATH] [--strict]
+    python -m bench.perception [--sim-data DIR | --synthetic] [--frames N] [--real DIR]
+                               [--model PATH] [--strict]
 
 1. A test set with ground truth, for each detector (pre-filter off): precision, recall and F1 at
-   IoU 0.5, and localisation error (median, p90) by true distance band. With --sim-data, a folder
-   written by `pete-sim dataset`; without it, N frames (default 500) of jetson.perception's own
-   numpy renderer ("synthetic_" metrics), from seeds 2,000,000 up, which no training run uses
-   (training draws from 1,000,000 up and validates from 990,000 up).
+   IoU 0.5, and localisation error (median, p90) by true distance band. By default the
+   simulator's test set: N frames (default 500) that `pete-sim dataset --seed 0` renders into
+   runs/bench-perception/sim-seed0-N/ the first time (a few minutes; later runs reuse it); the
+   shipped detector trained on seed 100's frames, and each frame draws from its own (seed, frame)
+   stream, so none is in both. --sim-data scores another such folder. --synthetic (or no
+   PyBullet) uses N frames of jetson.perception's own numpy renderer instead ("synthetic_"
+   metrics), from seeds 2,000,000 up, which no training run uses.
 2. Real labelled images (a YOLO folder; the shared BLRSAI set when it is present): precision,
    recall and F1 for each detector, with and without the pre-filter. Skipped, with a message,
    when the folder is missing.
@@ -173,6 +177,27 @@ def pipeline_fps(dets: dict[str, Detector], camera: CameraConfig, result: Result
     result.add("localise_us_per_frame", round(ns / 1e3, 1))
 
 
+def simulator_test_set(frames: int, seed: int = 0) -> Path | None:
+    """The simulator's test set, rendered once into runs/; None without the simulator."""
+    try:
+        from sim.dataset import DatasetConfig, write_dataset
+    except ImportError as exc:
+        print(f"bench.perception: no simulator ({exc}); using the numpy renderer")
+        return None
+    out = ROOT / "runs" / "bench-perception" / f"sim-seed{seed}-{frames}"
+    done = out / "done"
+    if not done.is_file():
+        print(f"rendering the simulator test set into {out} ({frames} frames, seed {seed})")
+        if out.exists():
+            import shutil
+
+            shutil.rmtree(out)  # an interrupted render: start it again
+        out.mkdir(parents=True)
+        write_dataset(DatasetConfig(frames=frames, seed=seed), out, progress=True)
+        done.write_text("complete\n")
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m bench.perception",
@@ -180,7 +205,8 @@ def main(argv: list[str] | None = None) -> int:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--sim-data", type=Path, help="a `pete-sim dataset` folder")
-    parser.add_argument("--frames", type=int, default=500, help="synthetic test frames (500)")
+    parser.add_argument("--synthetic", action="store_true", help="the numpy renderer's frames")
+    parser.add_argument("--frames", type=int, default=500, help="generated test frames (500)")
     parser.add_argument("--real", type=Path, default=SHARED_REAL, help="a YOLO folder")
     parser.add_argument("--model", type=Path, help="CNN model (default models/ringnet.onnx)")
     parser.add_argument("--strict", action="store_true", help="exit 1 if a target is missed")
@@ -194,6 +220,8 @@ def main(argv: list[str] | None = None) -> int:
         meta = json.loads(metadata_path(args.model or DEFAULT_MODEL).read_text())
         print(f"CNN model trained on: {', '.join(meta.get('trained_on', ['?']))}")
 
+    if args.sim_data is None and not args.synthetic:
+        args.sim_data = simulator_test_set(args.frames)
     if args.sim_data is not None:
         print(f"== simulator test set {args.sim_data}")
         prefix = "sim"
