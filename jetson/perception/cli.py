@@ -128,6 +128,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         seed=args.seed,
         threads=args.threads,
         width=args.width,
+        input_long_side=args.input_long_side,
     )
     train(cfg, args.out)
     return 0
@@ -297,6 +298,13 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     t.add_argument("--steps", type=int, default=1500)
     t.add_argument("--batch", type=int, default=16)
     t.add_argument("--width", type=int, default=16, help="channels of the first stage (16)")
+    t.add_argument(
+        "--input-long-side",
+        type=int,
+        default=320,
+        help="the long side frames are resized to before the network (320); larger finds "
+        "smaller rings and costs frame rate",
+    )
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--threads", type=int, default=2, help="torch threads (2)")
     t.set_defaults(func=cmd_train)

@@ -179,6 +179,8 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
         raise DatasetError("nothing to train on: give --data DIR and/or --synthetic N")
     if out.suffix != ".onnx":
         raise DatasetError(f"--out must name a .onnx file, got {out}")
+    if not 64 <= cfg.input_long_side <= 1280:
+        raise DatasetError(f"--input-long-side must be 64-1280 pixels, got {cfg.input_long_side}")
     torch.manual_seed(cfg.seed)
     torch.set_num_threads(cfg.threads)
     rng = np.random.default_rng(cfg.seed)
