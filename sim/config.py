@@ -189,6 +189,8 @@ class RewardConfig:
     approach: per metre the front of the robot gets closer to the nearest ring on the floor
     while it has room, a potential-based shaping (Ng et al. 1999: the sum over a match is the
     potential's change, so it cannot be farmed and leaves the best policy the best);
+    park: per metre the robot gets closer to its alliance's platform during the last
+    `park_from_s` seconds of the match, the same kind of shaping (the potential is 0 before).
     score: weight on the change of the alliance's match-score margin (0: off).
     """
 
@@ -199,6 +201,8 @@ class RewardConfig:
     opponent_side_end: float = -17.5
     elevated_end: float = 0.0
     approach: float = 0.0
+    park: float = 0.0
+    park_from_s: float = 15.0
     score: float = 0.0
     goal_zone: Literal["home", "half"] = "home"
 
@@ -207,6 +211,8 @@ class RewardConfig:
             raise ConfigError(f"goal_zone must be 'home' or 'half', got {self.goal_zone!r}")
         if self.ring_cap is not None and self.ring_cap < 0:
             raise ConfigError("ring_cap must be >= 0 or None")
+        if self.park_from_s < 0:
+            raise ConfigError("park_from_s must be >= 0")
 
 
 @dataclass(frozen=True)

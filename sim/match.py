@@ -25,6 +25,7 @@ REWARD_COMPONENTS = (
     "side_end",
     "elevated_end",
     "approach",
+    "park",
     "score",
 )
 
@@ -187,6 +188,7 @@ class MatchCore:
         self.ended_by_pin = False
         self._margin = [self._score_margin(r.alliance) for r in self.world.robots]
         self._near = [self._ring_potential(i) for i in range(len(self.world.robots))]
+        self._park = [self._park_potential(i) for i in range(len(self.world.robots))]
         return [s.reset(self.frame(i)) for i, s in enumerate(self.stacks)]
 
     def view(self, index: int) -> RobotView:
@@ -256,6 +258,10 @@ class MatchCore:
                 near = self._ring_potential(r.index)
                 comp["approach"] = cfg.approach * (self._near[r.index] - near)
                 self._near[r.index] = near
+            if cfg.park:
+                park = self._park_potential(r.index)
+                comp["park"] = cfg.park * (self._park[r.index] - park)
+                self._park[r.index] = park
             if cfg.score:
                 margin = self._score_margin(r.alliance)
                 comp["score"] = cfg.score * (margin - self._margin[r.index])
@@ -286,6 +292,22 @@ class MatchCore:
             return 0.0
         front = np.asarray(r.xy) + r.config.length_m / 2 * heading_vector(r.heading)
         return float(np.sqrt(((floor - front) ** 2).sum(axis=1).min()))
+
+    def _park_potential(self, index: int) -> float:
+        """Distance (m) from the robot to its platform in the match's last park_from_s seconds,
+        else 0 (the park shaping's potential)."""
+        cfg = self.config.reward
+        w = self.world
+        if not cfg.park or w.time_s < w.match_length_s - cfg.park_from_s:
+            return 0.0
+        r = w.robots[index]
+        try:
+            plat = w.field.platform(r.alliance)
+        except ValueError:
+            return 0.0
+        dx = max(abs(r.x - plat.center[0]) - plat.size[0] / 2, 0.0)
+        dy = max(abs(r.y - plat.center[1]) - plat.size[1] / 2, 0.0)
+        return float(np.hypot(dx, dy))
 
     def goals_counting(self, alliance: Alliance) -> int:
         """Mobile goals that count for the alliance in its own zone (RewardConfig.goal_zone)."""

@@ -29,7 +29,8 @@ def test_registered_and_passes_check_env() -> None:
         assert obs.shape == env.observation_space.shape
         assert set(info["reward_components"]) == set(REWARD_COMPONENTS)
         assert set(REWARD_COMPONENTS) == {
-            "rings", "pin", "goals_end", "side_end", "elevated_end", "approach", "score"
+            "rings", "pin", "goals_end", "side_end", "elevated_end", "approach", "park",
+            "score"
         }  # fmt: skip
     finally:
         env.close()
@@ -293,4 +294,29 @@ def test_approach_shaping_pays_for_getting_closer_and_sums_to_the_potential_chan
         total += step
     assert first > 0, "driving at the ring pays"
     assert total == pytest.approx(2.0 * (1.0 - front - core._ring_potential(0)))
+    core.close()
+
+
+def test_park_shaping_pays_for_nearing_the_own_platform_only_at_the_end() -> None:
+    cfg = make_config(
+        world={"blue": [], "interaction_s": 3.0},
+        reward={"park": 4.0, "park_from_s": 1.0, "ring": 0.0},
+        obs_noise=False,
+        gps_noise=False,
+    )
+    core = MatchCore(cfg)
+    core.reset(np.random.default_rng(0))
+    w = core.world
+    w.set_floor_rings(np.zeros((0, 2)))
+    w.place_robot(0, -0.6, 0.0, 270.0)  # faces red's platform (its edge at x = -1.22 m)
+    steps, ended = [], False
+    while not ended:
+        results, ended, _ = core.step([DriveCommand(0.1, 0.0)])
+        steps.append((w.time_s, results[0].components["park"]))
+    early = [v for t, v in steps if t < 2.0 - 1e-9]
+    late = [v for t, v in steps if t >= 2.0 - 1e-9]
+    assert early and all(v == 0.0 for v in early), "nothing before the last park_from_s s"
+    assert late[0] < 0 and all(v > 0 for v in late[1:]), "the potential appears, then nearing pays"
+    # The sum telescopes: it is the (negative) weighted distance left at the end.
+    assert sum(late) == pytest.approx(-4.0 * core._park_potential(0))
     core.close()
