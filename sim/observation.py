@@ -176,7 +176,10 @@ class ObservationSpec:
         return lines
 
     def to_dict(self) -> dict[str, object]:
-        return asdict(self)
+        """Plain JSON types (lists, not tuples): what a saved policy.json reads back as."""
+        out = asdict(self)
+        out["prior_rings"] = [list(xy) for xy in self.prior_rings]
+        return out
 
     @classmethod
     def from_dict(cls, data: dict[str, object]) -> ObservationSpec:
