@@ -102,7 +102,7 @@ def default_spec(world: World) -> ObservationSpec:
 def with_prior(spec: ObservationSpec, world: World) -> ObservationSpec:
     """A ring-memory spec without a prior gets the field's starting layout (red's frame is the
     field frame, and the layout is the same seen from either side)."""
-    if not spec.ring_memory or spec.prior_rings:
+    if not spec.needs_prior:
         return spec
     xy = np.round(world.field.ring_positions, 4)
     return replace(spec, prior_rings=tuple((float(x), float(y)) for x, y in xy))

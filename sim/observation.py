@@ -141,6 +141,11 @@ class ObservationSpec:
             raise ObservationError("noise levels must be non-negative")
 
     @property
+    def needs_prior(self) -> bool:
+        """A ring-memory spec whose prior (the field's layout) the simulator has yet to fill."""
+        return self.ring_memory and not self.prior_rings
+
+    @property
     def frame_size(self) -> int:
         return len(SCALARS) + 3 * self.n_other_robots + 3 * self.n_rings
 

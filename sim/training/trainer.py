@@ -80,11 +80,9 @@ class TrainResult:
 
 def observation_spec(cfg: TrainConfig) -> ObservationSpec:
     env = cfg.env_config()
-    if env.observation is not None and not (
-        env.observation.ring_memory and not env.observation.prior_rings
-    ):
+    if env.observation is not None and not env.observation.needs_prior:
         return env.observation
-    core = MatchCore(env)  # the default spec depends on the world (match length, capacity)
+    core = MatchCore(env)  # the world fixes the default spec and a memory's prior
     try:
         return core.spec
     finally:
