@@ -5,8 +5,10 @@ Pure and deterministic (no I/O, no clock: the caller passes the perception's age
 
 - Phase gating: the policy drives only in `drive_phases`; otherwise the answer is a stop.
 - The observation is sim.observation's, built as in training: own pose in the alliance frame,
-  rings in the robot frame, no noise. A perception result older than `perception_max_age_s`, or
-  none, gives no rings: empty slots, as the policy saw rings it could not see.
+  rings in the robot frame, no noise; the ring and goal memories when the policy's spec has them
+  (the goal memory follows State.goal_clamped; a Brain without a clamp sensor reads as open).
+  A perception result older than `perception_max_age_s`, or none, gives no rings: empty slots,
+  as the policy saw rings it could not see.
 - Frame stacking follows the training's control rate (`decision_hz`, normally the policy's): the
   stack takes a frame every control period (on the Brain's clock), and in between the newest slot
   holds the current frame, so each State is answered from fresh data while the history keeps the
@@ -29,10 +31,11 @@ from numpy.typing import NDArray
 from jetson.policy import Policy
 from jetson.settings import ConfigError, DecisionConfig
 from protocol.messages import Alliance, GpsStatus, MatchPhase, State
-from sim.observation import FrameStack, RingMemory, RobotView, build_frame
+from sim.observation import FrameStack, GoalMemory, RingMemory, RobotView, build_frame
 
 DEFAULT_DECISION_HZ = 12.0  # sim.config.WorldConfig.control_hz: what policies are trained at
 RINGS_UNKNOWN = 255  # State.rings_held when the Brain has no ring counter
+CLAMP_HOLDS = 1  # State.goal_clamped: 1 holds a goal, 0 open, 255 no clamp sensor fitted
 _NO_RINGS = np.zeros((0, 2))
 
 
@@ -83,6 +86,7 @@ class Decider:
         """Forget the history: a new connection or a new match."""
         self._stack: FrameStack | None = None
         self._memory = RingMemory(self.spec)
+        self._goals = GoalMemory(self.spec)
         self._next_push_ms = 0.0
         self._phase: MatchPhase | None = None
         self._phase_ms = 0
@@ -102,6 +106,7 @@ class Decider:
         if entering:
             self._stack = None
             self._memory.reset()
+            self._goals.reset()
         if state.alliance == Alliance.UNKNOWN:
             return stop("alliance unknown: set it in the Brain's config")
         if state.gps_status != GpsStatus.OK:
@@ -151,9 +156,13 @@ class Decider:
             time_s=t,
             rings_robot_xy=rings,
             rings_held=self._rings_held(state),
+            # Without a clamp sensor the policy is told the clamp is open, and the goal memory
+            # never sees a goal taken.
+            goal_clamped=state.goal_clamped == CLAMP_HOLDS,
         )
         # Only a fresh camera frame may tell the memory that a ring is gone.
         view = self._memory.observe(view) if fresh else self._memory.recall(view)
+        view = self._goals.observe(view)
         frame = build_frame(self.spec, view)
         now_ms = float(state.time_ms)
         if self._stack is None:

@@ -191,6 +191,10 @@ class RewardConfig:
     potential's change, so it cannot be farmed and leaves the best policy the best);
     park: per metre the robot gets closer to its alliance's platform during the last
     `park_from_s` seconds of the match, the same kind of shaping (the potential is 0 before).
+    clamp: when the robot's clamp takes a mobile goal that scores for its alliance (once per
+    goal: the auto clamp never lets go);
+    goal_approach: per metre the robot's clamp point (behind its back) gets closer to the
+    nearest goal it could score with, while it holds none: potential-based shaping again.
     score: weight on the change of the alliance's match-score margin (0: off).
     """
 
@@ -203,6 +207,8 @@ class RewardConfig:
     approach: float = 0.0
     park: float = 0.0
     park_from_s: float = 15.0
+    clamp: float = 0.0
+    goal_approach: float = 0.0
     score: float = 0.0
     goal_zone: Literal["home", "half"] = "home"
 

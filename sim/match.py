@@ -8,6 +8,7 @@ reported separately.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
@@ -15,7 +16,14 @@ import numpy as np
 
 from sim.config import ConfigError, RewardConfig, WorldConfig, merge
 from sim.geometry import Alliance, field_to_robot, heading_vector
-from sim.observation import FrameStack, ObservationSpec, RingMemory, RobotView, build_frame
+from sim.observation import (
+    FrameStack,
+    GoalMemory,
+    ObservationSpec,
+    RingMemory,
+    RobotView,
+    build_frame,
+)
 from sim.world import RING_FLOOR, DriveCommand, StepEvents, World
 
 REWARD_COMPONENTS = (
@@ -26,6 +34,8 @@ REWARD_COMPONENTS = (
     "elevated_end",
     "approach",
     "park",
+    "clamp",
+    "goal_approach",
     "score",
 )
 
@@ -100,12 +110,27 @@ def default_spec(world: World) -> ObservationSpec:
 
 
 def with_prior(spec: ObservationSpec, world: World) -> ObservationSpec:
-    """A ring-memory spec without a prior gets the field's starting layout (red's frame is the
-    field frame, and the layout is the same seen from either side)."""
+    """A memory spec without its prior gets the field's starting layout (red's frame is the
+    field frame, and the layout is the same seen from either side): the rings, the goals red
+    could score with, and the clamp's offset from the robots' size."""
     if not spec.needs_prior:
         return spec
-    xy = np.round(world.field.ring_positions, 4)
-    return replace(spec, prior_rings=tuple((float(x), float(y)) for x, y in xy))
+
+    def pairs(xy: np.ndarray) -> tuple[tuple[float, float], ...]:
+        return tuple((float(x), float(y)) for x, y in np.round(xy, 4))
+
+    if spec.ring_memory and not spec.prior_rings:
+        spec = replace(spec, prior_rings=pairs(world.field.ring_positions))
+    if spec.goal_memory and not spec.prior_goals:
+        goals = [g.position for g in world.field.goals if g.alliance in (None, "red")]
+        spec = replace(spec, prior_goals=pairs(np.asarray(goals, dtype=np.float64)))
+    if spec.goal_memory and spec.goal_clamp_offset_m <= 0:
+        if not world.robots:  # robots exist only after a reset
+            world.reset(np.random.default_rng(0))
+        r = world.robots[0]
+        offset = world.clamp_offset(r, world.goals[0]) if world.goals else r.config.length_m / 2
+        spec = replace(spec, goal_clamp_offset_m=round(offset, 4))
+    return spec
 
 
 @dataclass
@@ -132,6 +157,7 @@ class MatchCore:
             )
         self.stacks: list[FrameStack] = []
         self.memories: list[RingMemory] = []
+        self.goal_memories: list[GoalMemory] = []
         self.totals: list[dict[str, float]] = []
         self.pins: list[int] = []
         self.rng = np.random.default_rng(0)
@@ -183,12 +209,14 @@ class MatchCore:
         self.world.reset(rng)
         self.stacks = [FrameStack(self.spec) for _ in self.world.robots]
         self.memories = [RingMemory(self.spec) for _ in self.world.robots]
+        self.goal_memories = [GoalMemory(self.spec) for _ in self.world.robots]
         self.totals = [dict.fromkeys(REWARD_COMPONENTS, 0.0) for _ in self.world.robots]
         self.pins = [0 for _ in self.world.robots]
         self.ended_by_pin = False
         self._margin = [self._score_margin(r.alliance) for r in self.world.robots]
         self._near = [self._ring_potential(i) for i in range(len(self.world.robots))]
         self._park = [self._park_potential(i) for i in range(len(self.world.robots))]
+        self._goal_near = [self._goal_potential(i) for i in range(len(self.world.robots))]
         return [s.reset(self.frame(i)) for i, s in enumerate(self.stacks)]
 
     def view(self, index: int) -> RobotView:
@@ -214,6 +242,7 @@ class MatchCore:
             rings_robot_xy=w.rings_in_robot_frame(index, rings),
             rings_held=r.held,
             others_robot_xy=others,
+            goal_clamped=r.carried_goal is not None,
         )
 
     def frame(self, index: int) -> np.ndarray:
@@ -221,6 +250,7 @@ class MatchCore:
         memory)."""
         rng = self.rng if self.config.obs_noise else None
         view = self.memories[index].observe(self.view(index))
+        view = self.goal_memories[index].observe(view)
         return build_frame(self.spec, view, rng)
 
     def _score_margin(self, alliance: Alliance) -> float:
@@ -238,6 +268,7 @@ class MatchCore:
         for a, b in events.pins:
             pinned.update((a, b))
         ended = events.match_over or (bool(events.pins) and self.config.end_on_pin)
+        clamped = {i for i, g in events.clamped if self._goal_scores_for(g, w.robots[i].alliance)}
         if events.pins and self.config.end_on_pin:
             self.ended_by_pin = True
         end_rewards = ended and not self.ended_by_pin
@@ -262,6 +293,12 @@ class MatchCore:
                 park = self._park_potential(r.index)
                 comp["park"] = cfg.park * (self._park[r.index] - park)
                 self._park[r.index] = park
+            if cfg.clamp and r.index in clamped:
+                comp["clamp"] = cfg.clamp
+            if cfg.goal_approach:
+                near = self._goal_potential(r.index)
+                comp["goal_approach"] = cfg.goal_approach * (self._goal_near[r.index] - near)
+                self._goal_near[r.index] = near
             if cfg.score:
                 margin = self._score_margin(r.alliance)
                 comp["score"] = cfg.score * (margin - self._margin[r.index])
@@ -292,6 +329,27 @@ class MatchCore:
             return 0.0
         front = np.asarray(r.xy) + r.config.length_m / 2 * heading_vector(r.heading)
         return float(np.sqrt(((floor - front) ** 2).sum(axis=1).min()))
+
+    def _goal_scores_for(self, goal: int, alliance: Alliance) -> bool:
+        return self.world.goals[goal].spec.alliance in (None, alliance)
+
+    def _goal_potential(self, index: int) -> float:
+        """Distance (m) from the robot's clamp point to the nearest goal it could score with
+        that no robot holds; 0 while it holds one or none is free (goal_approach's potential)."""
+        if not self.config.reward.goal_approach:
+            return 0.0
+        w = self.world
+        r = w.robots[index]
+        if r.carried_goal is not None:
+            return 0.0
+        free = [
+            g
+            for g in w.goals
+            if g.carried_by is None and self._goal_scores_for(g.index, r.alliance)
+        ]
+        if not free:
+            return 0.0
+        return min(math.dist(w.clamp_point(r, g), (g.x, g.y)) for g in free)
 
     def _park_potential(self, index: int) -> float:
         """Distance (m) from the robot to its platform in the match's last park_from_s seconds,

@@ -25,6 +25,16 @@ or once the robot stands on it (collected or pushed away). ok is 1 for a ring in
 0.5 for one remembered. This is the knowledge a team's route planner starts a match with; a
 policy that sees only the camera's cone has to learn the layout from its own pose.
 
+Version 3 adds an optional goal memory (`goal_memory`): a scalar `clamped` after `held` (1
+while the robot's clamp holds a mobile goal, from the Brain's State.goal_clamped) and `n_goals`
+goal slots between the other robots and the rings: the nearest mobile goals the robot could
+score with (its alliance's and the neutral ones), robot frame, ok = 1 for a filled slot. Nothing
+on the robot sees goals, so the memory (GoalMemory) is dead reckoning from the field's starting
+layout (`prior_goals`, alliance frame): when the clamp closes, the remembered goal nearest the
+clamp point behind the robot is the one it holds (and leaves the slots); when the clamp opens,
+the goal stays at the clamp point; a goal whose place the robot's centre comes within
+`goal_forget_m` of cannot be there any more (pushed away) and is forgotten.
+
 The observation is the current frame followed by the `n_stack` previous ones, newest first:
 obs[f * frame_size + i] is item i of the frame f control steps ago. At reset every slot holds the
 first frame. Defaults: K = 10, R = 0, n_stack = 10, so 36 values per frame and 396 in all.
@@ -52,8 +62,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from sim.geometry import Alliance, field_to_robot, robot_to_field, to_alliance_frame
 
-SPEC_VERSION = 2
-SUPPORTED_VERSIONS = (1, 2)
+SPEC_VERSION = 3
+SUPPORTED_VERSIONS = (1, 2, 3)
 SEEN, REMEMBERED = 1.0, 0.5  # a ring slot's ok value
 SCALARS = ("time", "x", "y", "cos_h", "sin_h", "held")
 SCALAR_MEANINGS = {
@@ -63,6 +73,7 @@ SCALAR_MEANINGS = {
     "cos_h": "cos(own heading in the alliance frame)",
     "sin_h": "sin(own heading in the alliance frame)",
     "held": "rings held / ring_capacity_norm",
+    "clamped": "1 while the clamp holds a mobile goal, else 0 (goal_memory)",
 }
 
 
@@ -75,6 +86,7 @@ _MEMORY_FIELDS = (
     "memory_merge_m",
     "memory_forget_m",
 )
+_GOAL_FIELDS = ("goal_memory", "prior_goals", "n_goals", "goal_clamp_offset_m", "goal_forget_m")
 
 
 class ObservationError(ValueError):
@@ -104,6 +116,15 @@ class ObservationSpec:
     memory_far_m: float = 2.6
     memory_merge_m: float = 0.12
     memory_forget_m: float = 0.25
+    # Version 3: the goal memory. The clamp offset is the distance from the robot's centre to a
+    # clamped goal's centre (half the robot's length + the goal base's radius; the simulator
+    # fills it from the robot when 0). Forgetting: the robot's centre cannot come closer than
+    # about that to a goal that is still there.
+    goal_memory: bool = False
+    prior_goals: tuple[tuple[float, float], ...] = ()
+    n_goals: int = 3
+    goal_clamp_offset_m: float = 0.0
+    goal_forget_m: float = 0.3
 
     def __post_init__(self) -> None:
         if self.version not in SUPPORTED_VERSIONS:
@@ -113,20 +134,19 @@ class ObservationSpec:
             )
         if self.version < 2 and self.ring_memory:
             raise ObservationError("ring_memory needs observation spec version 2")
-        try:
-            prior = tuple((float(x), float(y)) for x, y in self.prior_rings)
-        except (TypeError, ValueError) as e:
-            raise ObservationError(f"prior_rings must be (x, y) pairs: {e}") from e
-        if not all(math.isfinite(v) for xy in prior for v in xy):
-            raise ObservationError("prior_rings must be finite")
-        object.__setattr__(self, "prior_rings", prior)
+        if self.version < 3 and self.goal_memory:
+            raise ObservationError("goal_memory needs observation spec version 3")
+        for name in ("prior_rings", "prior_goals"):
+            object.__setattr__(self, name, _points(getattr(self, name), name))
+        if not (self.goal_clamp_offset_m >= 0 and self.goal_forget_m >= 0):
+            raise ObservationError("goal_clamp_offset_m and goal_forget_m must be >= 0")
         near, far = self.memory_near_m, self.memory_far_m
         if not (0 < self.memory_fov_deg < 180 and 0 <= near < far and self.memory_merge_m > 0):
             raise ObservationError(
                 "ring memory: memory_fov_deg in (0, 180), 0 <= memory_near_m < memory_far_m, "
                 "memory_merge_m > 0"
             )
-        for name in ("n_rings", "n_other_robots", "n_stack"):
+        for name in ("n_rings", "n_other_robots", "n_stack", "n_goals"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
                 raise ObservationError(f"{name} must be a non-negative integer, got {value!r}")
@@ -142,12 +162,23 @@ class ObservationSpec:
 
     @property
     def needs_prior(self) -> bool:
-        """A ring-memory spec whose prior (the field's layout) the simulator has yet to fill."""
-        return self.ring_memory and not self.prior_rings
+        """A memory spec whose prior (the field's layout, the clamp's offset) the simulator has
+        yet to fill."""
+        rings = self.ring_memory and not self.prior_rings
+        goals = self.goal_memory and not (self.prior_goals and self.goal_clamp_offset_m > 0)
+        return rings or goals
+
+    @property
+    def scalars(self) -> tuple[str, ...]:
+        return (*SCALARS, "clamped") if self.goal_memory else SCALARS
+
+    @property
+    def goal_slots(self) -> int:
+        return self.n_goals if self.goal_memory else 0
 
     @property
     def frame_size(self) -> int:
-        return len(SCALARS) + 3 * self.n_other_robots + 3 * self.n_rings
+        return self.ring_offset + 3 * self.n_rings
 
     @property
     def n_frames(self) -> int:
@@ -158,14 +189,21 @@ class ObservationSpec:
         return self.frame_size * self.n_frames
 
     @property
+    def goal_offset(self) -> int:
+        """Index of the first goal slot within a frame."""
+        return len(self.scalars) + 3 * self.n_other_robots
+
+    @property
     def ring_offset(self) -> int:
         """Index of the first ring slot within a frame."""
-        return len(SCALARS) + 3 * self.n_other_robots
+        return self.goal_offset + 3 * self.goal_slots
 
     def frame_names(self) -> list[str]:
-        names = list(SCALARS)
+        names = list(self.scalars)
         for r in range(self.n_other_robots):
             names += [f"robot{r}_x", f"robot{r}_y", f"robot{r}_ok"]
+        for g in range(self.goal_slots):
+            names += [f"goal{g}_x", f"goal{g}_y", f"goal{g}_ok"]
         for k in range(self.n_rings):
             names += [f"ring{k}_x", f"ring{k}_y", f"ring{k}_ok"]
         return names
@@ -184,6 +222,7 @@ class ObservationSpec:
         """Plain JSON types (lists, not tuples): what a saved policy.json reads back as."""
         out = asdict(self)
         out["prior_rings"] = [list(xy) for xy in self.prior_rings]
+        out["prior_goals"] = [list(xy) for xy in self.prior_goals]
         return out
 
     @classmethod
@@ -204,18 +243,35 @@ class ObservationSpec:
             for k, v in self.to_dict().items()
             if k not in ("position_noise_m", "relative_noise")
         }
-        if not self.ring_memory:  # without a memory its settings mean nothing (version 1 hashes)
+        # Without a memory its settings mean nothing: older specs hash as they always did.
+        if not self.ring_memory:
             layout = {k: v for k, v in layout.items() if k not in _MEMORY_FIELDS}
+        if not self.goal_memory:
+            layout = {k: v for k, v in layout.items() if k not in _GOAL_FIELDS}
         blob = json.dumps(layout, sort_keys=True).encode()
         return hashlib.sha256(blob).hexdigest()[:16]
+
+
+def _points(value: object, what: str) -> tuple[tuple[float, float], ...]:
+    try:
+        pts = tuple((float(x), float(y)) for x, y in value)  # type: ignore[attr-defined]
+    except (TypeError, ValueError) as e:
+        raise ObservationError(f"{what} must be (x, y) pairs: {e}") from e
+    if not all(math.isfinite(v) for xy in pts for v in xy):
+        raise ObservationError(f"{what} must be finite")
+    return pts
 
 
 def _meaning(name: str) -> str:
     if name in SCALAR_MEANINGS:
         return SCALAR_MEANINGS[name]
     kind, _, part = name.partition("_")
-    what = "nearest-first other robot" if kind.startswith("robot") else "nearest-first visible ring"
-    slot = kind.removeprefix("robot").removeprefix("ring")
+    what = {
+        "robot": "nearest-first other robot",
+        "goal": "nearest-first remembered mobile goal (goal_memory)",
+        "ring": "nearest-first visible ring",
+    }[kind.rstrip("0123456789")]
+    slot = kind.lstrip("robtgalin")
     if part == "ok":
         if kind.startswith("ring"):
             return f"1 if ring slot {slot} is in view, 0.5 if remembered (ring_memory), else 0"
@@ -238,6 +294,9 @@ class RobotView:
     others_robot_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
     # Rings known but not in view (RingMemory.recall), robot frame: slots with ok = 0.5.
     rings_remembered_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    goal_clamped: bool = False  # the Brain's clamp holds a mobile goal
+    # Mobile goals the robot could score with, robot frame (GoalMemory.observe).
+    goals_robot_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
 
 
 def _as_points(value: ArrayLike, what: str) -> NDArray[np.float64]:
@@ -302,7 +361,12 @@ def build_frame(
     out[3] = math.cos(h)
     out[4] = math.sin(h)
     out[5] = view.rings_held / spec.ring_capacity_norm
-    _fill_slots(out, len(SCALARS), spec.n_other_robots, others, unit, spec.relative_noise, rng)
+    if spec.goal_memory:
+        out[len(SCALARS)] = 1.0 if view.goal_clamped else 0.0
+        goals = _as_points(view.goals_robot_xy, "goals_robot_xy")
+        _fill_slots(out, spec.goal_offset, spec.n_goals, goals, unit, 0.0, None)
+    rel = spec.relative_noise
+    _fill_slots(out, len(spec.scalars), spec.n_other_robots, others, unit, rel, rng)
     ok = None
     if len(remembered):
         ok = np.concatenate([np.full(len(rings), SEEN), np.full(len(remembered), REMEMBERED)])
@@ -377,6 +441,51 @@ class RingMemory:
         return replace(view, rings_remembered_xy=remembered)
 
 
+class GoalMemory:
+    """Where the mobile goals the robot could score with are believed to be, in its alliance
+    frame (see the module docstring). Fed every control step by observe(); the simulator and the
+    Jetson keep one per robot when spec.goal_memory is on."""
+
+    def __init__(self, spec: ObservationSpec) -> None:
+        self.spec = spec
+        self.known = np.zeros((0, 2))
+        self.holding = False
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to the field's starting layout: a new match."""
+        self.known = np.asarray(self.spec.prior_goals, dtype=np.float64).reshape(-1, 2)
+        self.holding = False
+
+    def observe(self, view: RobotView) -> RobotView:
+        """Update the memory with the clamp's state and the robot's pose; return the view with
+        the remembered goals (not the held one) in the robot frame."""
+        if not self.spec.goal_memory:
+            return view
+        s = self.spec
+        pos, heading = to_alliance_frame((view.x, view.y), view.heading_deg, view.alliance)
+        assert heading is not None
+        h = math.radians(heading)
+        clamp_point = pos - s.goal_clamp_offset_m * np.array([math.sin(h), math.cos(h)])
+        known = self.known
+        if view.goal_clamped and not self.holding:
+            # The goal now held is the remembered one nearest the clamp (if any is near enough to
+            # be it: a goal the memory had lost track of may be the one clamped).
+            if len(known):
+                d = np.hypot(*(known - clamp_point).T)
+                i = int(np.argmin(d))
+                if d[i] <= 2 * s.goal_forget_m + s.goal_clamp_offset_m:
+                    known = np.delete(known, i, axis=0)
+        elif self.holding and not view.goal_clamped:
+            known = np.concatenate([known, clamp_point[None, :]])
+        self.holding = bool(view.goal_clamped)
+        if len(known):
+            known = known[np.hypot(*(known - pos).T) > s.goal_forget_m]
+        self.known = known
+        local = field_to_robot(known, pos, heading) if len(known) else np.zeros((0, 2))
+        return replace(view, goals_robot_xy=local)
+
+
 class FrameStack:
     """The last n_stack + 1 frames as one flat vector, newest first."""
 
@@ -418,6 +527,8 @@ def observation_bounds(spec: ObservationSpec) -> tuple[NDArray[np.float32], NDAr
     low[0], high[0] = 0.0, 1.0
     low[3:5], high[3:5] = -1.0, 1.0
     low[5], high[5] = 0.0, 8.0
-    ok_idx = np.arange(len(SCALARS) + 2, spec.frame_size, 3)
+    if spec.goal_memory:
+        low[len(SCALARS)], high[len(SCALARS)] = 0.0, 1.0
+    ok_idx = np.arange(len(spec.scalars) + 2, spec.frame_size, 3)
     low[ok_idx], high[ok_idx] = 0.0, 1.0
     return np.tile(low, spec.n_frames), np.tile(high, spec.n_frames)

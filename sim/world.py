@@ -679,7 +679,7 @@ class World:
             lo_x, hi_x, lo_y, hi_y = r.x - ex, r.x + ex, r.y - ey, r.y + ey
             if r.carried_goal is not None:
                 g = self.goals[r.carried_goal]
-                gx, gy = self._clamp_point(r, g)
+                gx, gy = self.clamp_point(r, g)
                 rad = g.spec.base_radius
                 lo_x, hi_x = min(lo_x, gx - rad), max(hi_x, gx + rad)
                 lo_y, hi_y = min(lo_y, gy - rad), max(hi_y, gy + rad)
@@ -702,9 +702,14 @@ class World:
 
     # --- goals --------------------------------------------------------------------------------
 
-    def _clamp_point(self, r: RobotState, g: GoalState) -> tuple[float, float]:
+    @staticmethod
+    def clamp_offset(r: RobotState, g: GoalState) -> float:
+        """Distance from the robot's centre to the centre of the goal its clamp holds."""
+        return r.config.length_m / 2 + g.spec.base_radius + 0.005
+
+    def clamp_point(self, r: RobotState, g: GoalState) -> tuple[float, float]:
         """Where a carried goal's centre sits: just behind the robot's back face."""
-        back = r.config.length_m / 2 + g.spec.base_radius + 0.005
+        back = self.clamp_offset(r, g)
         f = heading_vector(r.heading)
         return r.x - back * float(f[0]), r.y - back * float(f[1])
 
@@ -750,7 +755,7 @@ class World:
             if r.carried_goal is None:
                 continue
             g = self.goals[r.carried_goal]
-            g.x, g.y = self._clamp_point(r, g)
+            g.x, g.y = self.clamp_point(r, g)
             pos, _ = p.getBasePositionAndOrientation(g.body, physicsClientId=cid)
             p.resetBasePositionAndOrientation(
                 g.body,

@@ -395,6 +395,7 @@ def test_side_channel_rejects_bad_input_with_a_reason(brain: BrainHost) -> None:
     assert brain.side("until 10").startswith("error time 10 is before now (50)")
     assert brain.side("rings 255").startswith("error rings N (0..254)")
     assert brain.side("rings 2.5").startswith("error rings N (0..254)")
+    assert brain.side("clamp 2") == "error clamp 0|1|unknown"
 
 
 def test_ring_counter_reaches_the_jetson_in_the_state(brain: BrainHost) -> None:
@@ -404,6 +405,19 @@ def test_ring_counter_reaches_the_jetson_in_the_state(brain: BrainHost) -> None:
     assert brain.side("rings unknown") == "ok"
     brain.advance(20)
     assert " rings=255 " in brain.side("get")
+
+
+def test_clamp_sensor_reaches_the_jetson_in_the_state(brain: BrainHost) -> None:
+    connect(brain)
+    brain.advance(20)
+    assert messages(brain.take(), State)[-1].goal_clamped == 255, "no sensor by default"
+    assert brain.side("clamp 1") == "ok"
+    brain.advance(20)
+    assert " clamp=1 clamp_closed=1 " in brain.side("get")
+    assert messages(brain.take(), State)[-1].goal_clamped == 1
+    assert brain.side("clamp 0") == "ok"
+    brain.advance(20)
+    assert " clamp=0 clamp_closed=1 " in brain.side("get")
 
 
 def test_realtime_mode_streams_state_on_the_wall_clock() -> None:

@@ -492,3 +492,29 @@ def test_a_ring_memory_policy_remembers_through_a_stale_camera_and_forgets_on_a_
     d.decide(state(60, phase=MatchPhase.DISABLED), None)
     d.decide(state(80), None)  # a new match starts from the layout again
     assert oks()[:3] == [0.5, 0.5, 0.0]
+
+
+def test_a_goal_memory_policy_reads_the_brains_clamp_and_drops_the_held_goal() -> None:
+    # Red robot at (0.5, -0.5) facing +x: goal A right behind its back (the clamp point), B far.
+    offset = 0.36
+    spec = ObservationSpec(
+        goal_memory=True,
+        prior_goals=((0.5 - offset, -0.5), (0.5, 1.5)),
+        goal_clamp_offset_m=offset,
+        n_stack=0,
+    )
+    policy = ProbePolicy(spec)
+    policy.keep_observations = True
+    d = Decider(policy)
+
+    def clamped_and_goals() -> tuple[float, int]:
+        obs = policy.observations[-1]
+        oks = obs[spec.goal_offset + 2 : spec.ring_offset : 3]
+        return float(obs[6]), int((oks > 0).sum())
+
+    d.decide(state(0, goal_clamped=0), None)
+    assert clamped_and_goals() == (0.0, 2)
+    d.decide(state(20, goal_clamped=1), None)
+    assert clamped_and_goals() == (1.0, 1), "the held goal leaves the slots"
+    d.decide(state(40, goal_clamped=255), None)  # a Brain without a clamp sensor reads as open
+    assert clamped_and_goals()[0] == 0.0

@@ -156,6 +156,25 @@ def test_the_ring_counter_reaches_the_state(brain: BrainHost, port: Port) -> Non
         brain.set_rings(300)
 
 
+def test_the_clamp_sensor_reaches_the_state(brain: BrainHost, port: Port) -> None:
+    port.send(hello())
+    report = brain.until(40, rx=port.written)
+    assert report.clamp == 255 and not report.clamp_closed, "no sensor fitted by default"
+    brain.set_clamp(False)
+    brain.set_phase("autonomous")
+    assert brain.until(60).clamp == 0
+    brain.set_clamp(True)  # a goal at the back: the Brain closes the clamp
+    report = brain.until(100)
+    assert report.clamp == 1 and report.clamp_closed
+    port.collect(report.tx)
+    assert port.states()[-1].goal_clamped == 1
+    brain.set_clamp(None)
+    report = brain.until(120)
+    assert report.clamp == 255 and report.clamp_closed
+    assert BrainHost.clamp_line(True) == "clamp 1"
+    assert BrainHost.sticks_line(0.0, 0.0, clamp=True) == "sticks 0.0 0.0 clamp"
+
+
 def test_a_batch_is_one_round_trip(brain: BrainHost) -> None:
     before = brain.round_trips
     replies = brain.run_batch(

@@ -2,14 +2,20 @@
 
 from __future__ import annotations
 
+import os
+import select
+import time
 from collections.abc import Iterator
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from protocol import framing
+from protocol.framing import Received
+from protocol.messages import FINGERPRINT, PROTOCOL_VERSION, Hello, Role, State
 from sim.config import WorldConfig
-from sim.fullstack.brain_host import BrainReport
+from sim.fullstack.brain_host import DEFAULT_BINARY, BrainHost, BrainReport
 from sim.fullstack.hardware import RobotHardware, competition_phase
 from sim.world import DriveCommand, World
 
@@ -70,6 +76,86 @@ def test_the_ring_counter_reports_what_the_intake_holds(world: World) -> None:
     bare = RobotHardware(world, 0, rng=None, ring_counter=False)
     assert bare.read("driver").rings is None
     assert not any(x.startswith("rings") for x in bare.sensor_lines(bare.read("driver")))
+
+
+def test_the_clamp_sensor_reports_whether_the_robot_holds_a_goal(world: World) -> None:
+    hw = RobotHardware(world, 0, rng=None)
+    r = world.robots[0]
+    assert r.carried_goal is None
+    assert hw.read("driver").goal_at_back is False
+    assert "clamp 0" in hw.sensor_lines(hw.read("driver")), "the sensor, once"
+    assert not any(x.startswith("clamp") for x in hw.sensor_lines(hw.read("driver")))
+    r.carried_goal = 1
+    try:
+        assert "clamp 1" in hw.sensor_lines(hw.read("driver")), "and again on a change"
+        assert not any(x.startswith("clamp") for x in hw.sensor_lines(hw.read("driver")))
+    finally:
+        r.carried_goal = None
+    assert "clamp 0" in hw.sensor_lines(hw.read("driver"))
+    bare = RobotHardware(world, 0, rng=None, clamp_sensor=False)
+    assert bare.read("driver").goal_at_back is None
+    assert not any(x.startswith("clamp") for x in bare.sensor_lines(bare.read("driver")))
+
+
+def _states(fd: int, decoder: framing.UplinkDecoder, have: int, total: int) -> tuple[list, int]:
+    """Read brain_host's uplink until `total` bytes in all; the States decoded on the way."""
+    out = []
+    deadline = time.monotonic() + 5.0
+    while have < total:
+        assert time.monotonic() < deadline, f"uplink stalled at {have}/{total}"
+        if select.select([fd], [], [], 0.5)[0]:
+            chunk = os.read(fd, 65536)
+            have += len(chunk)
+            out += [e.message for e in decoder.feed(chunk) if isinstance(e, Received)]
+    return [m for m in out if isinstance(m, State)], have
+
+
+@pytest.mark.skipif(not DEFAULT_BINARY.exists(), reason="brain_host is not built: `make build`")
+def test_the_states_goal_clamped_follows_the_simulated_clamp() -> None:
+    """World (auto clamp) -> clamp sensor -> brain_host -> the State the Jetson reads."""
+    with World(WorldConfig(blue=())) as w, BrainHost.start(boot_id=0xC1A3) as brain:
+        w.reset(np.random.default_rng(0))
+        r, g = w.robots[0], w.goals[0]
+        w.place_goal(0, -1.0, 0.0)
+        w.place_robot(0, -1.0 + g.spec.base_radius + r.config.length_m / 2 + 0.05, 0.0, 90.0)
+        hw = RobotHardware(w, 0, rng=None)
+        fd = os.open(brain.pty_path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+        decoder, have, written = framing.UplinkDecoder(), 0, 0
+        t_ms = 0
+
+        def brain_step(cmd: DriveCommand) -> tuple[list[State], BrainReport]:
+            nonlocal have, t_ms
+            lines = hw.sensor_lines(hw.read("autonomous"))
+            t_ms += 100
+            replies = brain.run_batch([*lines, BrainHost.step_line("until", t_ms, written)])
+            report = BrainReport.parse(replies[-1])
+            states, have = _states(fd, decoder, have, report.tx)
+            w.step([cmd])
+            return states, report
+
+        try:
+            hello = Hello(FINGERPRINT, PROTOCOL_VERSION, Role.JETSON, 0xA11CE, "test")
+            written += os.write(fd, framing.encode_downlink(hello, 0))
+            states, report = brain_step(DriveCommand(0.0, 0.0))
+            assert states and states[-1].goal_clamped == 0, "sensor fitted, no goal"
+            assert not report.clamp_closed
+            for _ in range(10):  # back onto the goal until the World clamps it
+                if r.carried_goal is not None:
+                    break
+                brain_step(DriveCommand(-0.3, 0.0))
+            assert r.carried_goal == 0
+            states, report = brain_step(DriveCommand(0.0, 0.0))
+            assert states[-1].goal_clamped == 1, "the Jetson hears that the robot holds a goal"
+            assert report.clamp == 1 and report.clamp_closed
+            w.step([DriveCommand(0.0, 0.0, clamp=False)])  # the World lets go
+            assert r.carried_goal is None
+            states, report = brain_step(DriveCommand(0.0, 0.0))
+            assert states[-1].goal_clamped == 0
+            assert report.clamp_closed, "the Brain never opens the clamp by itself"
+        finally:
+            os.close(fd)
+        bare = RobotHardware(w, 0, rng=None, clamp_sensor=False)
+        assert bare.read("autonomous").goal_at_back is None
 
 
 def test_noisy_gps_differs_from_the_truth(world: World) -> None:

@@ -93,6 +93,7 @@ struct Rig {
   host::FakeGps gps;
   host::FakeDrivetrain drive;
   host::FakeIntake intake;
+  host::FakeGoalClamp clamp;
   host::FakeCompetition competition;
   host::FakeDriverInput driver;
   BenchSerial serial;
@@ -101,7 +102,8 @@ struct Rig {
 
   Rig()
       : robot(core::kRobotConfig,
-              core::Hardware{clock, gps, drive, intake, serial, competition, driver}, 0xB0B0CAFE) {
+              core::Hardware{clock, gps, drive, intake, clamp, serial, competition, driver},
+              0xB0B0CAFE) {
     drive.calls.reserve(host::FakeDrivetrain::kKeep);
     competition.set_phase(msg::MatchPhase::autonomous);
     gps.set_pose(0.5, -0.7, 91.0, 0.02);

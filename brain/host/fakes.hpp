@@ -1,6 +1,6 @@
-// Host stand-ins for the Brain's hardware: a clock the caller sets, motors that record what they
-// were told, a GPS and a competition switch the caller controls, and an in-memory serial link that
-// keeps the exact bytes PROS would put on the USB wire. Host-only code: it may allocate.
+// Host stand-ins for the Brain's hardware: a clock the caller sets, motors and a goal clamp that
+// record what they were told, a GPS, a clamp sensor and a competition switch the caller controls,
+// and an in-memory serial link that keeps the exact bytes PROS would put on the USB wire. Host-only code: it may allocate.
 #pragma once
 
 #include <cstddef>
@@ -85,6 +85,19 @@ class FakeIntake final : public core::Intake {
   uint8_t rings_held() override { return rings; }
   bool on = false;
   uint8_t rings = core::kRingsUnknown;
+};
+
+/// The goal clamp: remembers what it was told; the sensor reads what the caller sets.
+class FakeGoalClamp final : public core::GoalClamp {
+ public:
+  void set(bool closed_) override {
+    if (closed_ != closed) ++changes;
+    closed = closed_;
+  }
+  uint8_t goal_at_back() override { return sensor; }
+  bool closed = false;
+  uint32_t changes = 0;                  // times it was told to change state
+  uint8_t sensor = core::kClampUnknown;  // 1 goal at the back, 0 none, kClampUnknown no sensor
 };
 
 class FakeCompetition final : public core::Competition {

@@ -13,9 +13,9 @@ namespace {
 constexpr const char* kHelp =
     "ok commands: get | advance MS [rx=BYTES] | until MS [rx=BYTES] | "
     "phase disabled|autonomous|driver | gps X Y HEADING [ERROR] | "
-    "gps calibrating|error|absent | sticks FORWARD TURN [intake] | sticks off | "
-    "measured LEFT_MPS RIGHT_MPS | measured auto | rings N|unknown | motor_fault 0|1 | "
-    "help | quit";
+    "gps calibrating|error|absent | sticks FORWARD TURN [intake] [clamp] | sticks off | "
+    "measured LEFT_MPS RIGHT_MPS | measured auto | rings N|unknown | clamp 0|1|unknown | "
+    "motor_fault 0|1 | help | quit";
 
 std::vector<std::string> split(const std::string& line) {
   std::istringstream in(line);
@@ -146,13 +146,20 @@ std::string SideChannel::handle(const std::string& line) {
       rig_.driver.sticks = {};
       return "ok";
     }
-    if (n != 3 && n != 4) return error("sticks FORWARD TURN [intake] | sticks off");
+    if (n < 3 || n > 5) return error("sticks FORWARD TURN [intake] [clamp] | sticks off");
     double f = 0.0, r = 0.0;
     if (!parse_number(t[1], f)) return not_number("sticks", t[1]);
     if (!parse_number(t[2], r)) return not_number("sticks", t[2]);
     if (std::fabs(f) > 1.0 || std::fabs(r) > 1.0) return error("sticks: axes must be in [-1, 1]");
-    if (n == 4 && t[3] != "intake") return error("sticks: '" + t[3] + "' should be 'intake'");
-    rig_.driver.sticks = {true, static_cast<float>(f), static_cast<float>(r), n == 4};
+    bool intake = false, clamp = false;
+    for (std::size_t i = 3; i < n; ++i) {
+      bool& button = t[i] == "intake" ? intake : clamp;
+      if ((t[i] != "intake" && t[i] != "clamp") || button) {
+        return error("sticks: '" + t[i] + "' should be 'intake' or 'clamp', each at most once");
+      }
+      button = true;
+    }
+    rig_.driver.sticks = {true, static_cast<float>(f), static_cast<float>(r), intake, clamp};
     return "ok";
   }
   if (cmd == "measured") {
@@ -181,6 +188,14 @@ std::string SideChannel::handle(const std::string& line) {
       return error("rings N (0..254) | rings unknown");
     }
     rig_.intake.rings = static_cast<uint8_t>(count);
+    return "ok";
+  }
+  if (cmd == "clamp") {
+    // The switch at the clamp's mouth: a goal is (1) or is not (0) at the back, or no sensor.
+    if (n != 2 || (t[1] != "0" && t[1] != "1" && t[1] != "unknown")) {
+      return error("clamp 0|1|unknown");
+    }
+    rig_.clamp.sensor = t[1] == "unknown" ? core::kClampUnknown : (t[1] == "1" ? 1 : 0);
     return "ok";
   }
   if (cmd == "motor_fault") {

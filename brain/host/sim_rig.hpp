@@ -30,6 +30,7 @@ class SimRig {
   FakeGps gps;
   FakeDrivetrain drive;
   FakeIntake intake;
+  FakeGoalClamp clamp;
   FakeCompetition competition;
   FakeDriverInput driver;
   core::Robot robot;

@@ -15,8 +15,9 @@
 // PROS 3.8 differences (brain/README.md, "PROS 3"): pros::MotorGroup is pros::Motor_Group, with
 // non-const methods, set_brake_modes and vector-returning per-motor getters; the gear and brake
 // enums are the C E_MOTOR_GEARSET_* / E_MOTOR_BRAKE_*; pros::Gps::get_status() replaces
-// get_position_and_orientation(). Tasks, millis, stdin, /ser/ streams, serctl, pros::competition
-// and the controller are the same.
+// get_position_and_orientation(); pros::adi::DigitalOut / DigitalIn are pros::ADIDigitalOut /
+// ADIDigitalIn. Tasks, millis, stdin, /ser/ streams, serctl, pros::competition and the controller
+// are the same.
 #include <unistd.h>
 
 #include <atomic>
@@ -220,6 +221,42 @@ class ProsIntake final : public core::Intake {
   bool on_ = true;  // so the first set(false) really stops it
 };
 
+// --- goal clamp ----------------------------------------------------------------------------------
+
+/// The mobile-goal clamp: a pneumatic solenoid on one ADI port (Ports::clamp_piston) and a limit
+/// switch or bumper at the clamp's mouth on another (Ports::clamp_sensor), pressed while a goal
+/// sits at the back. Neither is fitted as shipped: then the piston is never driven and the sensor
+/// reads kClampUnknown, so the core never closes the clamp and the State says 255.
+class ProsGoalClamp final : public core::GoalClamp {
+ public:
+  ProsGoalClamp() {
+    // The solenoid starts at the "open" level, so power-up never grabs anything.
+    if (kPorts.clamp_piston != 0) piston_.emplace(kPorts.clamp_piston, level(false));
+    if (kPorts.clamp_sensor != 0) sensor_.emplace(kPorts.clamp_sensor);
+  }
+
+  void set(bool closed) override {
+    if (!piston_ || closed == closed_) return;
+    closed_ = closed;
+    piston_->set_value(level(closed) ? 1 : 0);
+  }
+
+  uint8_t goal_at_back() override {
+    if (!sensor_) return core::kClampUnknown;
+    // 1 while the switch is pressed, 0 while released; PROS_ERR (errno set) when the port fails.
+    const std::int32_t v = sensor_->get_value();
+    if (v == PROS_ERR) return core::kClampUnknown;
+    return v != 0 ? 1 : 0;
+  }
+
+ private:
+  static bool level(bool closed) { return closed == kPorts.clamp_closes_high; }
+
+  std::optional<pros::adi::DigitalOut> piston_;
+  std::optional<pros::adi::DigitalIn> sensor_;
+  bool closed_ = false;
+};
+
 // --- serial --------------------------------------------------------------------------------------
 
 /// "pete" as serctl wants a stream id: the four ASCII bytes read as a little-endian u32.
@@ -281,12 +318,12 @@ class ProsDriverInput final : public core::DriverInput {
  public:
   static constexpr std::uint32_t kFreshMs = 100;
 
-  void publish(std::int32_t forward, std::int32_t turn, bool intake) {
+  void publish(std::int32_t forward, std::int32_t turn, bool intake, bool clamp) {
     const std::uint32_t packed = static_cast<std::uint8_t>(static_cast<std::int8_t>(forward)) |
                                  static_cast<std::uint32_t>(static_cast<std::uint8_t>(
                                      static_cast<std::int8_t>(turn)))
                                      << 8 |
-                                 (intake ? 1u << 16 : 0u);
+                                 (intake ? 1u << 16 : 0u) | (clamp ? 1u << 17 : 0u);
     sample_.store(packed, std::memory_order_relaxed);
     stamp_ms_.store(pros::millis(), std::memory_order_release);
   }
@@ -300,6 +337,7 @@ class ProsDriverInput final : public core::DriverInput {
     s.forward = static_cast<float>(static_cast<std::int8_t>(packed & 0xFF)) / 127.0f;
     s.turn = static_cast<float>(static_cast<std::int8_t>((packed >> 8) & 0xFF)) / 127.0f;
     s.intake = (packed >> 16) & 1u;
+    s.clamp = (packed >> 17) & 1u;
     return s;
   }
 
@@ -315,11 +353,14 @@ struct ProsHardware {
   ProsGps gps;
   ProsDrivetrain drive;
   ProsIntake intake;
+  ProsGoalClamp clamp;
   ProsSerial serial;
   ProsCompetition competition;
   ProsDriverInput driver;
 
-  core::Hardware hal() { return {clock, gps, drive, intake, serial, competition, driver}; }
+  core::Hardware hal() {
+    return {clock, gps, drive, intake, clamp, serial, competition, driver};
+  }
 };
 
 ProsHardware* g_hardware = nullptr;
@@ -390,7 +431,8 @@ void opcontrol() {
     if (g_hardware != nullptr && master.is_connected() == 1) {
       g_hardware->driver.publish(master.get_analog(pros::E_CONTROLLER_ANALOG_LEFT_Y),
                                  master.get_analog(pros::E_CONTROLLER_ANALOG_RIGHT_X),
-                                 master.get_digital(pros::E_CONTROLLER_DIGITAL_R1) == 1);
+                                 master.get_digital(pros::E_CONTROLLER_DIGITAL_R1) == 1,
+                                 master.get_digital(pros::E_CONTROLLER_DIGITAL_L1) == 1);
     }
     pros::Task::delay_until(&wake, 10);
   }

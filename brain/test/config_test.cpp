@@ -50,6 +50,9 @@ TEST(Config, NamesWhatIsWrong) {
   c = kRobotConfig;
   c.alliance = static_cast<msg::Alliance>(9);
   EXPECT_EQ(error_of(c), "alliance is not a valid Alliance");
+  c = kRobotConfig;
+  c.clamp.confirm_ms = 5000;
+  EXPECT_EQ(error_of(c), "clamp confirm_ms must be at most 1000");
 }
 
 TEST(Config, PortsMustBeDistinctAndInRange) {
@@ -65,6 +68,33 @@ TEST(Config, PortsMustBeDistinctAndInRange) {
   p = kRobotPorts;
   p.left[0] = 0;
   EXPECT_STREQ(ports_error(p), "each drive side needs at least one motor");
+}
+
+TEST(Config, ClampPortsAreAdiPorts) {
+  EXPECT_EQ(kRobotPorts.clamp_piston, 0) << "shipped without a clamp, like the ring counter";
+  EXPECT_EQ(kRobotPorts.clamp_sensor, 0);
+  EXPECT_TRUE(kRobotConfig.clamp.auto_close);
+  Ports p = kRobotPorts;
+  p.clamp_piston = 'A';
+  p.clamp_sensor = 2;
+  EXPECT_EQ(ports_error(p), nullptr);
+  p.clamp_sensor = 'b';
+  EXPECT_EQ(ports_error(p), nullptr);
+  p.clamp_sensor = 'I';
+  EXPECT_STREQ(ports_error(p), "clamp ADI ports must be 0, 1..8 or 'A'..'H'");
+  p.clamp_sensor = 9;
+  EXPECT_STREQ(ports_error(p), "clamp ADI ports must be 0, 1..8 or 'A'..'H'");
+  p.clamp_sensor = 1;
+  EXPECT_STREQ(ports_error(p), "the clamp piston and sensor share an ADI port");
+  p.clamp_piston = 0;
+  p.clamp_sensor = 'B';
+  EXPECT_STREQ(ports_error(p), "a clamp sensor needs a clamp piston");
+  p.clamp_piston = 'H';
+  p.clamp_sensor = 0;
+  EXPECT_EQ(ports_error(p), nullptr) << "a piston alone: the driver's button only";
+  EXPECT_EQ(adi_port_index('a'), 1);
+  EXPECT_EQ(adi_port_index('H'), 8);
+  EXPECT_EQ(adi_port_index(0), 0);
 }
 
 }  // namespace

@@ -119,6 +119,37 @@ TEST(SideChannel, MeasuredSpeedsAndMotorFaultsReachTheState) {
   EXPECT_EQ(s.rig.robot.status().state.left_speed, 0.0f);
 }
 
+TEST(SideChannel, ClampSensorAndButtonReachTheStateAndTheReport) {
+  SideRig s;
+  s.io.deliver(downlink(jetson_hello()));
+  std::string r = s("advance 20");
+  EXPECT_TRUE(has(r, " clamp=255 clamp_closed=0 ")) << "no sensor by default: " << r;
+  EXPECT_EQ(s.rig.robot.status().state.goal_clamped, 255u);
+  EXPECT_EQ(s("clamp 0"), "ok");
+  EXPECT_EQ(s("phase autonomous"), "ok");
+  r = s("advance 20");
+  EXPECT_TRUE(has(r, " clamp=0 clamp_closed=0 ")) << r;
+  EXPECT_EQ(s("clamp 1"), "ok");  // a goal touches the back
+  r = s("advance 20");
+  EXPECT_TRUE(has(r, " clamp=1 clamp_closed=1 ")) << r;
+  EXPECT_EQ(s.rig.robot.status().state.goal_clamped, 1u);
+  EXPECT_TRUE(s.rig.clamp.closed);
+  EXPECT_EQ(s("clamp unknown"), "ok");
+  r = s("advance 20");
+  EXPECT_TRUE(has(r, " clamp=255 clamp_closed=1 ")) << r;
+  // In driver control the controller's clamp button toggles it.
+  EXPECT_EQ(s("clamp 0"), "ok");
+  EXPECT_EQ(s("phase driver"), "ok");
+  EXPECT_EQ(s("sticks 0 0 clamp"), "ok");
+  r = s("advance 20");
+  EXPECT_TRUE(has(r, " clamp=0 clamp_closed=0 ")) << r;
+  EXPECT_TRUE(has(r, " source=none ")) << r;
+  EXPECT_EQ(s("sticks 0 0 intake clamp"), "ok");
+  r = s("advance 20");
+  EXPECT_TRUE(has(r, " intake=1 ")) << r;
+  EXPECT_TRUE(has(r, " clamp_closed=0 ")) << "still held: no new press " << r;
+}
+
 TEST(SideChannel, BadInputGetsAClearErrorAndChangesNothing) {
   SideRig s;
   EXPECT_EQ(s(""), "error empty command (try: help)");
@@ -128,7 +159,12 @@ TEST(SideChannel, BadInputGetsAClearErrorAndChangesNothing) {
   EXPECT_EQ(s("gps lost"), "error gps: 'lost' is not calibrating, error or absent");
   EXPECT_EQ(s("phase halftime"), "error phase: 'halftime' is not disabled, autonomous or driver");
   EXPECT_EQ(s("sticks 2 0"), "error sticks: axes must be in [-1, 1]");
-  EXPECT_EQ(s("sticks 0 0 boost"), "error sticks: 'boost' should be 'intake'");
+  EXPECT_EQ(s("sticks 0 0 boost"),
+            "error sticks: 'boost' should be 'intake' or 'clamp', each at most once");
+  EXPECT_EQ(s("sticks 0 0 clamp clamp"),
+            "error sticks: 'clamp' should be 'intake' or 'clamp', each at most once");
+  EXPECT_EQ(s("clamp yes"), "error clamp 0|1|unknown");
+  EXPECT_EQ(s("clamp"), "error clamp 0|1|unknown");
   EXPECT_EQ(s("advance -5"), "error advance: '-5' is not a whole number of ms");
   EXPECT_EQ(s("advance 10 bytes=3"), "error expected rx=BYTES, got 'bytes=3'");
   EXPECT_EQ(s("advance 10 rx=99"), "error timed out waiting for downlink bytes: have 0, want 99");

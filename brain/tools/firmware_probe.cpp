@@ -32,6 +32,10 @@ struct Intake final : core::Intake {
   void set(bool on) override { g_sink = on ? 1.0f : 0.0f; }
   uint8_t rings_held() override { return core::kRingsUnknown; }
 };
+struct Clamp final : core::GoalClamp {
+  void set(bool closed) override { g_sink = closed ? 1.0f : 0.0f; }
+  uint8_t goal_at_back() override { return 1; }
+};
 struct Serial final : core::SerialLink {
   core::ByteRing<256> rx;  // as the PROS adapter uses it, so its atomics are linked too
   std::size_t read(uint8_t* buf, std::size_t cap) override { return rx.pop(buf, cap); }
@@ -52,11 +56,13 @@ int main() {
   static Gps gps;
   static Drive drive;
   static Intake intake;
+  static Clamp clamp;
   static Serial serial;
   static Comp comp;
   static Sticks sticks;
-  static core::Robot robot(core::kRobotConfig,
-                           core::Hardware{clock, gps, drive, intake, serial, comp, sticks}, 1u);
+  static core::Robot robot(
+      core::kRobotConfig,
+      core::Hardware{clock, gps, drive, intake, clamp, serial, comp, sticks}, 1u);
   const uint8_t hello[] = ":00\n";
   serial.rx.push(hello, sizeof hello - 1);
   for (uint32_t i = 0; i < 100; ++i) {

@@ -32,6 +32,7 @@ BINARY_ENV = "PETE_BRAIN_HOST"
 REPLY_TIMEOUT_S = 10.0  # brain_host waits up to 5 s for rx= bytes itself; this covers that
 PHASES = ("disabled", "autonomous", "driver")
 RINGS_UNKNOWN = 255  # the State's rings_held when no ring counter is fitted
+CLAMP_UNKNOWN = 255  # the State's goal_clamped when no clamp sensor is fitted
 GPS_FAILURES = ("calibrating", "error", "absent")
 
 Phase = Literal["disabled", "autonomous", "driver"]
@@ -78,6 +79,8 @@ class BrainReport:
     rx: int  # downlink bytes brain_host has read, in total
     tx: int  # uplink bytes it has written, in total
     rings: int = RINGS_UNKNOWN  # the intake's ring counter as the State reports it
+    clamp: int = CLAMP_UNKNOWN  # the State's goal_clamped: 1 holding a goal, 0 not, 255 no sensor
+    clamp_closed: bool = False  # what the Brain told the goal clamp (its piston)
 
     @classmethod
     def parse(cls, fields: dict[str, str]) -> BrainReport:
@@ -106,6 +109,8 @@ class BrainReport:
                 rx=int(fields["rx"]),
                 tx=int(fields["tx"]),
                 rings=int(fields.get("rings", RINGS_UNKNOWN)),
+                clamp=int(fields.get("clamp", CLAMP_UNKNOWN)),
+                clamp_closed=fields.get("clamp_closed", "0") == "1",
             )
         except (KeyError, ValueError) as exc:
             raise BrainHostError(
@@ -308,11 +313,23 @@ class BrainHost:
         return f"rings {int(count)}"
 
     @staticmethod
-    def sticks_line(forward: float, turn: float, intake: bool = False) -> str:
+    def clamp_line(goal_at_back: bool | None) -> str:
+        """The goal clamp's sensor: a goal is (True) or is not (False) at the robot's back, or
+        None for no sensor fitted (the State then says goal_clamped = 255)."""
+        if goal_at_back is None:
+            return "clamp unknown"
+        return f"clamp {int(bool(goal_at_back))}"
+
+    @staticmethod
+    def sticks_line(forward: float, turn: float, intake: bool = False, clamp: bool = False) -> str:
         for v, name in ((forward, "forward"), (turn, "turn")):
             if not (math.isfinite(v) and -1.0 <= v <= 1.0):
                 raise ValueError(f"stick {name} must be in [-1, 1], got {v!r}")
-        return f"sticks {forward!r} {turn!r}" + (" intake" if intake else "")
+        return (
+            f"sticks {forward!r} {turn!r}"
+            + (" intake" if intake else "")
+            + (" clamp" if clamp else "")
+        )
 
     @staticmethod
     def step_line(verb: str, ms: int, rx: int | None) -> str:
@@ -340,8 +357,13 @@ class BrainHost:
     def set_rings(self, count: int | None) -> None:
         self.command(self.rings_line(count))
 
-    def set_sticks(self, forward: float, turn: float, intake: bool = False) -> None:
-        self.command(self.sticks_line(forward, turn, intake))
+    def set_clamp(self, goal_at_back: bool | None) -> None:
+        self.command(self.clamp_line(goal_at_back))
+
+    def set_sticks(
+        self, forward: float, turn: float, intake: bool = False, clamp: bool = False
+    ) -> None:
+        self.command(self.sticks_line(forward, turn, intake, clamp))
 
     def sticks_off(self) -> None:
         self.command("sticks off")

@@ -6,12 +6,17 @@ Each 10 ms loop step the Brain reads its sensors and drives its motors. Here:
                                noise), the wheel encoders (the speeds the robot really moved at
                                over the last step, so a robot pushing a wall reads ~0), the
                                intake's ring counter (the rings the robot holds; optional, as on
-                               a real robot) and the competition status from the match clock;
+                               a real robot), the goal clamp's sensor (whether the robot holds a
+                               goal at its back; optional too) and the competition status from
+                               the match clock;
     motors   (Brain -> World)  the wheel surface speeds the Brain told the drive motors, turned
                                into the simulator's DriveCommand by the robot's track width
                                (DriveCommand.from_wheels), and the intake.
 
 The World's own drive model (acceleration and speed limits of the real robot) then applies them.
+The goal clamp is the World's own (WorldConfig.auto_clamp grabs a goal that touches the back), so
+the Brain's piston has nothing to move here; the sensor tells the Brain what the World did, and
+the Brain reports it to the Jetson in the State's goal_clamped, as a real robot's would.
 
 Competition status (VEX AI): before the match the robot is powered and disabled (the two sides
 connect); the isolation period is autonomous, the interaction period driver control (the Jetson
@@ -45,6 +50,7 @@ class SensorReading:
     right_mps: float
     phase: str
     rings: int | None = None  # the ring counter; None: no counter fitted
+    goal_at_back: bool | None = None  # the clamp's sensor; None: no sensor fitted
 
 
 class RobotHardware:
@@ -56,6 +62,7 @@ class RobotHardware:
         index: int,
         rng: np.random.Generator | None,
         ring_counter: bool = True,
+        clamp_sensor: bool = True,
     ) -> None:
         if not 0 <= index < len(world.robots):
             raise ValueError(f"robot {index} is not in this world ({len(world.robots)} robots)")
@@ -64,8 +71,10 @@ class RobotHardware:
         self.rng = rng  # None: a noiseless GPS
         self.gps_failure: str | None = None  # set to make the GPS fail this way
         self.ring_counter = ring_counter
+        self.clamp_sensor = clamp_sensor
         self._sent_phase: str | None = None
         self._sent_rings: int | None = None
+        self._sent_goal: bool | None = None
         self.last_command = DriveCommand(0.0, 0.0, intake=False)
 
     @property
@@ -79,11 +88,13 @@ class RobotHardware:
             gps = (g.x, g.y, g.heading_deg, g.error_m)
         left, right = self.robot.wheel_speeds()
         rings = min(self.robot.held, 254) if self.ring_counter else None
-        return SensorReading(gps, self.gps_failure, left, right, phase, rings)
+        goal = (self.robot.carried_goal is not None) if self.clamp_sensor else None
+        return SensorReading(gps, self.gps_failure, left, right, phase, rings, goal)
 
     def sensor_lines(self, reading: SensorReading) -> list[str]:
-        """Side-channel commands that put this reading into brain_host (the phase and the ring
-        count only when they change: brain_host keeps them, and a line costs a parse)."""
+        """Side-channel commands that put this reading into brain_host (the phase, the ring count
+        and the clamp sensor only when they change: brain_host keeps them, and a line costs a
+        parse)."""
         lines = []
         if reading.phase != self._sent_phase:
             lines.append(BrainHost.phase_line(reading.phase))
@@ -91,6 +102,9 @@ class RobotHardware:
         if reading.rings is not None and reading.rings != self._sent_rings:
             lines.append(BrainHost.rings_line(reading.rings))
             self._sent_rings = reading.rings
+        if reading.goal_at_back is not None and reading.goal_at_back != self._sent_goal:
+            lines.append(BrainHost.clamp_line(reading.goal_at_back))
+            self._sent_goal = reading.goal_at_back
         if reading.gps is not None:
             lines.append(BrainHost.gps_line(*reading.gps))
         else:

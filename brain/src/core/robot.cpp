@@ -46,7 +46,8 @@ Robot::Robot(const Config& config, const Hardware& hw, uint32_t boot_id)
       link_(config.link, boot_id, kSoftwareVersion),
       watchdog_(config.link),
       arbiter_(config),
-      drive_(config.drive) {}
+      drive_(config.drive),
+      clamp_(config.clamp) {}
 
 void Robot::step() {
   const uint64_t t0_us = hw_.clock.now_us();
@@ -132,6 +133,12 @@ void Robot::step() {
   }
   hw_.intake.set(intake);
 
+  // The goal clamp closes by itself on a goal at the back and never opens by itself.
+  const ClampEvent clamp_event =
+      clamp_.update(phase, hw_.clamp.goal_at_back(), sticks.present && sticks.clamp, now);
+  hw_.clamp.set(clamp_.closed());
+  if (clamp_event != ClampEvent::none) link_.log(msg::LogLevel::info, now, to_string(clamp_event));
+
   // Report.
   const WheelFeedback fb = hw_.drive.feedback();
   const DriveModel& model = drive_.model();
@@ -149,6 +156,7 @@ void Robot::step() {
   s.right_speed = std::isfinite(fb.right_rpm) ? model.motor_rpm_to_wheel(fb.right_rpm) : 0.0f;
   s.last_command_seq = last_command_seq_;
   s.rings_held = hw_.intake.rings_held();
+  s.goal_clamped = clamp_.goal_clamped();
   s.faults = faults(now, gps, fb);
   link_.transmit(hw_.serial, now, s);
 
@@ -159,6 +167,7 @@ void Robot::step() {
   status_.wheels = model.wheels(status_.commanded);
   status_.stopped = drive_.stopped();
   status_.intake = intake;
+  status_.clamp_closed = clamp_.closed();
   ++status_.steps;
 
   const uint64_t took = hw_.clock.now_us() - t0_us;

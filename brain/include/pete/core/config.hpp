@@ -42,10 +42,18 @@ struct DriverConfig {
   uint32_t override_hold_ms; // a stick move takes over from the Jetson for this long after release
 };
 
+/// The mobile-goal clamp on the robot's back. As in the simulator, nobody commands it in a match:
+/// the Brain closes it when its sensor says a goal is at the back, and keeps it closed.
+struct ClampConfig {
+  bool auto_close;      // close the clamp by itself (autonomous and driver control, never disabled)
+  uint32_t confirm_ms;  // ...once the sensor has said "goal" this long without a break (0: at once)
+};
+
 struct Config {
   DriveConfig drive;
   LinkConfig link;
   DriverConfig driver;
+  ClampConfig clamp;
   uint32_t loop_period_ms;           // control loop period; the loop never runs faster or slower
   msg::Alliance alliance;            // reported in every State (PROS cannot read it from the field)
   bool jetson_drives_in_autonomous;  // VEX AI: both periods are autonomous, so both default to true
@@ -63,6 +71,9 @@ struct Ports {
   double gps_offset_x_m;     // GPS sensor position relative to the robot's turning centre,
   double gps_offset_y_m;     //   as pros::Gps(port, xOffset, yOffset) takes it
   float intake_rpm;          // intake motor speed when running
+  uint8_t clamp_piston;      // ADI port (1..8 or 'A'..'H') of the clamp's solenoid; 0 = no clamp
+  uint8_t clamp_sensor;      // ADI port of the switch a goal at the back presses; 0 = none fitted
+  bool clamp_closes_high;    // the solenoid level that closes the clamp (false: LOW closes it)
 };
 
 // --- this robot ---------------------------------------------------------------------------------
@@ -90,6 +101,10 @@ inline constexpr Config kRobotConfig{
         /*deadband=*/0.06f,
         /*override_hold_ms=*/500,
     },
+    /*clamp=*/{
+        /*auto_close=*/true,
+        /*confirm_ms=*/0,  // the simulator's clamp closes at the first touch too
+    },
     /*loop_period_ms=*/10,
     /*alliance=*/msg::Alliance::red,
     /*jetson_drives_in_autonomous=*/true,
@@ -104,6 +119,9 @@ inline constexpr Ports kRobotPorts{
     /*gps_offset_x_m=*/0.0,
     /*gps_offset_y_m=*/-0.10,
     /*intake_rpm=*/600.0f,
+    /*clamp_piston=*/0,  // none fitted: the State says goal_clamped = 255 (e.g. 'A' once wired)
+    /*clamp_sensor=*/0,  //   (e.g. 'B' for a limit switch at the back)
+    /*clamp_closes_high=*/true,
 };
 
 // --- checks -------------------------------------------------------------------------------------
@@ -143,7 +161,18 @@ constexpr const char* config_error(const Config& c) {
   }
   if (!(dr.deadband >= 0.0f && dr.deadband < 0.5f)) return "driver deadband must be in [0, 0.5)";
   if (!msg::is_valid(c.alliance)) return "alliance is not a valid Alliance";
+  if (c.clamp.confirm_ms > 1000) return "clamp confirm_ms must be at most 1000";
   return nullptr;
+}
+
+/// An ADI (three-wire) port as 1..8, from 1..8, 'A'..'H' or 'a'..'h' (what PROS takes);
+/// 0 for 0 (not fitted), -1 for anything else.
+constexpr int adi_port_index(uint8_t port) {
+  if (port == 0) return 0;
+  if (port >= 1 && port <= 8) return port;
+  if (port >= 'A' && port <= 'H') return port - 'A' + 1;
+  if (port >= 'a' && port <= 'h') return port - 'a' + 1;
+  return -1;
 }
 
 constexpr const char* ports_error(const Ports& p) {
@@ -161,6 +190,11 @@ constexpr const char* ports_error(const Ports& p) {
   if (p.left[0] == 0 || p.right[0] == 0) return "each drive side needs at least one motor";
   if (p.gps > 21) return "gps port out of range 1..21";
   if (p.gps != 0 && used[p.gps]) return "the gps port is also a motor port";
+  const int piston = adi_port_index(p.clamp_piston);
+  const int sensor = adi_port_index(p.clamp_sensor);
+  if (piston < 0 || sensor < 0) return "clamp ADI ports must be 0, 1..8 or 'A'..'H'";
+  if (sensor != 0 && piston == 0) return "a clamp sensor needs a clamp piston";
+  if (piston != 0 && piston == sensor) return "the clamp piston and sensor share an ADI port";
   return nullptr;
 }
 

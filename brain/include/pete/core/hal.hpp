@@ -75,6 +75,23 @@ class Intake {
   ~Intake() = default;
 };
 
+/// What GoalClamp::goal_at_back() says when no goal sensor is fitted (the State carries it as is).
+inline constexpr uint8_t kClampUnknown = 255;
+
+/// The mobile-goal clamp on the robot's back: an actuator (a pneumatic piston on the V5) and a
+/// sensor (a limit switch or bumper) that a goal presses when it sits in the clamp's mouth.
+class GoalClamp {
+ public:
+  /// Close (true) or open (false) the clamp. Called every loop step with the wanted state.
+  virtual void set(bool closed) = 0;
+  /// 1 while a goal is at the back, 0 while none is, or kClampUnknown when no sensor is fitted.
+  /// The core never guesses: without a sensor it never closes the clamp by itself.
+  virtual uint8_t goal_at_back() = 0;
+
+ protected:
+  ~GoalClamp() = default;
+};
+
 /// The USB serial link to the Jetson. On the Brain, reads come from stdin (filled by a reader task,
 /// so they never block the control loop) and each packet is one write() to the `pete` stream,
 /// which PROS frames as COBS(stream id || packet) || 0x00.
@@ -113,6 +130,7 @@ struct DriverSticks {
   float forward = 0.0f;  // left stick, up = forward
   float turn = 0.0f;     // right stick, right = clockwise
   bool intake = false;   // R1 held
+  bool clamp = false;    // L1 held: each press toggles the goal clamp
 };
 
 class DriverInput {
@@ -129,6 +147,7 @@ struct Hardware {
   PoseSource& gps;
   Drivetrain& drive;
   Intake& intake;
+  GoalClamp& clamp;
   SerialLink& serial;
   Competition& competition;
   DriverInput& driver;

@@ -1,5 +1,6 @@
 // The Brain's whole behaviour in one loop step, on top of the hardware interfaces: match clock,
-// link, command watchdog, who-drives arbitration, drive limits, GPS checks, and the State report.
+// link, command watchdog, who-drives arbitration, drive limits, GPS checks, the goal clamp, and the
+// State report.
 // src/pros_adapter.cpp calls step() every loop_period_ms from its own task; brain_host and the
 // tests call it with fake hardware and a fake clock.
 #pragma once
@@ -7,6 +8,7 @@
 #include <cstdint>
 
 #include "pete/core/arbiter.hpp"
+#include "pete/core/clamp.hpp"
 #include "pete/core/config.hpp"
 #include "pete/core/drive.hpp"
 #include "pete/core/hal.hpp"
@@ -31,6 +33,7 @@ struct RobotStatus {
   WheelSpeeds wheels;    // ...as wheel surface speeds, m/s
   bool stopped = true;   // the motors were stopped (brake) rather than driven
   bool intake = false;
+  bool clamp_closed = false;  // what the goal clamp was told
   msg::State state;      // the State of this step (sent only when one is due)
   uint32_t steps = 0;
   uint32_t command_timeouts = 0;
@@ -63,6 +66,7 @@ class Robot {
   CommandWatchdog watchdog_;
   Arbiter arbiter_;
   DriveController drive_;
+  ClampControl clamp_;
   RobotStatus status_;
 
   bool started_ = false;
