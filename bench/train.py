@@ -80,15 +80,20 @@ def competence_check(agent: Any, spec: Any, seed: int = EVAL_SEED) -> dict[str, 
     }
 
 
-def run_competence(config: str, eval_every: int, max_steps: int, out: Path) -> dict[str, Any]:
+def run_competence(
+    config: str, eval_every: int, max_steps: int | None, out: Path
+) -> dict[str, Any]:
+    """Train `config` from scratch, checking every `eval_every` steps; its own total_steps (and
+    so its learning-rate schedule) unless max_steps says otherwise."""
     from sim.training.config import load_config
     from sim.training.trainer import Progress, train
 
     cfg = load_config(config)
+    steps = max_steps or cfg.total_steps
     cfg = replace(
         cfg,
-        total_steps=max_steps,
-        checkpoint_steps=max_steps,
+        total_steps=steps,
+        checkpoint_steps=steps,
         evaluation=replace(cfg.evaluation, every_steps=0),
     )
     log: list[dict[str, float]] = []
@@ -181,8 +186,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--matches", type=int, default=100, help="strength matches per player")
     parser.add_argument("--matches-h2h", type=int, default=40, help="head-to-head matches")
     parser.add_argument("--matches-high", type=int, default=4, help="per row, high fidelity")
-    parser.add_argument("--eval-every", type=int, default=10_240)
-    parser.add_argument("--competence-max-steps", type=int, default=200_000)
+    # 8192 = 8 rollouts of capped.toml: checks at 8k, 16k, ... 49k, inside the 50k target.
+    parser.add_argument("--eval-every", type=int, default=8192)
+    parser.add_argument(
+        "--competence-max-steps",
+        type=int,
+        default=None,
+        help="train this long (default: the config's total_steps, its learning-rate schedule)",
+    )
     parser.add_argument("--run-dir", type=Path, default=REPO / "runs" / "bench-competence")
     parser.add_argument("--skip-competence", action="store_true")
     parser.add_argument("--skip-high", action="store_true")

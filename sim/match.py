@@ -50,6 +50,10 @@ class EnvConfig:
     [linear, angular] in [-1, 1], scaled to the robot's speed limits (angular positive =
     clockwise), plus [intake] and/or [clamp] when action_intake / action_clamp (> 0 means on;
     clamp < 0 releases). max_steps truncates episodes early (None: the match's own length).
+    goal_start_share is a training curriculum: the share of episodes in which each robot starts
+    with its back to one of its alliance's goals (clamp point 0.05-0.5 m from it, +-30 deg),
+    so that a policy discovers the clamp, which an untrained robot driving forward never backs
+    into.
     """
 
     world: WorldConfig = field(default_factory=WorldConfig)
@@ -61,6 +65,7 @@ class EnvConfig:
     action_intake: bool = False
     action_clamp: bool = False
     max_steps: int | None = None
+    goal_start_share: float = 0.0
     # Gymnasium env only: which robot learns and who plays against it.
     agent_alliance: Literal["red", "blue", "random"] = "red"
     opponent: Literal["none", "scripted", "policy"] = "scripted"
@@ -74,6 +79,8 @@ class EnvConfig:
             raise ConfigError(f"opponent must be none, scripted or policy: {self.opponent!r}")
         if self.max_steps is not None and self.max_steps < 1:
             raise ConfigError("max_steps must be at least 1 or None")
+        if not 0.0 <= self.goal_start_share <= 1.0:
+            raise ConfigError(f"goal_start_share must be in [0, 1], got {self.goal_start_share}")
 
     @property
     def action_size(self) -> int:
@@ -207,6 +214,10 @@ class MatchCore:
     def reset(self, rng: np.random.Generator) -> list[np.ndarray]:
         self.rng = rng
         self.world.reset(rng)
+        if self.config.goal_start_share > 0:
+            for r in self.world.robots:
+                if rng.random() < self.config.goal_start_share:
+                    self._start_at_goal(r.index, rng)
         self.stacks = [FrameStack(self.spec) for _ in self.world.robots]
         self.memories = [RingMemory(self.spec) for _ in self.world.robots]
         self.goal_memories = [GoalMemory(self.spec) for _ in self.world.robots]
@@ -218,6 +229,25 @@ class MatchCore:
         self._park = [self._park_potential(i) for i in range(len(self.world.robots))]
         self._goal_near = [self._goal_potential(i) for i in range(len(self.world.robots))]
         return [s.reset(self.frame(i)) for i, s in enumerate(self.stacks)]
+
+    def _start_at_goal(self, index: int, rng: np.random.Generator) -> None:
+        w = self.world
+        r = w.robots[index]
+        mine = [g for g in w.goals if g.spec.alliance == r.alliance]
+        if not mine:
+            return
+        g = mine[int(rng.integers(len(mine)))]
+        half = w.field.half - r.config.radius_m
+        for _ in range(20):  # a direction that keeps the robot inside the walls
+            # Facing away from the goal (its back toward it), then turned a little, moved off.
+            away = float(rng.uniform(0.0, 360.0))
+            heading = away + float(rng.uniform(-30.0, 30.0))
+            f = heading_vector(away)
+            d = w.clamp_offset(r, g) + float(rng.uniform(0.05, 0.5))
+            x, y = g.x + d * float(f[0]), g.y + d * float(f[1])
+            if abs(x) < half and abs(y) < half:
+                w.place_robot(index, x, y, heading)
+                return
 
     def view(self, index: int) -> RobotView:
         w = self.world

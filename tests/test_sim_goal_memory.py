@@ -132,3 +132,27 @@ def test_the_simulator_fills_the_layout_reports_the_clamp_and_rewards_it() -> No
     # The held goal left the memory; four remembered goals remain, in the slots nearest first.
     assert len(core.goal_memories[0].known) == 4
     core.close()
+
+
+def test_goal_start_share_puts_the_robots_back_to_one_of_its_goals() -> None:
+    pytest.importorskip("pybullet")
+    from sim.config import ConfigError
+    from sim.match import MatchCore, make_config
+
+    with pytest.raises(ConfigError, match="goal_start_share"):
+        make_config(goal_start_share=1.5)
+    core = MatchCore(make_config(goal_start_share=1.0, obs_noise=False, gps_noise=False))
+    starts = []
+    for seed in range(6):
+        core.reset(np.random.default_rng(seed))
+        w = core.world
+        for r in w.robots:
+            gaps = [
+                np.hypot(r.x - g.x, r.y - g.y) - w.clamp_offset(r, g)
+                for g in w.goals
+                if g.spec.alliance == r.alliance
+            ]
+            starts.append((r.x, r.y))
+            assert 0.049 <= min(gaps) <= 0.501, "5-50 cm further than where the clamp holds one"
+    assert len({round(x, 3) for x, _ in starts}) > 6, "starts differ from match to match"
+    core.close()
