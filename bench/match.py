@@ -7,7 +7,7 @@ with perception on rendered frames) and one with --stack sim (the same policy st
 simulator at 12 Hz, as `pete-sim eval` plays it), both against the planner. Measured:
 
 - rings per match, full stack / sim stack (target: >= 0.9, the gap perception, latency and the
-  wire may cost);
+  wire may cost), and the same for the match score (reported, no target);
 - wall-clock time of one lockstep full-stack match on this machine (target: <= 60 s; the median
   over the seeds, the worst is reported beside it);
 - loop latency: the daemon's State-bytes-in to Command-bytes-out time, p50 and p99 over every
@@ -54,6 +54,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error("--seeds must be at least 1")
 
     rings: dict[str, list[int]] = {"full": [], "sim": []}
+    scores: dict[str, list[int]] = {"full": [], "sim": []}
     walls: list[float] = []
     latencies: list[float] = []
     f1s: list[float] = []
@@ -73,6 +74,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"bench.match: {exc}", file=sys.stderr)
                 return 2
             rings[stack].append(result.rings)
+            scores[stack].append(result.score)
             if stack == "full":
                 walls.append(result.wall_s)
                 latencies.extend(_daemon_latencies(result))
@@ -94,6 +96,12 @@ def main(argv: list[str] | None = None) -> int:
     r.add("rings_full_mean", full)
     r.add("rings_sim_mean", sim)
     r.add("rings_full_over_sim", full / sim if sim > 0 else 0.0)
+    # A policy that loads goals and parks plays for the score, not the ring count: the score is
+    # the other half of what the full stack costs it.
+    s_full, s_sim = statistics.fmean(scores["full"]), statistics.fmean(scores["sim"])
+    r.add("score_full_mean", s_full)
+    r.add("score_sim_mean", s_sim)
+    r.add("score_full_over_sim", s_full / s_sim if s_sim > 0 else 0.0)
     r.add("lockstep_wall_s_median", statistics.median(walls))
     r.add("lockstep_wall_s_max", max(walls))
     if latencies:
