@@ -9,6 +9,7 @@ reported separately.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
@@ -165,6 +166,7 @@ class MatchCore:
         self.stacks: list[FrameStack] = []
         self.memories: list[RingMemory] = []
         self.goal_memories: list[GoalMemory] = []
+        self._shaping = self._shapings()
         self.totals: list[dict[str, float]] = []
         self.pins: list[int] = []
         self.rng = np.random.default_rng(0)
@@ -225,9 +227,8 @@ class MatchCore:
         self.pins = [0 for _ in self.world.robots]
         self.ended_by_pin = False
         self._margin = [self._score_margin(r.alliance) for r in self.world.robots]
-        self._near = [self._ring_potential(i) for i in range(len(self.world.robots))]
-        self._park = [self._park_potential(i) for i in range(len(self.world.robots))]
-        self._goal_near = [self._goal_potential(i) for i in range(len(self.world.robots))]
+        n = len(self.world.robots)
+        self._potentials = {k: [fn(i) for i in range(n)] for k, fn in self._shaping.items()}
         return [s.reset(self.frame(i)) for i, s in enumerate(self.stacks)]
 
     def _start_at_goal(self, index: int, rng: np.random.Generator) -> None:
@@ -315,20 +316,14 @@ class MatchCore:
             if r.index in pinned:
                 comp["pin"] = cfg.pin
                 self.pins[r.index] += 1
-            if cfg.approach:
-                near = self._ring_potential(r.index)
-                comp["approach"] = cfg.approach * (self._near[r.index] - near)
-                self._near[r.index] = near
-            if cfg.park:
-                park = self._park_potential(r.index)
-                comp["park"] = cfg.park * (self._park[r.index] - park)
-                self._park[r.index] = park
+            for name, potential in self._shaping.items():
+                weight = getattr(cfg, name)
+                if weight:
+                    now = potential(r.index)
+                    comp[name] = weight * (self._potentials[name][r.index] - now)
+                    self._potentials[name][r.index] = now
             if cfg.clamp and r.index in clamped:
                 comp["clamp"] = cfg.clamp
-            if cfg.goal_approach:
-                near = self._goal_potential(r.index)
-                comp["goal_approach"] = cfg.goal_approach * (self._goal_near[r.index] - near)
-                self._goal_near[r.index] = near
             if cfg.score:
                 margin = self._score_margin(r.alliance)
                 comp["score"] = cfg.score * (margin - self._margin[r.index])
@@ -346,6 +341,16 @@ class MatchCore:
             info["reward_components"] = comp
             results.append(RobotStep(obs, float(sum(comp.values())), comp, info))
         return results, ended, events
+
+    def _shapings(self) -> dict[str, Callable[[int], float]]:
+        """The potential-based shapings: reward component (and its RewardConfig weight) ->
+        potential. Each pays weight x (potential before - potential after) a step, so a match
+        sums to the potential's change and nothing can be farmed."""
+        return {
+            "approach": self._ring_potential,
+            "park": self._park_potential,
+            "goal_approach": self._goal_potential,
+        }
 
     def _ring_potential(self, index: int) -> float:
         """Distance (m) from the robot's front to the nearest ring on the floor; 0 when its
@@ -402,7 +407,7 @@ class MatchCore:
         w = self.world
         n = 0
         for g in w.goals:
-            if g.spec.alliance not in (None, alliance):
+            if not self._goal_scores_for(g.index, alliance):
                 continue
             if self.config.reward.goal_zone == "home":
                 owner, _ = w.goal_owner(g)

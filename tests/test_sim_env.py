@@ -283,9 +283,9 @@ def test_approach_shaping_pays_for_getting_closer_and_sums_to_the_potential_chan
     w = core.world
     w.set_floor_rings(np.array([[1.0, 0.0], [-1.2, 0.0]]))
     w.place_robot(0, 0.0, 0.0, 90.0)  # faces the ring at x = 1
-    core._near[0] = core._ring_potential(0)
+    core._potentials["approach"][0] = core._ring_potential(0)
     front = w.robots[0].config.length_m / 2
-    assert core._near[0] == pytest.approx(1.0 - front)
+    assert core._potentials["approach"][0] == pytest.approx(1.0 - front)
     total, first = 0.0, None
     for _ in range(6):
         results, _, _ = core.step([DriveCommand(0.5, 0.0)])
