@@ -196,6 +196,9 @@ class RewardConfig:
     goal_approach: per metre the robot's clamp point (behind its back) gets closer to the
     nearest goal it could score with, while it holds none: potential-based shaping again.
     score: weight on the change of the alliance's match-score margin (0: off).
+    hurry: per second while the robot has fewer than `ring_cap` rings (off without a cap); a
+    negative weight is a cost of time: potential shaping only steers, this makes a faster fill
+    worth more than the discount alone does (the competence test judges the fill time).
     """
 
     ring: float = 5.0
@@ -210,6 +213,7 @@ class RewardConfig:
     clamp: float = 0.0
     goal_approach: float = 0.0
     score: float = 0.0
+    hurry: float = 0.0
     goal_zone: Literal["home", "half"] = "home"
 
     def __post_init__(self) -> None:

@@ -38,6 +38,7 @@ REWARD_COMPONENTS = (
     "clamp",
     "goal_approach",
     "score",
+    "hurry",
 )
 
 
@@ -322,6 +323,8 @@ class MatchCore:
                     now = potential(r.index)
                     comp[name] = weight * (self._potentials[name][r.index] - now)
                     self._potentials[name][r.index] = now
+            if cfg.hurry and cap is not None and before[r.index] < cap:
+                comp["hurry"] = cfg.hurry * w.dt
             if cfg.clamp and r.index in clamped:
                 comp["clamp"] = cfg.clamp
             if cfg.score:

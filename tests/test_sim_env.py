@@ -30,7 +30,7 @@ def test_registered_and_passes_check_env() -> None:
         assert set(info["reward_components"]) == set(REWARD_COMPONENTS)
         assert set(REWARD_COMPONENTS) == {
             "rings", "pin", "goals_end", "side_end", "elevated_end", "approach", "park",
-            "clamp", "goal_approach", "score"
+            "clamp", "goal_approach", "score", "hurry"
         }  # fmt: skip
     finally:
         env.close()
@@ -123,7 +123,7 @@ def test_bad_action_shape_is_named() -> None:
 def test_ring_reward_is_capped_and_end_rewards_are_paid_once() -> None:
     cfg = make_config(
         world={"blue": [], "interaction_s": 3.0},
-        reward={"ring_cap": 2},
+        reward={"ring_cap": 2, "hurry": -1.0},
         obs_noise=False,
         gps_noise=False,
     )
@@ -137,14 +137,19 @@ def test_ring_reward_is_capped_and_end_rewards_are_paid_once() -> None:
     totals = dict.fromkeys(REWARD_COMPONENTS, 0.0)
     ended = False
     n = 0
+    filled_at = None
     while not ended:
         results, ended, _ = core.step([DriveCommand(0.5, 0.0)])
         for k, v in results[0].components.items():
             totals[k] += v
         n += 1
+        if filled_at is None and w.robots[0].collected >= 2:
+            filled_at = n
     r = w.robots[0]
     assert r.collected == 4
     assert totals["rings"] == pytest.approx(5.0 * 2), "5 per ring, only the first 2"
+    assert filled_at is not None and 1 < filled_at < n
+    assert totals["hurry"] == pytest.approx(-w.dt * filled_at), "time costs until the cap only"
     assert totals["side_end"] == pytest.approx(-17.5), "ended on the opponent's side"
     # Goals in red's home zone at the end, 12 each; the goals were lined up along the far wall.
     assert totals["goals_end"] == pytest.approx(12.0 * core.goals_counting("red"))
