@@ -33,14 +33,22 @@ def _cbr(c_in: int, c_out: int, stride: int = 1, dilation: int = 1) -> nn.Sequen
 
 
 class RingNet(nn.Module):
-    def __init__(self, width: int = 16) -> None:
+    """`blocks` is the number of 3x3 convolutions after the down-sampling one in stages 3 and 4
+    (stride 8 and 16). They are where depth is cheap: at 480x368 one more block in each costs
+    ~25 % more compute and widens the receptive field over a cluster of touching rings."""
+
+    def __init__(self, width: int = 16, blocks: int = 1) -> None:
         super().__init__()
         c1, c2, c3, c4 = width, 2 * width, 4 * width, 6 * width
         self.width = width
+        self.blocks = blocks
         self.stem = _cbr(3, c1, 2)
         self.stage2 = nn.Sequential(_cbr(c1, c2, 2), _cbr(c2, c2))
-        self.stage3 = nn.Sequential(_cbr(c2, c3, 2), _cbr(c3, c3))
-        self.stage4 = nn.Sequential(_cbr(c3, c4, 2), _cbr(c4, c4, dilation=2))
+        self.stage3 = nn.Sequential(_cbr(c2, c3, 2), *(_cbr(c3, c3) for _ in range(blocks)))
+        # Dilations 2, 4, 2, 4, ...: the deepest stage sees a whole cluster.
+        self.stage4 = nn.Sequential(
+            _cbr(c3, c4, 2), *(_cbr(c4, c4, dilation=2 + 2 * (k % 2)) for k in range(blocks))
+        )
         self.lateral4 = nn.Conv2d(c4, c2, 1)
         self.lateral3 = nn.Conv2d(c3, c2, 1)
         self.lateral2 = nn.Conv2d(c2, c2, 1)

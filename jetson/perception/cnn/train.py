@@ -57,6 +57,7 @@ class TrainConfig:
     lr: float = 3e-3
     weight_decay: float = 1e-4
     width: int = 16
+    blocks: int = 1  # 3x3 convolutions after the down-sampling in stages 3 and 4 (RingNet)
     seed: int = 0
     threads: int = 2
     input_long_side: int = 320
@@ -181,6 +182,8 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
         raise DatasetError(f"--out must name a .onnx file, got {out}")
     if not 64 <= cfg.input_long_side <= 1280:
         raise DatasetError(f"--input-long-side must be 64-1280 pixels, got {cfg.input_long_side}")
+    if cfg.width < 1 or not 0 <= cfg.blocks <= 8:
+        raise DatasetError(f"--width must be >= 1 and --blocks 0-8, got {cfg.width}, {cfg.blocks}")
     torch.manual_seed(cfg.seed)
     torch.set_num_threads(cfg.threads)
     rng = np.random.default_rng(cfg.seed)
@@ -205,7 +208,7 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
         val.append(synthetic_source(cfg.synthetic_val, cfg.synthetic_seed - 10_000))
     log(f"data ready in {time.monotonic() - t0:.1f} s")
 
-    net = RingNet(cfg.width)
+    net = RingNet(cfg.width, cfg.blocks)
     opt = torch.optim.AdamW(net.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     warm = min(100, cfg.steps // 10)
 
@@ -243,6 +246,7 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
         "input_long_side": cfg.input_long_side,
         "score_threshold": 0.4,
         "width": cfg.width,
+        "blocks": cfg.blocks,
         "trained_on": [s.name for s in sources],
         "validated_on": [s.name for s in val],
         "training": {k: (str(v) if isinstance(v, Path) else v) for k, v in asdict(cfg).items()},
