@@ -4,7 +4,10 @@
                                [--model PATH] [--strict]
 
 1. A test set with ground truth, for each detector (pre-filter off): precision, recall and F1 at
-   IoU 0.5, and localisation error (median, p90) by true distance band. By default the
+   IoU 0.5, localisation error (median, p90) by true distance band, and recall by how much of
+   each ring shows (its label's box over the whole ring's projected box: cut by the image's edge
+   or hidden behind another ring, a ring shows less), with F1 when rings under a quarter visible
+   count as VOC's 'difficult' objects (a diagnostic beside the target). By default the
    simulator's test set: N frames (default 500) that `pete-sim dataset --seed 0` renders into
    runs/bench-perception/sim-seed0-N/ the first time (a few minutes; later runs reuse it); the
    shipped detector trained on seed 100's frames, and each frame draws from its own (seed, frame)
@@ -51,6 +54,7 @@ ROOT = Path(__file__).resolve().parent.parent
 SHARED_REAL = ROOT.parent / "shared" / "datasets" / "blrsai-rings" / "train"
 TEST_SEED = 2_000_000
 BANDS = (0.0, 1.0, 2.0, 3.0)
+DIFFICULT_BELOW = 0.25  # visible fraction under which a ring is 'difficult' (reported, no target)
 
 
 def detectors(camera: CameraConfig, model: Path | None) -> dict[str, Detector]:
@@ -155,6 +159,21 @@ def add_localisation(result: Result, prefix: str, score: DatasetScore) -> None:
         result.add(f"{prefix}_loc_within_2m_median_m", round(float(np.median(within)), 4))
 
 
+def add_visibility(result: Result, prefix: str, score: DatasetScore) -> None:
+    """Recall by how much of each ring shows (a diagnostic: where the misses are), and F1 with
+    rings under a quarter visible treated as VOC's 'difficult' objects. Neither is a target:
+    the target counts every labelled ring."""
+    for lo, hi, n, recall in score.recall_by_visibility():
+        band = f"{lo * 100:.0f}_{hi * 100:.0f}pct"
+        result.add(f"{prefix}_visible_{band}_rings", n)
+        result.add(f"{prefix}_visible_{band}_recall", round(recall, 4))
+        print(f"    {lo * 100:.0f}-{hi * 100:.0f} % visible: {n} rings, recall {recall:.3f}")
+    if score.visibility:
+        c = score.counts_visible(DIFFICULT_BELOW)
+        result.add(f"{prefix}_f1_visible_over_25pct", round(c.f1, 4))
+        print(f"    rings under 25 % visible as 'difficult': {c.summary()}")
+
+
 def pipeline_fps(dets: dict[str, Detector], camera: CameraConfig, result: Result) -> None:
     cv2.setNumThreads(1)
     seed = TEST_SEED - 1
@@ -240,6 +259,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"p90 {p90 * 100:.1f} cm")  # fmt: skip
         add_detection(result, f"{prefix}_{name}", score)
         add_localisation(result, f"{prefix}_{name}", score)
+        add_visibility(result, f"{prefix}_{name}", score)
     result.add(f"{prefix}_frames", scores[next(iter(scores))].frames)
 
     if args.real.is_dir():

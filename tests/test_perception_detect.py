@@ -22,7 +22,16 @@ from jetson.perception.dataset import (
 )
 from jetson.perception.detection import Detection, iou_matrix, non_max_suppression
 from jetson.perception.errors import ConfigError, DatasetError
-from jetson.perception.evaluate import Counts, heldout_of, match, score_dataset, trained_on
+from jetson.perception.evaluate import (
+    Counts,
+    DatasetScore,
+    heldout_of,
+    match,
+    ring_box_px,
+    score_dataset,
+    trained_on,
+    visible_fraction,
+)
 from jetson.perception.pipeline import Pipeline
 from jetson.perception.prefilter import HsvWindow, PrefilterConfig, prefilter
 from jetson.perception.synthetic import Ring, Scene, random_frame, render
@@ -191,6 +200,48 @@ def test_score_dataset_measures_detection_and_localisation(tmp_path: Path) -> No
     assert max(err for _, err in score.localisation) < 0.04
     bands = score.localisation_bands()
     assert sum(b[2] for b in bands) == 3
+    # Whole rings in the middle of the image: each label is nearly all of its ring.
+    assert len(score.visibility) == 3
+    assert all(frac > 0.8 and found for frac, found in score.visibility)
+
+
+def test_whole_ring_box_matches_the_render_and_shrinks_when_cut_by_the_edge() -> None:
+    whole = render(Scene(rings=[Ring(0.1, 1.0)]), SMALL, CAMERA.mount, None)
+    box = ring_box_px(CAMERA.mount, SMALL, whole.rings_robot_xy[0])
+    assert box is not None
+    assert iou_matrix(box[None], whole.boxes)[0, 0] > 0.85
+    assert visible_fraction(whole.boxes[0], box) > 0.85
+    # Moved right until its whole box is centred on the image's edge: about half shows.
+    x = next(
+        float(x)
+        for x in np.linspace(0.0, 1.0, 201)
+        if (b := ring_box_px(CAMERA.mount, SMALL, np.array([x, 1.0]))) is not None
+        and b[0] + b[2] >= 2 * SMALL.width
+    )
+    cut = render(Scene(rings=[Ring(x, 1.0)]), SMALL, CAMERA.mount, None)
+    assert len(cut.boxes) == 1 and cut.boxes[0][2] >= SMALL.width - 1
+    box = ring_box_px(CAMERA.mount, SMALL, cut.rings_robot_xy[0])
+    assert box is not None and box[2] > SMALL.width
+    inside = (SMALL.width - box[0]) / (box[2] - box[0])
+    assert visible_fraction(cut.boxes[0], box) == pytest.approx(inside, abs=0.1)
+    assert 0.4 < inside < 0.6
+    # Behind the camera there is no box.
+    assert ring_box_px(CAMERA.mount, SMALL, np.array([0.0, -1.0])) is None
+
+
+def test_difficult_rings_are_neither_to_be_found_nor_false() -> None:
+    # Three labels: a sliver missed, a whole ring found, a half ring missed; two false alarms.
+    score = DatasetScore(Counts(1, 2, 2), 1, [], 0, [(0.1, False), (0.9, True), (0.6, False)])
+    c = score.counts_visible(0.25)
+    assert (c.tp, c.fp, c.fn) == (1, 2, 1)
+    assert score.recall_by_visibility() == [
+        (0.0, 0.25, 1, 0.0),
+        (0.5, 0.75, 1, 0.0),
+        (0.75, 1.0, 1, 1.0),
+    ]
+    # Fractions known for only some labels cannot be split into easy and difficult.
+    with pytest.raises(DatasetError, match="only some labels"):
+        DatasetScore(Counts(1, 0, 2), 1, [], 0, [(0.9, True)]).counts_visible(0.25)
 
 
 def test_pipeline_with_prefilter_gives_the_same_rings() -> None:

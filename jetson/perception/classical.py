@@ -22,13 +22,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from jetson.perception.camera import CameraConfig
-from jetson.perception.detection import Detection
+from jetson.perception.detection import RING_MINOR_M, RING_OUTER_M, Detection
 from jetson.perception.errors import ConfigError
 from jetson.perception.frame import Intrinsics
 from jetson.perception.prefilter import HsvWindow
 
-RING_OUTER_M = 0.1016
-RING_MINOR_M = 0.0127
 RING_FILL = 0.7  # a flat ring's pixels over (expected width x expected height), measured
 MAX_SPLIT = 12
 

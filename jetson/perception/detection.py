@@ -8,6 +8,12 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+# A Tipping Point ring (sim/field/tipping_point.toml): 4 in across with a 2 in hole, so the tube's
+# centre circle has radius 1.5 in and the tube radius 0.5 in.
+RING_MAJOR_M = 1.5 * 0.0254
+RING_MINOR_M = 0.5 * 0.0254
+RING_OUTER_M = 2 * (RING_MAJOR_M + RING_MINOR_M)
+
 
 @dataclass(frozen=True)
 class Detection:

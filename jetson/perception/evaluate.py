@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from jetson.perception.camera import CameraConfig, CameraMount
 from jetson.perception.dataset import RingDataset, fingerprint, holdout_names
-from jetson.perception.detection import Detection, iou_matrix
+from jetson.perception.detection import RING_MINOR_M, RING_OUTER_M, Detection, iou_matrix
 from jetson.perception.errors import DatasetError
 from jetson.perception.frame import Frame, Intrinsics
 from jetson.perception.localise import Localiser
@@ -86,6 +86,36 @@ class DatasetScore:
     # Per matched ring with ground truth: (true distance from the robot, localisation error), m.
     localisation: list[tuple[float, float]]
     unplaced: int  # matched rings with ground truth that could not be placed (no depth)
+    # Per labelled ring with ground truth and a known camera: (visible fraction, detected).
+    visibility: list[tuple[float, bool]] = field(default_factory=list)
+
+    def recall_by_visibility(
+        self, edges: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0)
+    ) -> list[tuple[float, float, int, float]]:
+        """(low, high, count, recall) per band of visible fraction with data; the last band
+        includes its upper edge."""
+        if not self.visibility:
+            return []
+        arr = np.asarray(self.visibility, dtype=np.float64)
+        out = []
+        for k, (lo, hi) in enumerate(itertools.pairwise(edges)):
+            top = arr[:, 0] <= hi if k == len(edges) - 2 else arr[:, 0] < hi
+            sel = arr[(arr[:, 0] >= lo) & top, 1]
+            if sel.size:
+                out.append((lo, hi, int(sel.size), float(sel.mean())))
+        return out
+
+    def counts_visible(self, min_fraction: float) -> Counts:
+        """Counts as PASCAL VOC treats 'difficult' objects: rings less visible than
+        min_fraction are neither to be found nor false when found (a detection matched to one
+        is ignored); every unmatched detection is still false. Needs `visibility` for every
+        label, i.e. a folder with ground truth and known cameras."""
+        arr = np.asarray(self.visibility, dtype=np.float64).reshape(-1, 2)
+        if len(arr) != self.counts.tp + self.counts.fn:
+            raise DatasetError("visible fractions are known for only some labels")
+        easy = arr[:, 0] >= min_fraction
+        found = arr[:, 1] > 0
+        return Counts(int((easy & found).sum()), self.counts.fp, int((easy & ~found).sum()))
 
     def localisation_bands(
         self, edges: tuple[float, ...] = (0.0, 1.0, 2.0, 3.0)
@@ -101,6 +131,32 @@ class DatasetScore:
                 med, p90 = float(np.median(sel)), float(np.quantile(sel, 0.9))
                 out.append((lo, hi, int(sel.size), med, p90))
         return out
+
+
+def ring_box_px(
+    mount: CameraMount, intr: Intrinsics, robot_xy: NDArray[np.float64]
+) -> NDArray[np.float64] | None:
+    """The box (x0, y0, x1, y1) a whole ring lying flat at robot_xy projects to, not clipped to
+    the image and as if nothing hid it; None when part of it is behind the camera."""
+    a = np.linspace(0.0, 2 * np.pi, 36, endpoint=False)
+    rim = RING_OUTER_M / 2 * np.stack([np.cos(a), np.sin(a)], axis=1) + np.asarray(robot_xy)
+    pts = np.concatenate(
+        [np.column_stack([rim, np.full(len(a), z)]) for z in (0.0, 2 * RING_MINOR_M)]
+    )
+    cam = mount.robot_to_camera_points(pts)
+    if np.any(cam[:, 2] <= 1e-3):
+        return None
+    u = intr.fx * cam[:, 0] / cam[:, 2] + intr.cx
+    v = intr.fy * cam[:, 1] / cam[:, 2] + intr.cy
+    return np.array([u.min(), v.min(), u.max(), v.max()])
+
+
+def visible_fraction(label: NDArray[np.float64], whole: NDArray[np.float64]) -> float:
+    """How much of a ring shows: its label (the box of its visible pixels) over the box of the
+    whole ring. Cut by the image's edge or hidden in part, a ring's label shrinks."""
+    whole_area = (whole[2] - whole[0]) * (whole[3] - whole[1])
+    area = max(0.0, label[2] - label[0]) * max(0.0, label[3] - label[1])
+    return float(min(1.0, area / whole_area)) if whole_area > 0 else 0.0
 
 
 def frame_mounts(root: Path) -> dict[str, CameraMount]:
@@ -138,6 +194,8 @@ def score_dataset(
         intr = Intrinsics.from_dict(dataset.meta["intrinsics"])
     mounts = frame_mounts(dataset.root)
     localisers: dict[CameraMount, Localiser] = {}
+    visibility: list[tuple[float, bool]] = []
+    visibility_known = True
     for i in range(n):
         img = dataset.image(i)
         h, w = img.shape[:2]
@@ -160,12 +218,21 @@ def score_dataset(
         pairs = match(result.detections, truth, iou_threshold)
         counts.add(len(result.detections), len(truth), len(pairs))
         true_xy = dataset.truth(i)
-        if true_xy is None or frame.depth_m is None:
-            continue
-        if len(true_xy) != len(truth):
+        if true_xy is not None and len(true_xy) != len(truth):
             raise DatasetError(
                 f"{dataset.samples[i].name}: {len(true_xy)} true positions for {len(truth)} labels"
             )
+        if true_xy is None or intr is None:
+            visibility_known = False
+        else:
+            found = {t for _, t in pairs}
+            cam_mount = mount if mount is not None else pipeline.camera.mount
+            for t, box in enumerate(truth):
+                whole = ring_box_px(cam_mount, frame_intr, true_xy[t])
+                frac = visible_fraction(box, whole) if whole is not None else 0.0
+                visibility.append((frac, t in found))
+        if true_xy is None or frame.depth_m is None:
+            continue
         placed = {id(r.detection): r for r in result.rings}
         for d, t in pairs:
             ring = placed.get(id(result.detections[d]))
@@ -174,7 +241,8 @@ def score_dataset(
                 continue
             err = float(np.hypot(*(np.asarray(ring.robot_xy) - true_xy[t])))
             errors.append((float(np.hypot(*true_xy[t])), err))
-    return DatasetScore(counts, n, errors, unplaced)
+    # Fractions for only some labels would skew every band: all or none.
+    return DatasetScore(counts, n, errors, unplaced, visibility if visibility_known else [])
 
 
 def heldout_of(model_meta: dict[str, object] | None, folder: Path) -> set[str] | None:

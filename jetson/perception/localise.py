@@ -26,11 +26,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from jetson.perception.camera import CameraConfig
-from jetson.perception.detection import Detection
+from jetson.perception.detection import RING_MINOR_M, Detection
 from jetson.perception.errors import ConfigError
 from jetson.perception.frame import Intrinsics
-
-RING_MINOR_M = 0.0127  # tube radius of a 4 in / 2 in ring
 
 
 @dataclass(frozen=True)

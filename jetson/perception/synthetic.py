@@ -22,13 +22,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from jetson.perception.camera import CameraMount
+from jetson.perception.detection import RING_MAJOR_M, RING_MINOR_M, RING_OUTER_M
 from jetson.perception.frame import Frame, Intrinsics, depth_from_mm, depth_to_mm
-
-# Tipping Point ring (sim/field/tipping_point.toml): outer 4 in, inner 2 in, so the tube's centre
-# circle has radius 1.5 in and the tube radius 0.5 in.
-RING_MAJOR_M = 1.5 * 0.0254
-RING_MINOR_M = 0.5 * 0.0254
-RING_OUTER_M = 2 * (RING_MAJOR_M + RING_MINOR_M)
 
 FloatArray = NDArray[np.float64]
 
