@@ -22,7 +22,13 @@ torch = pytest.importorskip("torch")
 ort = pytest.importorskip("onnxruntime")
 
 from jetson.perception.cnn.model import STRIDE, ExportWrapper, RingNet, export_onnx  # noqa: E402
-from jetson.perception.cnn.train import TrainConfig, loss_fn, make_targets, train  # noqa: E402
+from jetson.perception.cnn.train import (  # noqa: E402
+    TrainConfig,
+    giou_loss,
+    loss_fn,
+    make_targets,
+    train,
+)
 
 
 @pytest.fixture(scope="module")
@@ -184,14 +190,48 @@ def test_augmentation_moves_boxes_with_the_image() -> None:
     assert out.shape == (160, 192, 3) and out.dtype == np.uint8
 
 
+def test_giou_loss_by_hand() -> None:
+    box = torch.tensor([[0.5, 0.5, 2.0, 2.0]])  # centre x, centre y, width, height
+    assert float(giou_loss(box, box)) == pytest.approx(0.0)
+    # The same centre, half the size: IoU 1/4 and the hull is the big box.
+    assert float(giou_loss(box, torch.tensor([[0.5, 0.5, 1.0, 1.0]]))) == pytest.approx(0.75)
+    # Apart: IoU 0 and an empty share of the hull, so the loss exceeds 1 and still has a slope.
+    far = torch.tensor([[4.5, 0.5, 2.0, 2.0]], requires_grad=True)
+    loss = giou_loss(box, far)
+    assert float(loss.detach()) == pytest.approx(1 + (12 - 8) / 12)
+    loss.backward()
+    assert far.grad is not None and float(far.grad[0, 0]) > 0  # moving closer lowers it
+
+
+def test_giou_term_scores_a_box_of_the_wrong_shape() -> None:
+    # One ring; the prediction has its centre right and the log sizes off by +-0.5: L1 on the
+    # sizes cannot tell a box too tall from one too wide and short, and both are not a match.
+    heat, reg, mask = make_targets([np.array([[42.0, 42.0, 74.0, 74.0]])], 128, 96)
+    raw = torch.zeros(1, 5, 24, 32)
+    raw[:, 0] = -10.0
+    iy, ix = 14, 14
+    raw[0, 0, iy, ix] = 10.0
+    assert reg[0, 0:2, iy, ix].tolist() == [0.5, 0.5]  # the ring's centre is mid-cell
+    raw[0, 1:3, iy, ix] = 0.0  # sigmoid 0.5: right
+    raw[0, 3:5, iy, ix] = reg[0, 2:4, iy, ix] + torch.tensor([0.5, -0.5])
+    plain, parts = loss_fn(raw, heat, reg, mask)
+    with_giou, parts_g = loss_fn(raw, heat, reg, mask, giou_weight=1.0)
+    assert "giou" not in parts and parts_g["giou"] > 0.2
+    assert float(with_giou) == pytest.approx(float(plain) + parts_g["giou"], rel=1e-5)
+
+
 def test_training_runs_end_to_end_and_writes_a_usable_model(tmp_path: Path) -> None:
-    cfg = TrainConfig(synthetic=3, synthetic_val=2, steps=2, batch=2, width=4, threads=1)
+    cfg = TrainConfig(
+        synthetic=3, synthetic_val=2, steps=2, batch=2, width=4, blocks=2, giou_weight=1.0,
+        threads=1,
+    )  # fmt: skip
     out = tmp_path / "m.onnx"
     meta = train(cfg, out, log=lambda _: None)
     assert out.is_file() and out.with_suffix(".pt").is_file()
     saved = json.loads(metadata_path(out).read_text())
     assert saved["trained_on"] == meta["trained_on"] and "validation" in saved
     assert saved["score_threshold"] == meta["score_threshold"]
+    assert saved["blocks"] == 2 and saved["training"]["giou_weight"] == 1.0
     CnnDetector(out).detect(np.zeros((240, 320, 3), np.uint8))
     with pytest.raises(DatasetError, match="nothing to train on"):
         train(TrainConfig(), out)

@@ -129,6 +129,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         threads=args.threads,
         width=args.width,
         blocks=args.blocks,
+        giou_weight=args.giou,
         input_long_side=args.input_long_side,
     )
     train(cfg, args.out)
@@ -305,6 +306,13 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         default=1,
         help="3x3 convolutions after the down-sampling in the two deepest stages (1); 2 costs "
         "~25 %% more time per frame and sees clusters of touching rings better",
+    )
+    t.add_argument(
+        "--giou",
+        type=float,
+        default=0.0,
+        help="weight of a GIoU loss on the boxes (0: L1 on log sizes only); a match needs "
+        "IoU >= 0.5, which L1 on sizes does not aim at",
     )
     t.add_argument(
         "--input-long-side",

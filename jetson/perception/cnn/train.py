@@ -58,6 +58,7 @@ class TrainConfig:
     weight_decay: float = 1e-4
     width: int = 16
     blocks: int = 1  # 3x3 convolutions after the down-sampling in stages 3 and 4 (RingNet)
+    giou_weight: float = 0.0  # weight of a GIoU term on the boxes beside L1 on their log sizes
     seed: int = 0
     threads: int = 2
     input_long_side: int = 320
@@ -126,8 +127,36 @@ def make_targets(
     return torch.from_numpy(heat), torch.from_numpy(reg), torch.from_numpy(mask)
 
 
+def giou_loss(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """Sum of 1 - GIoU over boxes given as (N, 4) centre x, centre y, width, height."""
+
+    def corners(b: torch.Tensor) -> tuple[torch.Tensor, ...]:
+        return (
+            b[:, 0] - b[:, 2] / 2,
+            b[:, 1] - b[:, 3] / 2,
+            b[:, 0] + b[:, 2] / 2,
+            b[:, 1] + b[:, 3] / 2,
+        )
+
+    px0, py0, px1, py1 = corners(pred)
+    tx0, ty0, tx1, ty1 = corners(target)
+    iw = (torch.minimum(px1, tx1) - torch.maximum(px0, tx0)).clamp(min=0)
+    ih = (torch.minimum(py1, ty1) - torch.maximum(py0, ty0)).clamp(min=0)
+    inter = iw * ih
+    union = pred[:, 2] * pred[:, 3] + target[:, 2] * target[:, 3] - inter
+    hull = (torch.maximum(px1, tx1) - torch.minimum(px0, tx0)) * (
+        torch.maximum(py1, ty1) - torch.minimum(py0, ty0)
+    )
+    giou = inter / union.clamp(min=1e-6) - (hull - union) / hull.clamp(min=1e-6)
+    return (1 - giou).sum()
+
+
 def loss_fn(
-    raw: torch.Tensor, heat: torch.Tensor, reg: torch.Tensor, mask: torch.Tensor
+    raw: torch.Tensor,
+    heat: torch.Tensor,
+    reg: torch.Tensor,
+    mask: torch.Tensor,
+    giou_weight: float = 0.0,
 ) -> tuple[torch.Tensor, dict[str, float]]:
     p = torch.sigmoid(raw[:, 0:1]).clamp(1e-4, 1 - 1e-4)
     pos = heat.eq(1.0).float()
@@ -140,11 +169,22 @@ def loss_fn(
     )
     size = functional.l1_loss(raw[:, 3:5] * mask, reg[:, 2:4] * mask, reduction="sum")
     total = focal + (offset + size) / n_pos
-    return total, {
+    parts = {
         "focal": float(focal.detach()),
         "offset": float(offset.detach() / n_pos),
         "size": float(size.detach() / n_pos),
     }
+    if giou_weight > 0:
+        # L1 on log sizes treats a box too tall like one too wide; the match needs IoU >= 0.5,
+        # and a ring half hidden has a box whose extent matters more than its centre.
+        at = mask[:, 0] > 0
+        p_raw, t = raw.permute(0, 2, 3, 1)[at], reg.permute(0, 2, 3, 1)[at]
+        pred = torch.cat([torch.sigmoid(p_raw[:, 1:3]), p_raw[:, 3:5].clamp(-4, 6).exp()], 1)
+        target = torch.cat([t[:, 0:2], t[:, 2:4].exp()], 1)
+        giou = giou_loss(pred, target) / n_pos
+        total = total + giou_weight * giou
+        parts["giou"] = float(giou.detach())
+    return total, parts
 
 
 def _batch(
@@ -225,7 +265,7 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
     for step in range(cfg.steps):
         x, boxes = _batch(rng, sources, cfg, aug)
         heat, reg, mask = make_targets(boxes, cfg.patch[0], cfg.patch[1])
-        loss, parts = loss_fn(net(x), heat, reg, mask)
+        loss, parts = loss_fn(net(x), heat, reg, mask, cfg.giou_weight)
         opt.zero_grad()
         loss.backward()
         opt.step()
