@@ -144,3 +144,26 @@ def test_a_curriculum_phase_changes_the_matches_mid_run(tmp_path: Path) -> None:
 
     train(parse_config(data), tmp_path / "run", progress=False, callback=record, export=False)
     assert kinds[0] == {"none"} and kinds[-1] == {"idle"}
+
+
+def test_end_at_fill_ends_the_match_as_terminal_at_the_fill_target() -> None:
+    import numpy as np
+
+    from sim.match import make_config
+    from sim.training.rollout import RolloutConfig, _Slot
+
+    env = make_config({"max_steps": 96, "world": {"start_jitter_m": 0.0, "start_jitter_deg": 0.0}})
+    ends = {}
+    for end in (False, True):
+        rollout = RolloutConfig(workers=0, fill_target=1, end_at_fill=end)
+        slot = _Slot(env, rollout, seed=3, slot=0)
+        slot.set_kind("none", -1)
+        slot.reset()
+        for step in range(1, 97):  # noqa: B007 (the step the loop stopped at is compared)
+            _, done, truncated = slot.step(np.array([1.0, 0.0]), np.zeros(2))
+            if slot.fill_time is not None or done:
+                break
+        ends[end] = (step, done, truncated, slot.stats().rings)
+    step, done, truncated, rings = ends[True]
+    assert (done, truncated, rings) == (True, False, 1), "terminal, not truncated: no bootstrap"
+    assert ends[False][0] == step and ends[False][1:3] == (False, False)

@@ -62,6 +62,10 @@ class RolloutConfig:
     # the experience it gets from full matches alone.
     short_share: float = 0.0
     short_steps: int = 240
+    # End the learner's match, as a terminal state, once it has fill_target rings: for the
+    # capped task, where nothing is left to earn then, every later step is a step not spent on
+    # the opening.
+    end_at_fill: bool = False
 
     def __post_init__(self) -> None:
         if self.workers < 0 or self.envs_per_worker < 1 or self.steps_per_env < 1:
@@ -205,6 +209,8 @@ class _Slot:
         robot = core.world.robots[self.learner]
         if self.fill_time is None and robot.collected >= self.rollout.fill_target:
             self.fill_time = core.world.time_s
+            if self.rollout.end_at_fill:
+                return me.reward, True, False
         limits = [x for x in (self.config.max_steps, self.rollout.slot_limit(self.slot)) if x]
         limit = min(limits) if limits else None
         truncated = bool(not ended and limit is not None and self.steps >= limit)
