@@ -304,8 +304,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         "--blocks",
         type=int,
         default=1,
-        help="3x3 convolutions after the down-sampling in the two deepest stages (1); 2 costs "
-        "~25 %% more time per frame and sees clusters of touching rings better",
+        help="3x3 convolutions after the down-sampling in the two deepest stages (1); 2 widens "
+        "the receptive field for ~45 %% more network time",
     )
     t.add_argument(
         "--giou",

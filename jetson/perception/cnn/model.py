@@ -34,8 +34,9 @@ def _cbr(c_in: int, c_out: int, stride: int = 1, dilation: int = 1) -> nn.Sequen
 
 class RingNet(nn.Module):
     """`blocks` is the number of 3x3 convolutions after the down-sampling one in stages 3 and 4
-    (stride 8 and 16). They are where depth is cheap: at 480x368 one more block in each costs
-    ~25 % more compute and widens the receptive field over a cluster of touching rings."""
+    (stride 8 and 16), where depth is cheapest: at 480x368 one more block in each widens the
+    receptive field to a whole cluster of touching rings for ~45 % more network time (measured:
+    the pipeline's 127 frames/s become 110)."""
 
     def __init__(self, width: int = 16, blocks: int = 1) -> None:
         super().__init__()
