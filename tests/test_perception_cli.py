@@ -120,7 +120,7 @@ def test_synth_then_eval(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> 
     capsys.readouterr()
     assert main(["detector", "eval", "--images", str(data), "--detector", "classical"]) == 0
     out = capsys.readouterr().out
-    for word in ("precision", "recall", "F1"):
+    for word in ("precision", "recall", "F1", "of the ring visible"):
         assert word in out
 
 

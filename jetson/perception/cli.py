@@ -185,6 +185,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
             f"localisation {lo:.0f}-{hi:.0f} m: {count} rings, median error {med * 100:.1f} cm, "
             f"p90 {p90 * 100:.1f} cm"
         )
+    for lo, hi, count, recall in score.recall_by_visibility():
+        print(f"{lo:.0%}-{hi:.0%} of the ring visible: {count} rings, recall {recall:.3f}")
     if score.unplaced:
         print(f"{score.unplaced} matched rings could not be placed (no valid depth)")
     return 0
