@@ -109,22 +109,12 @@ def test_decode_turns_cells_into_boxes() -> None:
     peaks[0, 2, 3] = 0.9
     boxes[:, 2, 3] = (0.5, 0.25, np.log(2.0), np.log(1.0))  # offset, log(w / 4), log(h / 4)
     peaks[0, 5, 7] = 0.1  # below the threshold
-    dets = decode(peaks, boxes, STRIDE, 0.3, (2.0, 2.0), (64, 48))
+    dets = decode(peaks, boxes, STRIDE, 0.3, (2.0, 2.0))
     assert len(dets) == 1
     d = dets[0]
     # Centre (3.5, 2.25) cells = (14, 9) px at the input; 8 x 4 px; then scaled by 2.
     assert (d.x0, d.y0, d.x1, d.y1) == pytest.approx((20.0, 14.0, 36.0, 22.0))
     assert d.score == pytest.approx(0.9)
-
-
-def test_decode_clips_boxes_to_the_image() -> None:
-    # A label is the box of a ring's visible pixels, so it never reaches past the image.
-    peaks = np.zeros((1, 6, 8), np.float32)
-    boxes = np.zeros((4, 6, 8), np.float32)
-    peaks[0, 0, 0] = 0.9
-    boxes[:, 0, 0] = (0.25, 0.25, np.log(4.0), np.log(4.0))  # 16 px around (1, 1) px
-    (d,) = decode(peaks, boxes, STRIDE, 0.3, (1.0, 1.0), (32, 24))
-    assert (d.x0, d.y0, d.x1, d.y1) == pytest.approx((0.0, 0.0, 9.0, 9.0))
 
 
 def test_input_sizes_are_multiples_of_16() -> None:

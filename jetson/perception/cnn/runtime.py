@@ -87,14 +87,9 @@ def decode(
     stride: int,
     threshold: float,
     scale_xy: tuple[float, float],
-    image_wh: tuple[int, int],
     max_detections: int = 100,
 ) -> list[Detection]:
-    """Detections from one image's outputs: peaks (1, Hc, Wc), boxes (4, Hc, Wc).
-
-    Boxes are clipped to the image: a label is the box of a ring's visible pixels, so a ring cut
-    by the image's edge is labelled up to the edge, and a box reaching past it only loses IoU.
-    """
+    """Detections from one image's outputs: peaks (1, Hc, Wc), boxes (4, Hc, Wc)."""
     ys, xs = np.nonzero(peaks[0] >= threshold)
     if ys.size == 0:
         return []
@@ -108,17 +103,20 @@ def decode(
     w = np.exp(np.clip(lw, -4.0, 6.0)) * stride
     h = np.exp(np.clip(lh, -4.0, 6.0)) * stride
     sx, sy = scale_xy
-    width, height = image_wh
-    x0 = np.clip((cx - w / 2) * sx, 0.0, width)
-    y0 = np.clip((cy - h / 2) * sy, 0.0, height)
-    x1 = np.clip((cx + w / 2) * sx, 0.0, width)
-    y1 = np.clip((cy + h / 2) * sy, 0.0, height)
     dets = [
-        Detection(float(x0[i]), float(y0[i]), float(x1[i]), float(y1[i]), float(scores[i]))
+        Detection(
+            float((cx[i] - w[i] / 2) * sx),
+            float((cy[i] - h[i] / 2) * sy),
+            float((cx[i] + w[i] / 2) * sx),
+            float((cy[i] + h[i] / 2) * sy),
+            float(scores[i]),
+        )
         for i in range(len(scores))
-        if x1[i] > x0[i] and y1[i] > y0[i]
     ]
-    # Peaks are already local maxima; NMS only removes twin peaks on one ring.
+    # Boxes are not clipped to the image: clipping bought nothing in detection F1 and took the
+    # localiser's ring-shaped pixel mask off rings cut by the edge (placed-ring precision in
+    # the demo match 0.980 -> 0.962). Peaks are already local maxima; NMS only removes twin
+    # peaks on one ring.
     return non_max_suppression(dets, 0.6)
 
 
@@ -166,10 +164,5 @@ class CnnDetector:
         size = input_size(w, h, self.info.input_long_side)
         peaks, boxes = self.session.run(None, {"rgb": to_input(bgr, size)})
         return decode(
-            peaks[0],
-            boxes[0],
-            self.info.stride,
-            self.threshold,
-            (w / size[0], h / size[1]),
-            (w, h),
+            peaks[0], boxes[0], self.info.stride, self.threshold, (w / size[0], h / size[1])
         )
