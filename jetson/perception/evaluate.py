@@ -94,16 +94,10 @@ class DatasetScore:
     ) -> list[tuple[float, float, int, float]]:
         """(low, high, count, recall) per band of visible fraction with data; the last band
         includes its upper edge."""
-        if not self.visibility:
-            return []
-        arr = np.asarray(self.visibility, dtype=np.float64)
-        out = []
-        for k, (lo, hi) in enumerate(itertools.pairwise(edges)):
-            top = arr[:, 0] <= hi if k == len(edges) - 2 else arr[:, 0] < hi
-            sel = arr[(arr[:, 0] >= lo) & top, 1]
-            if sel.size:
-                out.append((lo, hi, int(sel.size), float(sel.mean())))
-        return out
+        return [
+            (lo, hi, int(sel.size), float(sel.mean()))
+            for lo, hi, sel in _bands(self.visibility, edges, close_last=True)
+        ]
 
     def counts_visible(self, min_fraction: float) -> Counts:
         """Counts as PASCAL VOC treats 'difficult' objects: rings less visible than
@@ -121,16 +115,30 @@ class DatasetScore:
         self, edges: tuple[float, ...] = (0.0, 1.0, 2.0, 3.0)
     ) -> list[tuple[float, float, int, float, float]]:
         """(low, high, count, median error, p90 error) per distance band with data."""
-        if not self.localisation:
-            return []
-        arr = np.asarray(self.localisation)
-        out = []
-        for lo, hi in itertools.pairwise(edges):
-            sel = arr[(arr[:, 0] >= lo) & (arr[:, 0] < hi), 1]
-            if sel.size:
-                med, p90 = float(np.median(sel)), float(np.quantile(sel, 0.9))
-                out.append((lo, hi, int(sel.size), med, p90))
-        return out
+        return [
+            (lo, hi, int(sel.size), float(np.median(sel)), float(np.quantile(sel, 0.9)))
+            for lo, hi, sel in _bands(self.localisation, edges)
+        ]
+
+
+def _bands(
+    pairs: list[tuple[float, float]] | list[tuple[float, bool]],
+    edges: tuple[float, ...],
+    close_last: bool = False,
+) -> list[tuple[float, float, NDArray[np.float64]]]:
+    """(low, high, values) for each band [low, high) of the pairs' keys that holds any; with
+    close_last the last band also takes keys equal to its high edge."""
+    if not pairs:
+        return []
+    arr = np.asarray(pairs, dtype=np.float64)
+    key = arr[:, 0]
+    out = []
+    for k, (lo, hi) in enumerate(itertools.pairwise(edges)):
+        below = key <= hi if close_last and k == len(edges) - 2 else key < hi
+        sel = arr[(key >= lo) & below, 1]
+        if sel.size:
+            out.append((lo, hi, sel))
+    return out
 
 
 def ring_box_px(
