@@ -12,6 +12,8 @@ What is here (Schulman et al. 2017, and the "37 implementation details" CleanRL 
   - generalised advantage estimation (GAE), with truncated episodes bootstrapped by the caller;
   - the clipped surrogate objective, a clipped value loss, an entropy bonus, per-minibatch
     advantage normalisation and global gradient-norm clipping;
+  - an optional imitation term: the squared distance between the actor's mean and a teacher's
+    action, where the batch carries one (NaN rows carry none);
   - running mean/variance normalisation of observations (saved with the policy, so the exported
     network sees the same inputs) and of rewards (scaled by the running standard deviation of the
     discounted return, as gymnasium's NormalizeReward does).
@@ -302,6 +304,8 @@ class Batch:
     advantages: torch.Tensor
     returns: torch.Tensor
     values: torch.Tensor
+    # A teacher's action per row, (rows, k) for the first k action dimensions; NaN: no label.
+    advice: torch.Tensor | None = None
 
     def __len__(self) -> int:
         return int(self.obs.shape[0])
@@ -313,9 +317,12 @@ def ppo_update(
     batch: Batch,
     cfg: PPOConfig,
     generator: torch.Generator | None = None,
+    imitation_coef: float = 0.0,
 ) -> dict[str, float]:
-    """n_epochs passes of minibatch gradient steps on the clipped objective; returns statistics."""
+    """n_epochs passes of minibatch gradient steps on the clipped objective (plus imitation_coef
+    x the imitation term when the batch has advice); returns statistics."""
     n = len(batch)
+    imitate = imitation_coef > 0 and batch.advice is not None
     mb = min(cfg.minibatch_size, n)
     clipfracs: list[float] = []
     stats: dict[str, float] = {}
@@ -349,6 +356,16 @@ def ppo_update(
 
             ent = entropy.mean()
             loss = pg_loss - cfg.ent_coef * ent + cfg.vf_coef * v_loss
+            im_loss = torch.zeros(())
+            if imitate:
+                assert batch.advice is not None
+                target = batch.advice[idx]
+                labelled = torch.isfinite(target).all(-1)
+                if bool(labelled.any()):
+                    k = target.shape[-1]
+                    mean = agent.actor_mean(agent.obs_norm(batch.obs[idx][labelled]))[:, :k]
+                    im_loss = ((mean - target[labelled]) ** 2).sum(-1).mean()
+                    loss = loss + imitation_coef * im_loss
             optimizer.zero_grad()
             loss.backward()
             nn.utils.clip_grad_norm_(agent.parameters(), cfg.max_grad_norm)
@@ -358,6 +375,8 @@ def ppo_update(
                 "value_loss": float(v_loss.detach()),
                 "entropy": float(ent.detach()),
             }
+            if imitate:
+                stats["imitation_loss"] = float(im_loss.detach())
         if cfg.target_kl is not None and float(approx_kl) > cfg.target_kl:
             break
 

@@ -123,3 +123,36 @@ def _bandit() -> None:
     end = agent.deterministic(obs[:1]).item()
     assert abs(end - 0.6) < 0.15 < abs(start - 0.6)
     assert set(stats) >= {"policy_loss", "value_loss", "entropy", "approx_kl", "clipfrac"}
+
+
+def test_imitation_pulls_the_mean_to_the_teacher_and_skips_unlabelled_rows() -> None:
+    """No advantage signal at all: only the imitation term can move the policy, and only rows
+    with advice count (NaN rows must neither move it nor poison the loss)."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        torch.manual_seed(0)
+        gen = torch.Generator().manual_seed(0)
+        cfg = PPOConfig(hidden=(16,), learning_rate=3e-3, n_epochs=4, minibatch_size=64)
+        agent = Agent(2, 2, cfg)
+        opt = torch.optim.Adam(agent.parameters(), lr=cfg.learning_rate)
+        obs = torch.cat([torch.ones(128, 2), -torch.ones(128, 2)])
+        advice = torch.full((256, 2), float("nan"))
+        advice[:128] = torch.tensor([0.7, -0.4])  # a label for the first state only
+        zeros = torch.zeros(256)
+        for _ in range(40):
+            actions, logp, values = agent.act(obs, gen)
+            batch = Batch(obs, actions, logp, zeros, values, values, advice)
+            stats = ppo_update(agent, opt, batch, cfg, gen, imitation_coef=1.0)
+        labelled = agent.deterministic(obs[:1])[0]
+        assert torch.allclose(labelled, torch.tensor([0.7, -0.4]), atol=0.05), labelled
+        assert np.isfinite(stats["imitation_loss"]) and stats["imitation_loss"] < 0.01
+        # Without a coefficient the same batch leaves the mean where it is.
+        before = agent.deterministic(obs).detach().clone()
+        stats = ppo_update(
+            agent, opt, Batch(obs, actions, logp, zeros, values, values, advice), cfg, gen
+        )
+        assert "imitation_loss" not in stats
+        assert torch.allclose(agent.deterministic(obs), before, atol=0.02)
+    finally:
+        torch.set_num_threads(threads)

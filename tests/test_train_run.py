@@ -167,3 +167,53 @@ def test_end_at_fill_ends_the_match_as_terminal_at_the_fill_target() -> None:
     step, done, truncated, rings = ends[True]
     assert (done, truncated, rings) == (True, False, 1), "terminal, not truncated: no bootstrap"
     assert ends[False][0] == step and ends[False][1:3] == (False, False)
+
+
+def test_the_planner_teacher_labels_every_learner_state_with_its_own_action() -> None:
+    """The advice for a state is the action the planner takes when it drives from that state:
+    a learner that follows its advice drives exactly as the planner does."""
+    import numpy as np
+
+    from sim.match import make_config
+    from sim.planner import Planner
+    from sim.training.rollout import RolloutConfig, VecMatches, _Slot
+
+    env = make_config({"max_steps": 96, "world": {"start_jitter_m": 0.0, "start_jitter_deg": 0.0}})
+    rollout = RolloutConfig(workers=0, envs_per_worker=2)
+    with VecMatches(env, rollout, seed=4) as plain:
+        plain.set_kinds([("none", -1)] * 2)
+        assert plain.reset().advice is not None and np.isnan(plain.reset().advice).all()
+
+    taught = _Slot(env, rollout, seed=4, slot=0, teacher="planner")
+    driven = _Slot(env, rollout, seed=4, slot=0)  # the same match, driven by the planner itself
+    for slot in (taught, driven):
+        slot.set_kind("none", -1)
+        slot.reset()
+    planner = Planner()
+    planner.reset(driven.core, driven.learner)
+    robot = driven.core.world.robots[driven.learner].config
+    for _ in range(60):
+        advice = taught.advice()
+        command = planner.act(driven.core, driven.learner)
+        expected = np.clip(
+            [command.linear / robot.max_linear_mps, command.angular / robot.max_angular_rad_s],
+            -1,
+            1,
+        )
+        np.testing.assert_allclose(advice, expected, atol=1e-6)
+        taught.step(advice, np.zeros(2))
+        driven.step(expected, np.zeros(2))
+    assert taught.stats().rings == driven.stats().rings >= 3
+
+
+def test_imitation_config_is_checked_and_its_weight_falls_to_zero() -> None:
+    from sim.config import ConfigError
+
+    data = {**EASY, "imitation": {"teacher": "planner", "coef": 2.0, "until_step": 1000}}
+    im = parse_config(data).imitation
+    assert [im.coef_at(s) for s in (0, 500, 1000, 5000)] == [2.0, 1.0, 0.0, 0.0]
+    assert parse_config(EASY).imitation.coef_at(0) == 0.0
+    with pytest.raises(ConfigError, match=r"imitation\.teacher"):
+        parse_config({**EASY, "imitation": {"teacher": "scripted"}})
+    with pytest.raises(ConfigError, match="coef"):
+        parse_config({**EASY, "imitation": {"teacher": "planner", "coef": -1.0}})

@@ -12,6 +12,7 @@
     [opponents]                    # share of the matches per opponent kind; pool = self-play
     pool = 1.0
     [evaluation]                   # periodic deterministic evaluation (EvalConfig)
+    [imitation]                    # optional teacher the policy is pulled toward (ImitationConfig)
     [[phases]]                     # optional curriculum: from_step = N, then [phases.env],
                                    # [phases.rollout] (short_share, short_steps, learner_side),
                                    # [phases.opponents], applied on top of what came before
@@ -31,7 +32,7 @@ from typing import Any
 from sim.config import ConfigError, merge
 from sim.match import EnvConfig, make_config
 from sim.ppo import PPOConfig
-from sim.training.rollout import OPPONENT_KINDS, RolloutConfig
+from sim.training.rollout import OPPONENT_KINDS, TEACHERS, RolloutConfig
 from sim.training.selfplay import SelfPlayConfig
 
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
@@ -57,6 +58,37 @@ class EvalConfig:
 
 
 @dataclass(frozen=True)
+class ImitationConfig:
+    """A teacher whose actions the policy is pulled toward, beside the PPO objective.
+
+    teacher = "planner": in every training match the planner drives a shadow of the learner's
+    robot and labels each state the learner visits with the (linear, angular) action it would
+    take there (DAgger: labels on the learner's own states, not on the teacher's). The PPO loss
+    gains coef x the mean squared distance between the actor's mean and that action, and coef
+    falls linearly to 0 at until_step (0: never falls), after which reward alone decides, so the
+    policy can outgrow its teacher. The planner sees the true GPS pose and the field's layout:
+    privileged labels for training only; the exported policy still acts on its observation.
+    """
+
+    teacher: str = "none"
+    coef: float = 1.0
+    until_step: int = 0
+
+    def __post_init__(self) -> None:
+        if self.teacher not in TEACHERS:
+            raise ConfigError(f"imitation.teacher must be one of {TEACHERS}: {self.teacher!r}")
+        if self.coef < 0 or self.until_step < 0:
+            raise ConfigError("imitation: coef >= 0 and until_step >= 0")
+
+    def coef_at(self, step: int) -> float:
+        if self.teacher == "none":
+            return 0.0
+        if self.until_step == 0:
+            return self.coef
+        return self.coef * max(0.0, 1.0 - step / self.until_step)
+
+
+@dataclass(frozen=True)
 class TrainConfig:
     name: str = "default"
     seed: int = 1
@@ -73,6 +105,7 @@ class TrainConfig:
     selfplay: SelfPlayConfig = field(default_factory=SelfPlayConfig)
     opponents: dict[str, float] = field(default_factory=lambda: {"pool": 1.0})
     evaluation: EvalConfig = field(default_factory=EvalConfig)
+    imitation: ImitationConfig = field(default_factory=ImitationConfig)
     # A curriculum: from `from_step` on, [env] / [rollout] / [opponents] change (each phase
     # applies on top of the ones before it). See at_step().
     phases: tuple[dict[str, Any], ...] = ()

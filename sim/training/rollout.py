@@ -14,6 +14,11 @@ plays both); the other is the opponent, of a kind chosen per slot:
     random     uniform random actions          idle      stands still
     none       no opponent robot on the field
 
+A teacher (`teacher="planner"`) drives a shadow of the learner's robot: for every observation the
+learner acts on, the action the planner would take from the same state (its own view: GPS pose,
+visible rings, the field's layout), in the policy's action units. The trainer's imitation term
+pulls the policy toward it (DAgger: the labels come from the states the learner visits).
+
 A slot's kind and tag (the caller's opponent id) change only when its match ends, so each match
 has exactly one opponent, which is what ELO needs. Finished matches reset on their own; their
 statistics come back as EpisodeStats. Each match draws its randomness from
@@ -41,6 +46,7 @@ from sim.players import IdlePlayer, Player, RandomPlayer, ScriptedPlayer
 from sim.world import DriveCommand
 
 OPPONENT_KINDS = ("policy", "planner", "scripted", "random", "idle", "none")
+TEACHERS = ("none", "planner")
 LearnerSide = Literal["random", "red", "blue"]
 
 
@@ -126,12 +132,22 @@ class StepResult:
     truncated: np.ndarray  # (n_envs,) ended by EnvConfig.max_steps: bootstrap from final_obs
     final_obs: np.ndarray  # (n_envs, obs_size), the last observation where truncated
     episodes: list[EpisodeStats] = field(default_factory=list)
+    # (n_envs, 2): the teacher's (linear, angular) action for learner_obs, in [-1, 1]; NaN
+    # without a teacher.
+    advice: np.ndarray | None = None
 
 
 class _Slot:
     """One match with its learner, opponent and bookkeeping."""
 
-    def __init__(self, config: EnvConfig, rollout: RolloutConfig, seed: int, slot: int) -> None:
+    def __init__(
+        self,
+        config: EnvConfig,
+        rollout: RolloutConfig,
+        seed: int,
+        slot: int,
+        teacher: str = "none",
+    ) -> None:
         self.config = config
         self.rollout = rollout
         self.seed = seed
@@ -149,6 +165,7 @@ class _Slot:
         self.steps = 0
         self.reward = 0.0
         self.fill_time: float | None = None
+        self.teacher = Planner() if teacher == "planner" else None
 
     def _core(self, alliance: str, solo: bool) -> MatchCore:
         key = (alliance, solo)
@@ -185,6 +202,8 @@ class _Slot:
         self.player = _make_player(self.kind) if self.opponent is not None else None
         if self.player is not None and self.opponent is not None:
             self.player.reset(self.core, self.opponent, rng)
+        if self.teacher is not None:
+            self.teacher.reset(self.core, self.learner, rng)
         self.steps = 0
         self.reward = 0.0
         self.fill_time = None
@@ -251,6 +270,16 @@ class _Slot:
             return mine, self.obs[self.opponent]
         return mine, np.zeros_like(mine)
 
+    def advice(self) -> np.ndarray:
+        """The teacher's action for the learner's current state; call once per state (the
+        planner keeps a map and a trail of poses, as when it drives)."""
+        if self.teacher is None:
+            return np.full(2, np.nan, np.float32)
+        command = self.teacher.act(self.core, self.learner)
+        rc = self.core.world.robots[self.learner].config
+        drive = (command.linear / rc.max_linear_mps, command.angular / rc.max_angular_rad_s)
+        return np.clip(np.asarray(drive, np.float32), -1.0, 1.0)
+
     def close(self) -> None:
         for core in self._cores.values():
             core.close()
@@ -272,9 +301,15 @@ class _Group:
     """The slots one process steps."""
 
     def __init__(
-        self, config: EnvConfig, rollout: RolloutConfig, seed: int, first_slot: int, count: int
+        self,
+        config: EnvConfig,
+        rollout: RolloutConfig,
+        seed: int,
+        first_slot: int,
+        count: int,
+        teacher: str = "none",
     ) -> None:
-        self.slots = [_Slot(config, rollout, seed, first_slot + k) for k in range(count)]
+        self.slots = [_Slot(config, rollout, seed, first_slot + k, teacher) for k in range(count)]
 
     def set_kinds(self, kinds: list[tuple[str, int]]) -> None:
         for s, (kind, tag) in zip(self.slots, kinds, strict=True):
@@ -326,6 +361,7 @@ class _Group:
             np.zeros(len(self.slots), bool),
             final if final is not None else np.zeros_like(mine),
             episodes,
+            np.stack([s.advice() for s in self.slots]),
         )
 
     def close(self) -> None:
@@ -333,12 +369,14 @@ class _Group:
             s.close()
 
 
-def _worker(conn: Any, config: EnvConfig, rollout: RolloutConfig, seed: int, first: int) -> None:
+def _worker(
+    conn: Any, config: EnvConfig, rollout: RolloutConfig, seed: int, first: int, teacher: str
+) -> None:
     # Ctrl-C reaches the whole process group: the training process decides, and closes us.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     group: _Group | None = None
     try:
-        group = _Group(config, rollout, seed, first, rollout.envs_per_worker)
+        group = _Group(config, rollout, seed, first, rollout.envs_per_worker, teacher)
         conn.send(("ok", None))
         while True:
             cmd, data = conn.recv()
@@ -370,6 +408,7 @@ def _merge(results: list[StepResult]) -> StepResult:
         np.concatenate([r.truncated for r in results]),
         np.concatenate([r.final_obs for r in results]),
         [e for r in results for e in r.episodes],
+        np.concatenate([r.advice for r in results if r.advice is not None]),
     )
 
 
@@ -378,9 +417,17 @@ class WorkerError(RuntimeError):
 
 
 class VecMatches:
-    """n_envs matches, split over `workers` processes (or stepped here when workers = 0)."""
+    """n_envs matches, split over `workers` processes (or stepped here when workers = 0).
 
-    def __init__(self, config: EnvConfig, rollout: RolloutConfig, seed: int) -> None:
+    teacher: "planner" labels every learner observation with the planner's action
+    (StepResult.advice); "none" leaves advice NaN.
+    """
+
+    def __init__(
+        self, config: EnvConfig, rollout: RolloutConfig, seed: int, teacher: str = "none"
+    ) -> None:
+        if teacher not in TEACHERS:
+            raise ConfigError(f"teacher must be one of {TEACHERS}, got {teacher!r}")
         self.config = config
         self.rollout = rollout
         self.n_envs = rollout.n_envs
@@ -389,13 +436,13 @@ class VecMatches:
         self._procs: list[Any] = []
         per = rollout.envs_per_worker
         if rollout.workers == 0:
-            self._local = _Group(config, rollout, seed, 0, per)
+            self._local = _Group(config, rollout, seed, 0, per, teacher)
             return
         ctx = mp.get_context(rollout.start_method)
         for w in range(rollout.workers):
             parent, child = ctx.Pipe()
             proc = ctx.Process(
-                target=_worker, args=(child, config, rollout, seed, w * per), daemon=True
+                target=_worker, args=(child, config, rollout, seed, w * per, teacher), daemon=True
             )
             proc.start()
             child.close()

@@ -314,7 +314,10 @@ def train(
     def open_matches() -> VecMatches:
         # A resumed run (or a new phase) draws new matches: the seed stream moves on.
         return VecMatches(
-            run.env, phase_cfg.rollout, seed=cfg.seed * 1_000 + run.starts + 100 * phase
+            run.env,
+            phase_cfg.rollout,
+            seed=cfg.seed * 1_000 + run.starts + 100 * phase,
+            teacher=cfg.imitation.teacher,
         )
 
     vec = open_matches()
@@ -348,6 +351,8 @@ def train(
         rew_buf = np.zeros((steps_per_env, n), np.float32)
         done_buf = np.zeros((steps_per_env, n), bool)
         val_buf = np.zeros((steps_per_env, n), np.float32)
+        advice_buf = np.full((steps_per_env, n, 2), np.nan, np.float32)
+        advice = first.advice
         while run.step < cfg.total_steps:
             if cfg.phase_index(run.step) != phase:
                 vec.close()
@@ -363,6 +368,7 @@ def train(
                 pending = list(active)
                 first = vec.reset()
                 next_obs, opp_obs = first.learner_obs, first.opponent_obs
+                advice = first.advice
                 run.scaler.ret[:] = 0.0
             t0 = time.perf_counter()
             if p.anneal_lr:
@@ -394,7 +400,9 @@ def train(
                 val_buf[t] = value.numpy()
                 rew_buf[t] = rewards
                 done_buf[t] = res.dones
-                next_obs, opp_obs = res.learner_obs, res.opponent_obs
+                if advice is not None:
+                    advice_buf[t] = advice
+                next_obs, opp_obs, advice = res.learner_obs, res.opponent_obs, res.advice
                 for ep in res.episodes:
                     finished.append(ep)
                     if ep.kind == "policy" and ep.result is not None:
@@ -419,9 +427,11 @@ def train(
                 advantages=torch.from_numpy(adv.reshape(-1)),
                 returns=torch.from_numpy(ret.reshape(-1)),
                 values=torch.from_numpy(val_buf.reshape(-1)),
+                advice=torch.from_numpy(advice_buf.reshape(-1, 2)),
             )
             torch.set_num_threads(cfg.torch_threads)
-            losses = ppo_update(run.agent, run.optimizer, batch, p, run.gen)
+            imitation = cfg.imitation.coef_at(run.step)
+            losses = ppo_update(run.agent, run.optimizer, batch, p, run.gen, imitation)
             torch.set_num_threads(1)
             run.agent.obs_norm.update(obs_buf.reshape(-1, size))
             run.iteration += 1
@@ -434,6 +444,8 @@ def train(
             stats.update({f"losses/{k}": v for k, v in losses.items()})
             stats["charts/steps_per_s"] = n * steps_per_env / elapsed
             stats["charts/learning_rate"] = run.optimizer.param_groups[0]["lr"]
+            if cfg.imitation.teacher != "none":
+                stats["charts/imitation_coef"] = imitation
             stats["selfplay/elo"] = run.pool.learner_elo
             stats["charts/episodes"] = float(run.episodes)
             for k, v in stats.items():
