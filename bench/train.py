@@ -13,6 +13,9 @@ competence  (the report's task, 10-ring cap) train the config (sim/configs/cappe
             median fill time within 20 % of the planner's in the same matches. Reported: env
             steps (learner steps) and training wall time (evaluation excluded) until then.
             Targets: <= 50k steps, <= 180 s. The report needed 113.4k steps.
+            When the config has a teacher ([imitation]), the same config is trained again
+            without it and reported beside (competence_no_teacher_*), so what the teacher
+            contributes shows; --skip-no-teacher leaves that run out.
 strength    (no cap: every ring counts, the intake never fills) rings per 105 s match, each
             player against the same opponent (sim.scripted's greedy chaser, which is none of the
             compared players), --matches seeded matches with sides swapped per seed.
@@ -81,14 +84,17 @@ def competence_check(agent: Any, spec: Any, seed: int = EVAL_SEED) -> dict[str, 
 
 
 def run_competence(
-    config: str, eval_every: int, max_steps: int | None, out: Path
+    config: str, eval_every: int, max_steps: int | None, out: Path, teacher: bool = True
 ) -> dict[str, Any]:
     """Train `config` from scratch, checking every `eval_every` steps; its own total_steps (and
-    so its learning-rate schedule) unless max_steps says otherwise."""
-    from sim.training.config import load_config
+    so its learning-rate schedule) unless max_steps says otherwise. teacher=False drops the
+    config's [imitation] teacher."""
+    from sim.training.config import ImitationConfig, load_config
     from sim.training.trainer import Progress, train
 
     cfg = load_config(config)
+    if not teacher:
+        cfg = replace(cfg, imitation=ImitationConfig())
     steps = max_steps or cfg.total_steps
     cfg = replace(
         cfg,
@@ -197,6 +203,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--run-dir", type=Path, default=REPO / "runs" / "bench-competence")
     parser.add_argument("--skip-competence", action="store_true")
     parser.add_argument("--skip-high", action="store_true")
+    parser.add_argument("--skip-no-teacher", action="store_true")
     parser.add_argument("--name", default="train")
     parser.add_argument("--jobs", type=int, default=2, help="evaluation processes")
     args = parser.parse_args(argv)
@@ -205,24 +212,41 @@ def main(argv: list[str] | None = None) -> int:
     details: dict[str, Any] = {}
 
     if not args.skip_competence:
-        print(f"competence: training {args.config} from scratch (eval every {args.eval_every})")
-        comp = run_competence(args.config, args.eval_every, args.competence_max_steps, args.run_dir)
-        details["competence"] = comp
-        found = comp["found"]
-        last = comp["log"][-1] if comp["log"] else {"step": 0.0, "train_wall_s": 0.0}
-        result.add("competence_reached", 1.0 if found else 0.0)
-        if found:
-            result.add("competence_env_steps", found["step"])
-            result.add("competence_train_wall_s", round(found["wall_s"], 1))
-        else:
-            # Not reached: what was spent without reaching it (a lower bound); the steps and
-            # time targets then have no measurement and count as missed.
-            result.add("competence_env_steps_tried", last["step"])
-            result.add("competence_train_wall_s_tried", round(last["train_wall_s"], 1))
+        from sim.training.config import load_config
+
+        runs = [("competence", True)]
+        if load_config(args.config).imitation.teacher != "none" and not args.skip_no_teacher:
+            runs.append(("competence_no_teacher", False))
+        for name, teacher in runs:
+            print(f"{name}: training {args.config} from scratch (eval every {args.eval_every})")
+            comp = run_competence(
+                args.config,
+                args.eval_every,
+                args.competence_max_steps,
+                args.run_dir
+                if teacher
+                else args.run_dir.with_name(args.run_dir.name + "-no-teacher"),
+                teacher,
+            )
+            details[name] = comp
+            found = comp["found"]
+            last = comp["log"][-1] if comp["log"] else {"step": 0.0, "train_wall_s": 0.0}
+            result.add(f"{name}_reached", 1.0 if found else 0.0)
+            if found:
+                result.add(f"{name}_env_steps", found["step"])
+                result.add(f"{name}_train_wall_s", round(found["wall_s"], 1))
+            else:
+                # Not reached: what was spent without reaching it (a lower bound); the steps
+                # and time targets then have no measurement and count as missed.
+                result.add(f"{name}_env_steps_tried", last["step"])
+                result.add(f"{name}_train_wall_s_tried", round(last["train_wall_s"], 1))
+            if last:
+                result.add(f"{name}_fill_rate_last", last.get("fill_rate", 0.0))
+                result.add(f"{name}_fill_median_s_last", _num(last.get("fill_median_s", -1.0)))
+            result.add(f"{name}_eval_overhead_s", round(comp["eval_s"], 1))
         result.target("competence_reached", 1.0, ">=")
         result.target("competence_env_steps", 50_000, "<=")
         result.target("competence_train_wall_s", 180.0, "<=")
-        result.add("competence_eval_overhead_s", round(comp["eval_s"], 1))
 
     if not args.policy.is_file():
         print(f"no shipped policy at {args.policy}: stopping after competence", file=sys.stderr)
