@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -225,3 +226,28 @@ def test_training_runs_end_to_end_and_writes_a_usable_model(tmp_path: Path) -> N
     CnnDetector(out).detect(np.zeros((240, 320, 3), np.uint8))
     with pytest.raises(DatasetError, match="nothing to train on"):
         train(TrainConfig(), out)
+
+
+def test_training_can_start_from_saved_weights(tmp_path: Path) -> None:
+    """--init: zero steps from saved weights leave them as they were (the start is the file,
+    not a fresh network); weights of another shape are an error naming the shape."""
+    first = tmp_path / "a.onnx"
+    base = TrainConfig(synthetic=2, synthetic_val=1, steps=2, batch=2, width=4, threads=1)
+    train(base, first, log=lambda _: None)
+    again = tmp_path / "b.onnx"
+    meta = train(replace(base, init=first.with_suffix(".pt"), lr=1e-12), again, log=lambda _: None)
+    a = torch.load(first.with_suffix(".pt"), weights_only=True)
+    b = torch.load(again.with_suffix(".pt"), weights_only=True)
+    conv = "stem.0.weight"
+    assert torch.allclose(a[conv], b[conv], atol=1e-6)
+    fresh = tmp_path / "c.onnx"
+    train(replace(base, lr=1e-12), fresh, log=lambda _: None)
+    c = torch.load(fresh.with_suffix(".pt"), weights_only=True)
+    assert not torch.allclose(a[conv], c[conv], atol=1e-3), "the same seed from scratch differs"
+    assert meta["training"]["init"] == str(first.with_suffix(".pt"))  # type: ignore[index]
+    with pytest.raises(DatasetError, match="--width 4 --blocks 1"):
+        train(replace(base, init=first.with_suffix(".pt"), width=8), again, log=lambda _: None)
+    junk = tmp_path / "junk.pt"
+    junk.write_bytes(b"not weights")
+    with pytest.raises(DatasetError, match="not readable"):
+        train(replace(base, init=junk), again, log=lambda _: None)

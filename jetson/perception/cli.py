@@ -131,6 +131,8 @@ def cmd_train(args: argparse.Namespace) -> int:
         blocks=args.blocks,
         giou_weight=args.giou,
         input_long_side=args.input_long_side,
+        init=args.init,
+        lr=args.lr,
     )
     train(cfg, args.out)
     return 0
@@ -323,6 +325,13 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         help="the long side frames are resized to before the network (320); larger finds "
         "smaller rings and costs frame rate",
     )
+    t.add_argument(
+        "--init",
+        type=Path,
+        help="start from these weights instead of from scratch (a .pt detector train wrote, "
+        "e.g. models/ringnet.pt): fine-tune the shipped detector on your own labelled photos",
+    )
+    t.add_argument("--lr", type=float, default=3e-3, help="peak learning rate (3e-3)")
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--threads", type=int, default=2, help="torch threads (2)")
     t.set_defaults(func=cmd_train)

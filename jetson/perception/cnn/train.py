@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+import pickle
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -61,6 +62,9 @@ class TrainConfig:
     giou_weight: float = 0.0  # weight of a GIoU term on the boxes beside L1 on their log sizes
     seed: int = 0
     threads: int = 2
+    # Start from these weights (a .pt that detector train wrote, e.g. models/ringnet.pt) instead
+    # of from scratch: fine-tuning on a team's own photos, or training on.
+    init: Path | None = None
     input_long_side: int = 320
     max_side: int = 480  # training images are stored at most this big
 
@@ -215,6 +219,25 @@ def evaluate(detector: CnnDetector, source: Source, thresholds: list[float]) -> 
     return out
 
 
+def load_weights(net: RingNet, path: Path) -> None:
+    """Weights from a .pt into `net`; a file that is not RingNet weights of net's shape is a
+    DatasetError naming what it holds."""
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except (OSError, RuntimeError, ValueError, EOFError, pickle.UnpicklingError) as exc:
+        raise DatasetError(f"--init {path}: not readable as RingNet weights ({exc})") from exc
+    if not isinstance(state, dict) or "stem.0.weight" not in state:
+        raise DatasetError(f"--init {path}: not a RingNet state dict (no stem.0.weight)")
+    width = int(state["stem.0.weight"].shape[0])
+    blocks = len({k.split(".")[1] for k in state if k.startswith("stage3.")}) - 1
+    if (width, blocks) != (net.width, net.blocks):
+        raise DatasetError(
+            f"--init {path} holds a RingNet with --width {width} --blocks {blocks}, "
+            f"not {net.width} and {net.blocks}: pass those"
+        )
+    net.load_state_dict(state)
+
+
 def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> dict[str, object]:
     if not cfg.data and cfg.synthetic <= 0:
         raise DatasetError("nothing to train on: give --data DIR and/or --synthetic N")
@@ -249,6 +272,9 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
     log(f"data ready in {time.monotonic() - t0:.1f} s")
 
     net = RingNet(cfg.width, cfg.blocks)
+    if cfg.init is not None:
+        load_weights(net, cfg.init)
+        log(f"starting from {cfg.init}")
     opt = torch.optim.AdamW(net.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     warm = min(100, cfg.steps // 10)
 
@@ -293,6 +319,7 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
     }
     meta["training"]["data"] = [str(p) for p in cfg.data]  # type: ignore[index]
     meta["training"]["val_data"] = [str(p) for p in cfg.val_data]  # type: ignore[index]
+    meta["training"]["init"] = str(cfg.init) if cfg.init else None  # type: ignore[index]
     prints = [fingerprint(RingDataset(p).names) for p in cfg.data]
     meta["data_fingerprints"] = prints
     if cfg.holdout > 0:
