@@ -66,7 +66,9 @@ class TrainConfig:
     # of from scratch: fine-tuning on a team's own photos, or training on.
     init: Path | None = None
     input_long_side: int = 320
-    max_side: int = 480  # training images are stored at most this big
+    # Training images are stored at most this big, and never smaller than the network sees them
+    # (input_long_side), so a larger input gets the detail it is for.
+    max_side: int = 480
 
 
 @dataclass
@@ -252,20 +254,21 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
     rng = np.random.default_rng(cfg.seed)
     t0 = time.monotonic()
     sources, val = [], []
+    max_side = max(cfg.max_side, cfg.input_long_side)
     for p in cfg.data:
         if cfg.holdout > 0:
             names = RingDataset(p).names
             held = holdout_names(names, cfg.holdout, cfg.holdout_seed)
-            sources.append(load_folder(p, cfg.max_side, set(names) - held, " (minus held out)"))
-            val.append(load_folder(p, cfg.max_side, held, " (held out)"))
+            sources.append(load_folder(p, max_side, set(names) - held, " (minus held out)"))
+            val.append(load_folder(p, max_side, held, " (held out)"))
         else:
-            sources.append(load_folder(p, cfg.max_side))
+            sources.append(load_folder(p, max_side))
     if cfg.synthetic > 0:
         sources.append(synthetic_source(cfg.synthetic, cfg.synthetic_seed))
     for s in sources:
         n_boxes = sum(len(b) for b in s.boxes)
         log(f"source {s.name}: {len(s.images)} images, {n_boxes} rings")
-    val += [load_folder(p, cfg.max_side) for p in cfg.val_data]
+    val += [load_folder(p, max_side) for p in cfg.val_data]
     if cfg.synthetic_val > 0 and (cfg.synthetic > 0 or not val):
         # Seeds below the training ones: validation scenes are never training scenes.
         val.append(synthetic_source(cfg.synthetic_val, cfg.synthetic_seed - 10_000))
