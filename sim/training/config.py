@@ -66,8 +66,9 @@ class ImitationConfig:
     take there (DAgger: labels on the learner's own states, not on the teacher's). The PPO loss
     gains coef x the mean squared distance between the actor's mean and that action, and coef
     falls linearly to 0 at until_step (0: never falls), after which reward alone decides, so the
-    policy can outgrow its teacher. The planner sees the true GPS pose and the field's layout:
-    privileged labels for training only; the exported policy still acts on its observation.
+    policy can outgrow its teacher. The planner sees rings without the observation's noise and
+    knows the field's layout: privileged labels, for training only; the exported policy still
+    acts on its observation alone.
     """
 
     teacher: str = "none"
