@@ -240,9 +240,8 @@ def main(argv: list[str] | None = None) -> int:
                 # and time targets then have no measurement and count as missed.
                 result.add(f"{name}_env_steps_tried", last["step"])
                 result.add(f"{name}_train_wall_s_tried", round(last["train_wall_s"], 1))
-            if last:
-                result.add(f"{name}_fill_rate_last", last.get("fill_rate", 0.0))
-                result.add(f"{name}_fill_median_s_last", _num(last.get("fill_median_s", -1.0)))
+            result.add(f"{name}_fill_rate_last", last.get("fill_rate", 0.0))
+            result.add(f"{name}_fill_median_s_last", _num(last.get("fill_median_s", -1.0)))
             result.add(f"{name}_eval_overhead_s", round(comp["eval_s"], 1))
         result.target("competence_reached", 1.0, ">=")
         result.target("competence_env_steps", 50_000, "<=")

@@ -47,6 +47,7 @@ from sim.world import DriveCommand
 
 OPPONENT_KINDS = ("policy", "planner", "scripted", "random", "idle", "none")
 TEACHERS = ("none", "planner")
+ADVICE_SIZE = 2  # a teacher advises (linear, angular): the drive, not the intake or clamp
 LearnerSide = Literal["random", "red", "blue"]
 
 
@@ -132,8 +133,8 @@ class StepResult:
     truncated: np.ndarray  # (n_envs,) ended by EnvConfig.max_steps: bootstrap from final_obs
     final_obs: np.ndarray  # (n_envs, obs_size), the last observation where truncated
     episodes: list[EpisodeStats] = field(default_factory=list)
-    # (n_envs, 2): the teacher's (linear, angular) action for learner_obs, in [-1, 1]; NaN
-    # without a teacher.
+    # (n_envs, ADVICE_SIZE): the teacher's (linear, angular) action for learner_obs, in
+    # [-1, 1]; NaN without a teacher.
     advice: np.ndarray | None = None
 
 
@@ -274,7 +275,7 @@ class _Slot:
         """The teacher's action for the learner's current state; call once per state (the
         planner keeps a map and a trail of poses, as when it drives)."""
         if self.teacher is None:
-            return np.full(2, np.nan, np.float32)
+            return np.full(ADVICE_SIZE, np.nan, np.float32)
         command = self.teacher.act(self.core, self.learner)
         rc = self.core.world.robots[self.learner].config
         drive = (command.linear / rc.max_linear_mps, command.angular / rc.max_angular_rad_s)

@@ -45,7 +45,7 @@ from sim.ppo import Agent, Batch, RewardScaler, compute_gae, ppo_update
 from sim.training.checkpoint import build_agent, load_checkpoint, save_checkpoint
 from sim.training.config import TrainConfig
 from sim.training.export import export_policy, versions
-from sim.training.rollout import EpisodeStats, VecMatches
+from sim.training.rollout import ADVICE_SIZE, EpisodeStats, VecMatches
 from sim.training.selfplay import OpponentPool
 
 POOL = "pool"
@@ -351,7 +351,7 @@ def train(
         rew_buf = np.zeros((steps_per_env, n), np.float32)
         done_buf = np.zeros((steps_per_env, n), bool)
         val_buf = np.zeros((steps_per_env, n), np.float32)
-        advice_buf = np.full((steps_per_env, n, 2), np.nan, np.float32)
+        advice_buf = np.full((steps_per_env, n, ADVICE_SIZE), np.nan, np.float32)
         advice = first.advice
         while run.step < cfg.total_steps:
             if cfg.phase_index(run.step) != phase:
@@ -427,7 +427,7 @@ def train(
                 advantages=torch.from_numpy(adv.reshape(-1)),
                 returns=torch.from_numpy(ret.reshape(-1)),
                 values=torch.from_numpy(val_buf.reshape(-1)),
-                advice=torch.from_numpy(advice_buf.reshape(-1, 2)),
+                advice=torch.from_numpy(advice_buf.reshape(-1, ADVICE_SIZE)),
             )
             torch.set_num_threads(cfg.torch_threads)
             imitation = cfg.imitation.coef_at(run.step)
