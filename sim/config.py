@@ -190,7 +190,9 @@ class RewardConfig:
     while it has room, a potential-based shaping (Ng et al. 1999: the sum over a match is the
     potential's change, so it cannot be farmed and leaves the best policy the best);
     park: per metre the robot gets closer to its alliance's platform during the last
-    `park_from_s` seconds of the match, the same kind of shaping (the potential is 0 before).
+    `park_from_s` seconds of the match, the same kind of shaping (the potential is 0 before);
+    the target is the platform shrunk by `park_margin_m` on every side, so the pull goes on past
+    the edge to where the robot's noisy GPS still reads inside;
     clamp: when the robot's clamp takes a mobile goal that scores for its alliance (once per
     goal: the auto clamp never lets go);
     goal_approach: per metre the robot's clamp point (behind its back) gets closer to the
@@ -210,6 +212,7 @@ class RewardConfig:
     approach: float = 0.0
     park: float = 0.0
     park_from_s: float = 15.0
+    park_margin_m: float = 0.0
     clamp: float = 0.0
     goal_approach: float = 0.0
     score: float = 0.0
@@ -223,6 +226,8 @@ class RewardConfig:
             raise ConfigError("ring_cap must be >= 0 or None")
         if self.park_from_s < 0:
             raise ConfigError("park_from_s must be >= 0")
+        if self.park_margin_m < 0:
+            raise ConfigError("park_margin_m must be >= 0")
 
 
 @dataclass(frozen=True)

@@ -390,8 +390,8 @@ class MatchCore:
         return min(math.dist(w.clamp_point(r, g), (g.x, g.y)) for g in free)
 
     def _park_potential(self, index: int) -> float:
-        """Distance (m) from the robot to its platform in the match's last park_from_s seconds,
-        else 0 (the park shaping's potential)."""
+        """Distance (m) from the robot to its platform (shrunk by park_margin_m) in the match's
+        last park_from_s seconds, else 0 (the park shaping's potential)."""
         cfg = self.config.reward
         w = self.world
         if not cfg.park or w.time_s < w.match_length_s - cfg.park_from_s:
@@ -401,8 +401,10 @@ class MatchCore:
             plat = w.field.platform(r.alliance)
         except ValueError:
             return 0.0
-        dx = max(abs(r.x - plat.center[0]) - plat.size[0] / 2, 0.0)
-        dy = max(abs(r.y - plat.center[1]) - plat.size[1] / 2, 0.0)
+        half_x = max(plat.size[0] / 2 - cfg.park_margin_m, 0.0)
+        half_y = max(plat.size[1] / 2 - cfg.park_margin_m, 0.0)
+        dx = max(abs(r.x - plat.center[0]) - half_x, 0.0)
+        dy = max(abs(r.y - plat.center[1]) - half_y, 0.0)
         return float(np.hypot(dx, dy))
 
     def goals_counting(self, alliance: Alliance) -> int:

@@ -325,3 +325,26 @@ def test_park_shaping_pays_for_nearing_the_own_platform_only_at_the_end() -> Non
     # The sum telescopes: it is the (negative) weighted distance left at the end.
     assert sum(late) == pytest.approx(-4.0 * core._park_potential(0))
     core.close()
+
+
+def test_park_margin_pulls_past_the_platform_edge() -> None:
+    def potential(margin: float) -> float:
+        cfg = make_config(
+            world={"blue": [], "interaction_s": 3.0},
+            reward={"park": 1.0, "park_from_s": 10.0, "park_margin_m": margin},
+            obs_noise=False,
+            gps_noise=False,
+        )
+        core = MatchCore(cfg)
+        core.reset(np.random.default_rng(0))
+        plat = core.world.field.platform("red")
+        inner_edge = plat.center[0] + plat.size[0] / 2  # the edge facing the field
+        core.world.place_robot(0, inner_edge - 0.05, plat.center[1], 270.0)  # 5 cm inside
+        value = core._park_potential(0)
+        core.close()
+        return value
+
+    assert potential(0.0) == pytest.approx(0.0), "inside the platform: nothing left to gain"
+    assert potential(0.2) == pytest.approx(0.15), "the target is 20 cm in from the edge"
+    with pytest.raises(ConfigError, match="park_margin_m"):
+        make_config(reward={"park_margin_m": -0.1})
