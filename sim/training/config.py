@@ -64,9 +64,10 @@ class ImitationConfig:
     teacher = "planner": in every training match the planner drives a shadow of the learner's
     robot and labels each state the learner visits with the (linear, angular) action it would
     take there (DAgger: labels on the learner's own states, not on the teacher's). The PPO loss
-    gains coef x the mean squared distance between the actor's mean and that action, and coef
-    falls linearly to 0 at until_step (0: never falls), after which reward alone decides, so the
-    policy can outgrow its teacher. The planner sees rings without the observation's noise and
+    gains coef x the mean squared distance between the actor's mean and that action from
+    from_step on (a teacher can come back for a resumed run's fine-tune), and coef falls linearly
+    to 0 at until_step (0: never falls), after which reward alone decides, so the policy can
+    outgrow its teacher. The planner sees rings without the observation's noise and
     knows the field's layout: privileged labels, for training only; the exported policy still
     acts on its observation alone.
     """
@@ -74,19 +75,26 @@ class ImitationConfig:
     teacher: str = "none"
     coef: float = 1.0
     until_step: int = 0
+    from_step: int = 0
 
     def __post_init__(self) -> None:
         if self.teacher not in TEACHERS:
             raise ConfigError(f"imitation.teacher must be one of {TEACHERS}: {self.teacher!r}")
-        if self.coef < 0 or self.until_step < 0:
-            raise ConfigError("imitation: coef >= 0 and until_step >= 0")
+        if self.coef < 0 or self.until_step < 0 or self.from_step < 0:
+            raise ConfigError("imitation: coef, from_step and until_step must be >= 0")
+        if self.until_step and self.until_step <= self.from_step:
+            raise ConfigError(
+                f"imitation: until_step ({self.until_step}) must come after from_step "
+                f"({self.from_step}), or be 0 (never falls)"
+            )
 
     def coef_at(self, step: int) -> float:
-        if self.teacher == "none":
+        if self.teacher == "none" or step < self.from_step:
             return 0.0
         if self.until_step == 0:
             return self.coef
-        return self.coef * max(0.0, 1.0 - step / self.until_step)
+        span = self.until_step - self.from_step
+        return self.coef * max(0.0, 1.0 - (step - self.from_step) / span)
 
 
 @dataclass(frozen=True)
