@@ -25,7 +25,7 @@ from sim.observation import (
     RobotView,
     build_frame,
 )
-from sim.world import RING_FLOOR, DriveCommand, StepEvents, World
+from sim.world import RING_FLOOR, RING_HELD, DriveCommand, StepEvents, World
 
 REWARD_COMPONENTS = (
     "rings",
@@ -55,7 +55,10 @@ class EnvConfig:
     goal_start_share is a training curriculum: the share of episodes in which each robot starts
     with its back to one of its alliance's goals (clamp point 0.05-0.5 m from it, +-30 deg),
     so that a policy discovers the clamp, which an untrained robot driving forward never backs
-    into.
+    into. midgame_start_share is another: the share of episodes that start as the middle of a
+    match, where a learned policy loses most to the planner (sim/TRAINING.md, "Where the planner
+    still wins"): a random 20-60 % of the floor rings gone, each robot holding some of them
+    (up to a full intake) with its back to one of its goals.
     """
 
     world: WorldConfig = field(default_factory=WorldConfig)
@@ -68,6 +71,7 @@ class EnvConfig:
     action_clamp: bool = False
     max_steps: int | None = None
     goal_start_share: float = 0.0
+    midgame_start_share: float = 0.0
     # Gymnasium env only: which robot learns and who plays against it.
     agent_alliance: Literal["red", "blue", "random"] = "red"
     opponent: Literal["none", "scripted", "policy"] = "scripted"
@@ -83,6 +87,10 @@ class EnvConfig:
             raise ConfigError("max_steps must be at least 1 or None")
         if not 0.0 <= self.goal_start_share <= 1.0:
             raise ConfigError(f"goal_start_share must be in [0, 1], got {self.goal_start_share}")
+        if not 0.0 <= self.midgame_start_share <= 1.0:
+            raise ConfigError(
+                f"midgame_start_share must be in [0, 1], got {self.midgame_start_share}"
+            )
 
     @property
     def action_size(self) -> int:
@@ -217,7 +225,12 @@ class MatchCore:
     def reset(self, rng: np.random.Generator) -> list[np.ndarray]:
         self.rng = rng
         self.world.reset(rng)
-        if self.config.goal_start_share > 0:
+        midgame = (
+            self.config.midgame_start_share > 0 and rng.random() < self.config.midgame_start_share
+        )
+        if midgame:
+            self._start_midgame(rng)
+        elif self.config.goal_start_share > 0:
             for r in self.world.robots:
                 if rng.random() < self.config.goal_start_share:
                     self._start_at_goal(r.index, rng)
@@ -231,6 +244,27 @@ class MatchCore:
         n = len(self.world.robots)
         self._potentials = {k: [fn(i) for i in range(n)] for k, fn in self._shaping.items()}
         return [s.reset(self.frame(i)) for i, s in enumerate(self.stacks)]
+
+    def _start_midgame(self, rng: np.random.Generator) -> None:
+        """The field as it might be some seconds in: part of the rings gone (some of them in
+        the robots' intakes, counted as collected before the match's rewards start), every
+        robot with its back to one of its goals."""
+        w = self.world
+        floor = np.flatnonzero(w.ring_state == RING_FLOOR)
+        gone = rng.permutation(floor)[: int(len(floor) * rng.uniform(0.2, 0.6))]
+        taken = 0
+        for r in w.robots:
+            cap = r.config.ring_capacity
+            k = min(int(rng.integers(0, (cap if cap is not None else 10) + 1)), r.room)
+            mine = gone[taken : taken + k]
+            w.ring_state[mine] = RING_HELD
+            w.ring_owner[mine] = r.index
+            r.held += len(mine)
+            r.collected += len(mine)
+            taken += len(mine)
+            self._start_at_goal(r.index, rng)
+        left = np.setdiff1d(floor, gone)
+        w.set_floor_rings(w.ring_xy[left])
 
     def _start_at_goal(self, index: int, rng: np.random.Generator) -> None:
         w = self.world

@@ -156,3 +156,40 @@ def test_goal_start_share_puts_the_robots_back_to_one_of_its_goals() -> None:
             assert 0.049 <= min(gaps) <= 0.501, "5-50 cm further than where the clamp holds one"
     assert len({round(x, 3) for x, _ in starts}) > 6, "starts differ from match to match"
     core.close()
+
+
+def test_midgame_start_share_starts_part_way_into_a_match() -> None:
+    pytest.importorskip("pybullet")
+    from sim.config import ConfigError
+    from sim.match import MatchCore, make_config
+    from sim.world import RING_FLOOR, RING_HELD, DriveCommand
+
+    with pytest.raises(ConfigError, match="midgame_start_share"):
+        make_config(midgame_start_share=-0.1)
+    fresh = MatchCore(make_config(obs_noise=False, gps_noise=False))
+    fresh.reset(np.random.default_rng(0))
+    full = int((fresh.world.ring_state == RING_FLOOR).sum())
+    fresh.close()
+    core = MatchCore(make_config(midgame_start_share=1.0, obs_noise=False, gps_noise=False))
+    held_seen = []
+    for seed in range(6):
+        core.reset(np.random.default_rng(seed))
+        w = core.world
+        floor = int((w.ring_state == RING_FLOOR).sum())
+        assert 0.4 * full - 1 <= floor <= 0.8 * full + 1, "20-60 % of the floor rings gone"
+        for r in w.robots:
+            mine = (w.ring_state == RING_HELD) & (w.ring_owner == r.index)
+            assert r.held == r.collected == int(mine.sum()) <= r.config.ring_capacity
+            held_seen.append(r.held)
+            gaps = [
+                np.hypot(r.x - g.x, r.y - g.y) - w.clamp_offset(r, g)
+                for g in w.goals
+                if g.spec.alliance == r.alliance
+            ]
+            assert 0.049 <= min(gaps) <= 0.501, "its back to one of its goals"
+        results, _, _ = core.step([DriveCommand(0.0, 0.0) for _ in w.robots])
+        assert all(x.components["rings"] == 0.0 for x in results), (
+            "the rings it starts with pay nothing"
+        )
+    assert len(set(held_seen)) > 3, "intakes from empty to full"
+    core.close()
