@@ -220,5 +220,5 @@ def test_imitation_config_is_checked_and_its_weight_falls_to_zero() -> None:
     back = {"teacher": "planner", "coef": 1.0, "from_step": 2000, "until_step": 3000}
     late = parse_config({**EASY, "imitation": back}).imitation
     assert [late.coef_at(s) for s in (0, 1999, 2000, 2500, 3000)] == [0.0, 0.0, 1.0, 0.5, 0.0]
-    with pytest.raises(ConfigError, match="until_step .* must come after from_step"):
+    with pytest.raises(ConfigError, match=r"until_step .* must come after from_step"):
         parse_config({**EASY, "imitation": {**back, "until_step": 1500}})
