@@ -255,6 +255,7 @@ class MatchCore:
         taken = 0
         for r in w.robots:
             cap = r.config.ring_capacity
+            # An intake that never fills starts with as many as a 10-ring one could hold.
             k = min(int(rng.integers(0, (cap if cap is not None else 10) + 1)), r.room)
             mine = gone[taken : taken + k]
             w.ring_state[mine] = RING_HELD
