@@ -129,7 +129,8 @@ def default_spec(world: World) -> ObservationSpec:
 def with_prior(spec: ObservationSpec, world: World) -> ObservationSpec:
     """A memory spec without its prior gets the field's starting layout (red's frame is the
     field frame, and the layout is the same seen from either side): the rings, the goals red
-    could score with, and the clamp's offset from the robots' size."""
+    could score with, the clamp's offset from the robots' size and, for a memory that forgets
+    what the intake takes, the intake's reach."""
     if not spec.needs_prior:
         return spec
 
@@ -141,12 +142,17 @@ def with_prior(spec: ObservationSpec, world: World) -> ObservationSpec:
     if spec.goal_memory and not spec.prior_goals:
         goals = [g.position for g in world.field.goals if g.alliance in (None, "red")]
         spec = replace(spec, prior_goals=pairs(np.asarray(goals, dtype=np.float64)))
+    needs_robot = spec.goal_memory and spec.goal_clamp_offset_m <= 0
+    needs_robot |= spec.ring_memory and spec.memory_forget_intake and not spec.memory_intake_zone
+    if needs_robot and not world.robots:  # robots exist only after a reset
+        world.reset(np.random.default_rng(0))
     if spec.goal_memory and spec.goal_clamp_offset_m <= 0:
-        if not world.robots:  # robots exist only after a reset
-            world.reset(np.random.default_rng(0))
         r = world.robots[0]
         offset = world.clamp_offset(r, world.goals[0]) if world.goals else r.config.length_m / 2
         spec = replace(spec, goal_clamp_offset_m=round(offset, 4))
+    if spec.ring_memory and spec.memory_forget_intake and not spec.memory_intake_zone:
+        (x0, x1), (y0, y1) = world.intake_rect(world.robots[0])
+        spec = replace(spec, memory_intake_zone=tuple(round(v, 4) for v in (x0, x1, y0, y1)))
     return spec
 
 

@@ -21,9 +21,10 @@ Version 2 adds an optional ring memory (`ring_memory`): the ring slots then hold
 rings the robot KNOWS about, not only those in view. The memory (RingMemory) starts from the
 field's starting layout (`prior_rings`, alliance frame, metres), takes every ring the camera
 reports, and forgets a remembered ring once the camera looks at its place and does not see it,
-or once the robot stands on it (collected or pushed away). ok is 1 for a ring in view now and
-0.5 for one remembered. This is the knowledge a team's route planner starts a match with; a
-policy that sees only the camera's cone has to learn the layout from its own pose.
+or once the robot stands on it (collected or pushed away; with `memory_forget_intake`, once it
+is inside the intake's reach: a ring the robot passes beside stays known). ok is 1 for a ring
+in view now and 0.5 for one remembered. This is the knowledge a team's route planner starts a
+match with; a policy that sees only the camera's cone has to learn the layout from its own pose.
 
 Version 3 adds an optional goal memory (`goal_memory`): a scalar `clamped` after `held` (1
 while the robot's clamp holds a mobile goal, from the Brain's State.goal_clamped) and `n_goals`
@@ -85,7 +86,12 @@ _MEMORY_FIELDS = (
     "memory_far_m",
     "memory_merge_m",
     "memory_forget_m",
+    "memory_forget_intake",
+    "memory_intake_zone",
 )
+# Added after policies with a ring memory were shipped: at their defaults they stay out of the
+# fingerprint, so those policies keep theirs.
+_INTAKE_FIELDS = ("memory_forget_intake", "memory_intake_zone")
 _GOAL_FIELDS = ("goal_memory", "prior_goals", "n_goals", "goal_clamp_offset_m", "goal_forget_m")
 
 
@@ -116,6 +122,14 @@ class ObservationSpec:
     memory_far_m: float = 2.6
     memory_merge_m: float = 0.12
     memory_forget_m: float = 0.25
+    # How the memory learns a ring was taken. Off: any ring within memory_forget_m of the
+    # robot's centre is gone. On: only a ring inside the intake's reach (memory_intake_zone:
+    # x_min, x_max, y_min, y_max in the robot frame, metres; the simulator fills it from the
+    # robot when empty). Training rings are not bodies and real ones slide under a bumper, so a
+    # ring the robot passes beside is still there; and the intake takes rings in the camera's
+    # blind spot, ahead of the centre but nearer than memory_near_m.
+    memory_forget_intake: bool = False
+    memory_intake_zone: tuple[float, ...] = ()
     # Version 3: the goal memory. The clamp offset is the distance from the robot's centre to a
     # clamped goal's centre (half the robot's length + the goal base's radius; the simulator
     # fills it from the robot when 0). Forgetting: the robot's centre cannot come closer than
@@ -138,6 +152,7 @@ class ObservationSpec:
             raise ObservationError("goal_memory needs observation spec version 3")
         for name in ("prior_rings", "prior_goals"):
             object.__setattr__(self, name, _points(getattr(self, name), name))
+        object.__setattr__(self, "memory_intake_zone", _zone(self.memory_intake_zone))
         if not (self.goal_clamp_offset_m >= 0 and self.goal_forget_m >= 0):
             raise ObservationError("goal_clamp_offset_m and goal_forget_m must be >= 0")
         near, far = self.memory_near_m, self.memory_far_m
@@ -165,6 +180,7 @@ class ObservationSpec:
         """A memory spec whose prior (the field's layout, the clamp's offset) the simulator has
         yet to fill."""
         rings = self.ring_memory and not self.prior_rings
+        rings |= self.ring_memory and self.memory_forget_intake and not self.memory_intake_zone
         goals = self.goal_memory and not (self.prior_goals and self.goal_clamp_offset_m > 0)
         return rings or goals
 
@@ -223,6 +239,7 @@ class ObservationSpec:
         out = asdict(self)
         out["prior_rings"] = [list(xy) for xy in self.prior_rings]
         out["prior_goals"] = [list(xy) for xy in self.prior_goals]
+        out["memory_intake_zone"] = list(self.memory_intake_zone)
         return out
 
     @classmethod
@@ -246,6 +263,8 @@ class ObservationSpec:
         # Without a memory its settings mean nothing: older specs hash as they always did.
         if not self.ring_memory:
             layout = {k: v for k, v in layout.items() if k not in _MEMORY_FIELDS}
+        if not self.memory_forget_intake:
+            layout = {k: v for k, v in layout.items() if k not in _INTAKE_FIELDS}
         if not self.goal_memory:
             layout = {k: v for k, v in layout.items() if k not in _GOAL_FIELDS}
         blob = json.dumps(layout, sort_keys=True).encode()
@@ -260,6 +279,20 @@ def _points(value: object, what: str) -> tuple[tuple[float, float], ...]:
     if not all(math.isfinite(v) for xy in pts for v in xy):
         raise ObservationError(f"{what} must be finite")
     return pts
+
+
+def _zone(value: object) -> tuple[float, ...]:
+    try:
+        zone = tuple(float(v) for v in value)  # type: ignore[attr-defined]
+    except (TypeError, ValueError) as e:
+        raise ObservationError(f"memory_intake_zone must be 4 numbers: {e}") from e
+    if zone and not (len(zone) == 4 and zone[0] < zone[1] and zone[2] < zone[3]):
+        raise ObservationError(
+            f"memory_intake_zone must be (x_min, x_max, y_min, y_max) with min < max, got {zone}"
+        )
+    if not all(math.isfinite(v) for v in zone):
+        raise ObservationError("memory_intake_zone must be finite")
+    return zone
 
 
 def _meaning(name: str) -> str:
@@ -412,8 +445,14 @@ class RingMemory:
             if len(seen):
                 d = np.linalg.norm(known[:, None, :] - seen[None, :, :], axis=2)
                 matched = d.min(axis=1) <= s.memory_merge_m
-            # Under the robot: collected, or pushed somewhere the camera will show.
-            gone = (in_view & ~matched) | (dist <= s.memory_forget_m)
+            if s.memory_forget_intake:
+                x0, x1, y0, y1 = s.memory_intake_zone
+                taken = (local[:, 0] >= x0) & (local[:, 0] <= x1)
+                taken &= (local[:, 1] >= y0) & (local[:, 1] <= y1)
+            else:
+                # Under the robot: collected, or pushed somewhere the camera will show.
+                taken = dist <= s.memory_forget_m
+            gone = (in_view & ~matched) | taken
             known = known[~gone]
         if len(seen):
             if len(known):

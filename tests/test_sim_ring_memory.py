@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -129,4 +130,63 @@ def test_the_simulator_fills_the_prior_from_the_field_and_feeds_the_memory() -> 
     s = obs[core.spec.ring_offset : core.spec.frame_size].reshape(core.spec.n_rings, 3)
     assert set(s[:, 2].tolist()) <= {SEEN, REMEMBERED} and (s[:, 2] == REMEMBERED).any()
     assert len(core.memories[0].known) <= 42
+    core.close()
+
+
+# The intake's reach of a 15-inch robot, as the simulator fills it (robot frame, metres).
+ZONE = (-0.11, 0.11, 0.14, 0.32)
+
+
+def test_forgetting_by_the_intake_keeps_a_ring_the_robot_passes_beside() -> None:
+    # Both rings lie within memory_forget_m (0.25 m) of the robot's centre and below the view
+    # cone: one beside the bumper, one in the intake's reach.
+    prior = ((0.2, 0.0), (0.0, 0.25), (0.0, -1.0))
+    near_rule = ObservationSpec(ring_memory=True, prior_rings=prior, n_stack=0)
+    mem = RingMemory(near_rule)
+    mem.observe(view())
+    np.testing.assert_allclose(mem.known, [(0.0, -1.0)])
+
+    intake_rule = replace(near_rule, memory_forget_intake=True, memory_intake_zone=ZONE)
+    mem = RingMemory(intake_rule)
+    mem.observe(view())
+    np.testing.assert_allclose(mem.known, [(0.2, 0.0), (0.0, -1.0)])
+    # Turned round and driven to the third ring: the intake reaches it, so it is gone; the
+    # one beside the start, now behind, is still known.
+    mem.observe(view(y=-0.75, heading_deg=180.0))
+    np.testing.assert_allclose(mem.known, [(0.2, 0.0)])
+
+
+def test_the_intake_rule_checks_its_zone_and_keeps_older_fingerprints() -> None:
+    with pytest.raises(ObservationError, match="memory_intake_zone"):
+        ObservationSpec(memory_intake_zone=(0.1, -0.1, 0.1, 0.3))
+    with pytest.raises(ObservationError, match="memory_intake_zone"):
+        ObservationSpec(memory_intake_zone=(0.1, 0.2))
+    spec = replace(SPEC, memory_forget_intake=True, memory_intake_zone=ZONE)
+    again = ObservationSpec.from_dict(json.loads(json.dumps(spec.to_dict())))
+    assert again == spec and again.fingerprint() == spec.fingerprint()
+    assert spec.fingerprint() != SPEC.fingerprint(), "the rule changes what a slot means"
+    wider = replace(spec, memory_intake_zone=(-0.2, 0.2, 0.14, 0.32))
+    assert wider.fingerprint() != spec.fingerprint()
+    # A policy.json written before the rule existed has neither key and keeps its fingerprint.
+    old = {
+        k: v
+        for k, v in SPEC.to_dict().items()
+        if k not in ("memory_forget_intake", "memory_intake_zone")
+    }
+    assert ObservationSpec.from_dict(old).fingerprint() == SPEC.fingerprint()
+    assert replace(spec, memory_forget_intake=False, memory_intake_zone=()) == SPEC
+
+
+def test_the_simulator_fills_the_intake_zone_from_the_robot() -> None:
+    pytest.importorskip("pybullet")
+    from sim.match import MatchCore, make_config
+
+    observation = {"ring_memory": True, "memory_forget_intake": True}
+    cfg = make_config(world={"blue": []}, observation=observation, obs_noise=False)
+    core = MatchCore(cfg)
+    core.reset(np.random.default_rng(0))
+    (x0, x1), (y0, y1) = core.world.intake_rect(core.world.robots[0])
+    np.testing.assert_allclose(core.spec.memory_intake_zone, (x0, x1, y0, y1), atol=1e-4)
+    assert not core.spec.needs_prior
+    assert replace(core.spec, memory_intake_zone=()).needs_prior
     core.close()
