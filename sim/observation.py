@@ -62,9 +62,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from sim.geometry import Alliance, field_to_robot, robot_to_field, to_alliance_frame
+from sim.route import TourConfig, tour
 
-SPEC_VERSION = 3
-SUPPORTED_VERSIONS = (1, 2, 3)
+SPEC_VERSION = 4
+SUPPORTED_VERSIONS = (1, 2, 3, 4)
 SEEN, REMEMBERED = 1.0, 0.5  # a ring slot's ok value
 SCALARS = ("time", "x", "y", "cos_h", "sin_h", "held")
 SCALAR_MEANINGS = {
@@ -92,6 +93,12 @@ _MEMORY_FIELDS = (
 # Added after policies with a ring memory were shipped: at their defaults they stay out of the
 # fingerprint, so those policies keep theirs.
 _INTAKE_FIELDS = ("memory_forget_intake", "memory_intake_zone")
+_ROUTE_FIELDS = (
+    "route_slots",
+    "route_candidates",
+    "route_turn_cost_m_per_rad",
+    "route_switch_margin_m",
+)
 _GOAL_FIELDS = ("goal_memory", "prior_goals", "n_goals", "goal_clamp_offset_m", "goal_forget_m")
 
 
@@ -139,6 +146,13 @@ class ObservationSpec:
     n_goals: int = 3
     goal_clamp_offset_m: float = 0.0
     goal_forget_m: float = 0.3
+    # Version 4: the route slots. The first `route_slots` stops of the tour the planner would
+    # drive over the rings the memory knows (sim/route.py), in tour order, between the goal and
+    # the ring slots: which rings are worth the trip, not only which are near.
+    route_slots: int = 0
+    route_candidates: int = 6
+    route_turn_cost_m_per_rad: float = 0.15
+    route_switch_margin_m: float = 0.1
 
     def __post_init__(self) -> None:
         if self.version not in SUPPORTED_VERSIONS:
@@ -150,6 +164,8 @@ class ObservationSpec:
             raise ObservationError("ring_memory needs observation spec version 2")
         if self.version < 3 and self.goal_memory:
             raise ObservationError("goal_memory needs observation spec version 3")
+        if self.route_slots and (self.version < 4 or not self.ring_memory):
+            raise ObservationError("route_slots needs observation spec version 4 and ring_memory")
         for name in ("prior_rings", "prior_goals"):
             object.__setattr__(self, name, _points(getattr(self, name), name))
         object.__setattr__(self, "memory_intake_zone", _zone(self.memory_intake_zone))
@@ -161,7 +177,14 @@ class ObservationSpec:
                 "ring memory: memory_fov_deg in (0, 180), 0 <= memory_near_m < memory_far_m, "
                 "memory_merge_m > 0"
             )
-        for name in ("n_rings", "n_other_robots", "n_stack", "n_goals"):
+        if self.route_candidates < 1 or not (
+            self.route_turn_cost_m_per_rad >= 0 and self.route_switch_margin_m >= 0
+        ):
+            raise ObservationError(
+                "route: route_candidates >= 1, route_turn_cost_m_per_rad >= 0, "
+                "route_switch_margin_m >= 0"
+            )
+        for name in ("n_rings", "n_other_robots", "n_stack", "n_goals", "route_slots"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
                 raise ObservationError(f"{name} must be a non-negative integer, got {value!r}")
@@ -205,6 +228,17 @@ class ObservationSpec:
         return self.frame_size * self.n_frames
 
     @property
+    def tour(self) -> TourConfig:
+        return TourConfig(
+            self.route_candidates, self.route_turn_cost_m_per_rad, self.route_switch_margin_m
+        )
+
+    @property
+    def route_offset(self) -> int:
+        """Index of the first route slot within a frame."""
+        return self.goal_offset + 3 * self.goal_slots
+
+    @property
     def goal_offset(self) -> int:
         """Index of the first goal slot within a frame."""
         return len(self.scalars) + 3 * self.n_other_robots
@@ -212,7 +246,7 @@ class ObservationSpec:
     @property
     def ring_offset(self) -> int:
         """Index of the first ring slot within a frame."""
-        return self.goal_offset + 3 * self.goal_slots
+        return self.route_offset + 3 * self.route_slots
 
     def frame_names(self) -> list[str]:
         names = list(self.scalars)
@@ -220,6 +254,8 @@ class ObservationSpec:
             names += [f"robot{r}_x", f"robot{r}_y", f"robot{r}_ok"]
         for g in range(self.goal_slots):
             names += [f"goal{g}_x", f"goal{g}_y", f"goal{g}_ok"]
+        for k in range(self.route_slots):
+            names += [f"route{k}_x", f"route{k}_y", f"route{k}_ok"]
         for k in range(self.n_rings):
             names += [f"ring{k}_x", f"ring{k}_y", f"ring{k}_ok"]
         return names
@@ -265,6 +301,8 @@ class ObservationSpec:
             layout = {k: v for k, v in layout.items() if k not in _MEMORY_FIELDS}
         if not self.memory_forget_intake:
             layout = {k: v for k, v in layout.items() if k not in _INTAKE_FIELDS}
+        if not self.route_slots:
+            layout = {k: v for k, v in layout.items() if k not in _ROUTE_FIELDS}
         if not self.goal_memory:
             layout = {k: v for k, v in layout.items() if k not in _GOAL_FIELDS}
         blob = json.dumps(layout, sort_keys=True).encode()
@@ -303,8 +341,9 @@ def _meaning(name: str) -> str:
         "robot": "nearest-first other robot",
         "goal": "nearest-first remembered mobile goal (goal_memory)",
         "ring": "nearest-first visible ring",
+        "route": "route stop (route_slots; tour order over the known rings)",
     }[kind.rstrip("0123456789")]
-    slot = kind.lstrip("robtgalin")
+    slot = kind.rstrip("_").lstrip("abcdefghijklmnopqrstuvwxyz")
     if part == "ok":
         if kind.startswith("ring"):
             return f"1 if ring slot {slot} is in view, 0.5 if remembered (ring_memory), else 0"
@@ -330,6 +369,8 @@ class RobotView:
     goal_clamped: bool = False  # the Brain's clamp holds a mobile goal
     # Mobile goals the robot could score with, robot frame (GoalMemory.observe).
     goals_robot_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    # The route's stops, robot frame, tour order (RingMemory with spec.route_slots).
+    route_robot_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
 
 
 def _as_points(value: ArrayLike, what: str) -> NDArray[np.float64]:
@@ -405,6 +446,13 @@ def build_frame(
         ok = np.concatenate([np.full(len(rings), SEEN), np.full(len(remembered), REMEMBERED)])
         rings = np.concatenate([rings, remembered])
     _fill_slots(out, spec.ring_offset, spec.n_rings, rings, unit, spec.relative_noise, rng, ok)
+    if spec.route_slots:
+        route = _as_points(view.route_robot_xy, "route_robot_xy")[: spec.route_slots]
+        if rng is not None and rel > 0:
+            route = route * (1.0 + rng.uniform(-rel, rel, route.shape))
+        block = out[spec.route_offset : spec.route_offset + 3 * len(route)].reshape(-1, 3)
+        block[:, :2] = route / unit  # tour order, not nearest first
+        block[:, 2] = 1.0
     return out
 
 
@@ -418,11 +466,13 @@ class RingMemory:
     def __init__(self, spec: ObservationSpec) -> None:
         self.spec = spec
         self.known = np.zeros((0, 2))
+        self.target: NDArray[np.float64] | None = None  # the route's first stop, alliance frame
         self.reset()
 
     def reset(self) -> None:
         """Back to the field's starting layout: a new match."""
         self.known = np.asarray(self.spec.prior_rings, dtype=np.float64).reshape(-1, 2)
+        self.target = None
 
     def observe(self, view: RobotView) -> RobotView:
         """Update the memory with the view's rings and return the view with the remembered
@@ -461,6 +511,7 @@ class RingMemory:
                 known = known[~stale]
             known = np.concatenate([known, seen])
         self.known = known
+        view = self._with_route(view, pos, heading)
         return self._with_remembered(view, known[: len(known) - len(seen)], pos, heading)
 
     def recall(self, view: RobotView) -> RobotView:
@@ -470,7 +521,25 @@ class RingMemory:
             return view
         pos, heading = to_alliance_frame((view.x, view.y), view.heading_deg, view.alliance)
         assert heading is not None
-        return self._with_remembered(view, self.known, pos, heading)
+        return self._with_remembered(self._with_route(view, pos, heading), self.known, pos, heading)
+
+    def _with_route(self, view: RobotView, pos: NDArray[np.float64], heading: float) -> RobotView:
+        s = self.spec
+        if not s.route_slots:
+            return view
+        known = self.known
+        current = None
+        if self.target is not None and len(known):
+            d = np.linalg.norm(known - self.target, axis=1)
+            if d.min() <= s.memory_merge_m:
+                current = int(d.argmin())
+        # As the planner plans: as many stops as the intake has room for (at least one).
+        room = max(1, s.ring_capacity_norm - view.rings_held)
+        order = tour(pos, heading, known, room, s.tour, current)
+        self.target = known[order[0]].copy() if order else None
+        stops = known[order[: s.route_slots]]
+        local = field_to_robot(stops, pos, heading) if len(stops) else np.zeros((0, 2))
+        return replace(view, route_robot_xy=local)
 
     @staticmethod
     def _with_remembered(

@@ -26,7 +26,6 @@ intake is full.
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass
 from typing import Literal
@@ -35,6 +34,7 @@ import numpy as np
 
 from sim.geometry import field_to_robot, robot_to_field
 from sim.match import MatchCore
+from sim.route import TourConfig, leg_costs, tour
 from sim.visibility import camera_pose, in_frustum
 from sim.world import DriveCommand, World
 
@@ -76,6 +76,9 @@ class Planner:
     def __init__(self, config: PlannerConfig | None = None) -> None:
         self.config = config or PlannerConfig()
         self.name = f"planner-{self.config.strategy}"
+        self._tour = TourConfig(
+            self.config.route_rings, self.config.turn_cost_m_per_rad, self.config.switch_margin_m
+        )
         self.known = np.zeros((0, 2))
         self._ignored_until = np.zeros(0)
         self._target: np.ndarray | None = None
@@ -153,33 +156,6 @@ class Planner:
 
     # --- ordering -----------------------------------------------------------------------------
 
-    def _leg_costs(self, pose: tuple[float, float, float], pts: np.ndarray) -> np.ndarray:
-        x, y, h = pose
-        local = field_to_robot(pts, (x, y), h)
-        dist = np.hypot(local[:, 0], local[:, 1])
-        bearing = np.abs(np.arctan2(local[:, 0], local[:, 1]))
-        return dist + self.config.turn_cost_m_per_rad * bearing
-
-    def _route(
-        self, start_cost: np.ndarray, pts: np.ndarray, stops: int
-    ) -> tuple[float, list[int]]:
-        """Cheapest open tour of `stops` points: each candidate as the first, nearest neighbour
-        after it, then 2-opt. Returns (cost, order)."""
-        pair = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
-        best: tuple[float, list[int]] = (math.inf, [])
-        for first in range(len(pts)):
-            order = [first]
-            left = set(range(len(pts))) - {first}
-            while left and len(order) < stops:
-                nxt = min(left, key=lambda j: pair[order[-1], j])
-                order.append(nxt)
-                left.remove(nxt)
-            order = _two_opt(order, pair, fixed_first=True)
-            cost = start_cost[order[0]] + sum(pair[a, b] for a, b in itertools.pairwise(order))
-            if cost < best[0]:
-                best = (cost, order)
-        return best
-
     def _choose(
         self, pose: tuple[float, float, float], room: int, now: float
     ) -> tuple[np.ndarray, np.ndarray | None] | None:
@@ -191,7 +167,7 @@ class Planner:
         if len(free) == 0:
             return None
         pts = self.known[free]
-        cost = self._leg_costs(pose, pts)
+        cost = leg_costs(pose[:2], pose[2], pts, c.turn_cost_m_per_rad)
         current = None
         if self._target is not None:
             d = np.linalg.norm(pts - self._target, axis=1)
@@ -207,29 +183,10 @@ class Planner:
                 nxt = rest[np.linalg.norm(pts[rest] - pts[best], axis=1).argmin()]
                 after = pts[nxt]
             return pts[best], after
-        cand = np.argsort(cost, kind="stable")[: c.route_rings]
-        stops = min(room, len(cand))
-        total, order = self._route(cost[cand], pts[cand], stops)
-        if current is not None and current in cand and int(cand[order[0]]) != current:
-            # Keep the current target unless the best tour is clearly cheaper than one from it.
-            k = int(np.flatnonzero(cand == current)[0])
-            alt_cost = self._route_from(k, cost[cand], pts[cand], stops)
-            if alt_cost <= total + c.switch_margin_m:
-                order = [k, *(j for j in order if j != k)]
-        target = pts[cand[order[0]]]
-        after = pts[cand[order[1]]] if len(order) > 1 else None
+        order = tour(pose[:2], pose[2], pts, room, self._tour, current)
+        target = pts[order[0]]
+        after = pts[order[1]] if len(order) > 1 else None
         return target, after
-
-    def _route_from(self, first: int, start_cost: np.ndarray, pts: np.ndarray, stops: int) -> float:
-        pair = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
-        order = [first]
-        left = set(range(len(pts))) - {first}
-        while left and len(order) < stops:
-            nxt = min(left, key=lambda j: pair[order[-1], j])
-            order.append(nxt)
-            left.remove(nxt)
-        order = _two_opt(order, pair, fixed_first=True)
-        return float(start_cost[first] + sum(pair[a, b] for a, b in itertools.pairwise(order)))
 
     # --- driving ------------------------------------------------------------------------------
 
@@ -416,28 +373,3 @@ def pursuit_point(path_robot: np.ndarray, lookahead: float) -> tuple[float, floa
             return float(q[0]), float(q[1])
         prev = q
     return float(prev[0]), float(prev[1])
-
-
-def _two_opt(order: list[int], pair: np.ndarray, fixed_first: bool = False) -> list[int]:
-    """Reverse sub-paths of an open tour while that shortens it (the start leg is not counted,
-    so the first stop is free to change unless fixed_first)."""
-    best = list(order)
-    lo = 1 if fixed_first else 0
-    improved = True
-    while improved:
-        improved = False
-        for i in range(lo, len(best) - 1):
-            for k in range(i + 1, len(best)):
-                a = best[i - 1] if i > 0 else None
-                b, cpt = best[i], best[k]
-                d = best[k + 1] if k + 1 < len(best) else None
-                before = (pair[a, b] if a is not None else 0.0) + (
-                    pair[cpt, d] if d is not None else 0.0
-                )
-                after = (pair[a, cpt] if a is not None else 0.0) + (
-                    pair[b, d] if d is not None else 0.0
-                )
-                if after < before - 1e-9:
-                    best[i : k + 1] = reversed(best[i : k + 1])
-                    improved = True
-    return best

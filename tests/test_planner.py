@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from sim.match import MatchCore, make_config
-from sim.planner import Planner, PlannerConfig, _two_opt, pursuit_point
+from sim.planner import Planner, PlannerConfig, pursuit_point
+from sim.route import two_opt
 from sim.world import RING_FLOOR
 
 
@@ -26,7 +27,7 @@ def test_two_opt_uncrosses_a_tour() -> None:
     pts = np.array([[0, 0], [1, 1], [1, 0], [0, 1], [0, 2]], dtype=float)
     pair = np.linalg.norm(pts[:, None] - pts[None], axis=2)
     crossed = [0, 1, 2, 3, 4]
-    better = _two_opt(crossed, pair, fixed_first=True)
+    better = two_opt(crossed, pair, fixed_first=True)
 
     def length(order: list[int]) -> float:
         return float(sum(pair[a, b] for a, b in itertools.pairwise(order)))
