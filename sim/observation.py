@@ -36,6 +36,13 @@ clamp point behind the robot is the one it holds (and leaves the slots); when th
 the goal stays at the clamp point; a goal whose place the robot's centre comes within
 `goal_forget_m` of cannot be there any more (pushed away) and is forgotten.
 
+Version 4 adds optional route slots (`route_slots`, with the ring memory): between the goal
+slots and the ring slots, the first stops of the tour the planner would drive over the rings the
+memory knows (sim/route.py: a nearest-neighbour tour from each of the cheapest first stops,
+2-opt, as many stops as the intake has room for, the current first stop kept unless another is
+clearly cheaper), robot frame, in tour order, ok = 1 for a filled slot. The ring slots say which
+rings are near; the route slots say which are worth the trip.
+
 The observation is the current frame followed by the `n_stack` previous ones, newest first:
 obs[f * frame_size + i] is item i of the frame f control steps ago. At reset every slot holds the
 first frame. Defaults: K = 10, R = 0, n_stack = 10, so 36 values per frame and 396 in all.
