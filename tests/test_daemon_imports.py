@@ -39,7 +39,8 @@ def test_the_daemon_loads_without_torch_or_the_simulators_physics() -> None:
         "import jetson.service, jetson.loop, jetson.replay, jetson.camera_feed, jetson.policy\n"
         "from jetson.service import build\n"
         "sims = sorted(m for m in sys.modules if m.split('.')[0] == 'sim')\n"
-        "assert sims == ['sim', 'sim.geometry', 'sim.observation'], sims\n"
+        # sim.route: the numpy-only tour behind the observation's route slots.
+        "assert sims == ['sim', 'sim.geometry', 'sim.observation', 'sim.route'], sims\n"
         f"assert not any(m.split('.')[0] in {HEAVY!r} for m in sys.modules)\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
