@@ -155,7 +155,8 @@ class ObservationSpec:
     goal_forget_m: float = 0.3
     # Version 4: the route slots. The first `route_slots` stops of the tour the planner would
     # drive over the rings the memory knows (sim/route.py), in tour order, between the goal and
-    # the ring slots: which rings are worth the trip, not only which are near.
+    # the ring slots: which rings are worth the trip, not only which are near. The tour has as
+    # many stops as ring_capacity_norm minus the rings held (at least one), the intake's room.
     route_slots: int = 0
     route_candidates: int = 6
     route_turn_cost_m_per_rad: float = 0.15
@@ -471,6 +472,11 @@ class RingMemory:
     """
 
     def __init__(self, spec: ObservationSpec) -> None:
+        if spec.ring_memory and spec.memory_forget_intake and not spec.memory_intake_zone:
+            raise ObservationError(
+                "memory_forget_intake needs memory_intake_zone (the simulator fills it from the "
+                "robot; a saved policy.json carries it)"
+            )
         self.spec = spec
         self.known = np.zeros((0, 2))
         self.target: NDArray[np.float64] | None = None  # the route's first stop, alliance frame

@@ -175,6 +175,8 @@ def test_the_intake_rule_checks_its_zone_and_keeps_older_fingerprints() -> None:
     }
     assert ObservationSpec.from_dict(old).fingerprint() == SPEC.fingerprint()
     assert replace(spec, memory_forget_intake=False, memory_intake_zone=()) == SPEC
+    with pytest.raises(ObservationError, match="memory_intake_zone"):
+        RingMemory(replace(SPEC, memory_forget_intake=True))
 
 
 def test_the_simulator_fills_the_intake_zone_from_the_robot() -> None:
