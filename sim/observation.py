@@ -62,6 +62,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import string
 from collections import deque
 from dataclasses import asdict, dataclass, field, fields, replace
 
@@ -351,7 +352,7 @@ def _meaning(name: str) -> str:
         "ring": "nearest-first visible ring",
         "route": "route stop (route_slots; tour order over the known rings)",
     }[kind.rstrip("0123456789")]
-    slot = kind.rstrip("_").lstrip("abcdefghijklmnopqrstuvwxyz")
+    slot = kind.lstrip(string.ascii_lowercase)
     if part == "ok":
         if kind.startswith("ring"):
             return f"1 if ring slot {slot} is in view, 0.5 if remembered (ring_memory), else 0"
