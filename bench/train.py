@@ -22,7 +22,8 @@ strength    (no cap: every ring counts, the intake never fills) rings per 105 s 
             Targets: ours >= the planner, ours > the original.
 head-to-head  1v1 win rate by match score, same seeds, sides swapped: ours against the planner
             and against the original policy (target >= 60 % each); random against both as the
-            floor.
+            floor, and the planner against both as the reference (against itself it shows what
+            an equal player wins: draws count as no win).
 
 The shipped policy is measured in training fidelity and in high fidelity (fewer matches there:
 a high-fidelity match costs ~15 s). Results: bench/results/train.json.
@@ -300,7 +301,7 @@ def main(argv: list[str] | None = None) -> int:
             )
             result.target(f"uncapped_rings_ours_minus_original{tag}", 0.01, ">=")
         # Head-to-head by match score.
-        for name in ("ours", "random"):
+        for name in ("ours", "random", "planner"):
             for opp in ("planner", "original"):
                 if opp not in players:
                     continue
