@@ -7,6 +7,8 @@ Pure and deterministic (no I/O, no clock: the caller passes the perception's age
 - The observation is sim.observation's, built as in training: own pose in the alliance frame,
   rings in the robot frame, no noise; the ring and goal memories when the policy's spec has them
   (the goal memory follows State.goal_clamped; a Brain without a clamp sensor reads as open).
+- A skill policy (its policy.json names skills) scores options; sim.skills' controller drives
+  the best one from the same observation, as it did in training.
   A perception result older than `perception_max_age_s`, or none, gives no rings: empty slots,
   as the policy saw rings it could not see.
 - Frame stacking follows the training's control rate (`decision_hz`, normally the policy's): the
@@ -32,6 +34,7 @@ from jetson.policy import Policy
 from jetson.settings import ConfigError, DecisionConfig
 from protocol.messages import Alliance, GpsStatus, MatchPhase, State
 from sim.observation import FrameStack, GoalMemory, RingMemory, RobotView, build_frame
+from sim.skills import SkillDriver
 
 DEFAULT_DECISION_HZ = 12.0  # sim.config.WorldConfig.control_hz: what policies are trained at
 RINGS_UNKNOWN = 255  # State.rings_held when the Brain has no ring counter
@@ -75,7 +78,8 @@ class Decider:
         self.period_ms = 1000.0 / self.decision_hz
         self.spec = policy.spec
         names = tuple(policy.action_names)
-        if names[:2] != ("linear", "angular"):
+        self._skills = getattr(policy, "skills", None)
+        if self._skills is None and names[:2] != ("linear", "angular"):
             raise ConfigError(f"the policy's actions must start with linear, angular: {names}")
         self._scale = np.asarray(policy.action_scale[:2], dtype=np.float64)
         self._intake_index = names.index("intake") if "intake" in names else None
@@ -87,6 +91,7 @@ class Decider:
         self._stack: FrameStack | None = None
         self._memory = RingMemory(self.spec)
         self._goals = GoalMemory(self.spec)
+        self._driver = None if self._skills is None else SkillDriver(self._skills, self.spec)
         self._next_push_ms = 0.0
         self._phase: MatchPhase | None = None
         self._phase_ms = 0
@@ -107,6 +112,8 @@ class Decider:
             self._stack = None
             self._memory.reset()
             self._goals.reset()
+            if self._driver is not None:
+                self._driver.reset()
         if state.alliance == Alliance.UNKNOWN:
             return stop("alliance unknown: set it in the Brain's config")
         if state.gps_status != GpsStatus.OK:
@@ -123,6 +130,10 @@ class Decider:
             )
         if action.size < 2 or not np.all(np.isfinite(action)):
             return Decision(0.0, 0.0, False, "policy output not finite", seen, len(rings))
+        if self._driver is not None:
+            # A skill policy: its highest-scored skill, driven from the same observation.
+            linear, angular = self._driver.command(obs, action)
+            return Decision(linear, angular, True, "policy", seen, len(rings))
         action = np.clip(action, -1.0, 1.0)
         linear, angular = (action[:2] * self._scale).tolist()
         i = self._intake_index

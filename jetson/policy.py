@@ -3,9 +3,10 @@
 The files are what sim.training.export writes (format "pacman-pete-policy", version 1): the
 network takes the raw stacked observation of sim.observation and returns actions in [-1, 1];
 policy.json carries the observation spec (checked against its fingerprint), the input and output
-names, and how each action scales to the robot's units. The Jetson reads them here with numpy,
-onnxruntime and sim.observation only (tests check this reader against sim.policy's on the same
-file, so the two cannot drift apart).
+names, and how each action scales to the robot's units, or, for a skill policy, the settings of
+the controller that drives its skills (sim/skills.py). The Jetson reads them here with numpy,
+onnxruntime, sim.observation and sim.skills only (tests check this reader against sim.policy's
+on the same file, so the two cannot drift apart).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sim.observation import ObservationError, ObservationSpec
+from sim.skills import SkillConfig, skill_config_from_dict
 
 FORMAT = "pacman-pete-policy"
 FORMAT_VERSION = 1
@@ -37,6 +39,8 @@ class Policy(Protocol):
     action_names: tuple[str, ...]  # "linear", "angular", optionally "intake", "clamp"
     action_scale: tuple[float, ...]  # action * scale = m/s, rad/s clockwise, ...
     description: str
+    # Set when the actions are skill scores: the controller that turns them into driving.
+    skills: SkillConfig | None
 
     def __call__(self, obs: NDArray[np.float32]) -> NDArray[np.float32]: ...
 
@@ -112,6 +116,8 @@ class OnnxPolicy:
             acts = meta["actions"]
             self.action_names = tuple(str(n) for n in acts["names"])
             self.action_scale = tuple(float(s) for s in acts["scale"])
+            skills = acts.get("skills")
+            self.skills = None if skills is None else skill_config_from_dict(dict(skills))
         except (KeyError, TypeError, ValueError) as exc:
             raise PolicyError(f"{where}: missing or malformed entry {exc}") from exc
         except ObservationError as exc:
@@ -125,8 +131,17 @@ class OnnxPolicy:
             raise PolicyError(f"{where}: input size {in_size} != observation size {self.spec.size}")
         if not len(self.action_names) == len(self.action_scale) == out_size:
             raise PolicyError(f"{where}: {out_size} outputs but names/scales do not match")
-        if self.action_names[:2] != ("linear", "angular"):
-            raise PolicyError(f"{where}: actions must start with linear, angular")
+        if self.skills is not None:
+            if self.action_names != tuple(self.skills.option_names()):
+                raise PolicyError(
+                    f"{where}: skill names {self.action_names} do not match its skills"
+                )
+            try:
+                self.skills.check(self.spec)
+            except ValueError as exc:
+                raise PolicyError(f"{where}: {exc}") from exc
+        elif self.action_names[:2] != ("linear", "angular"):
+            raise PolicyError(f"{where}: actions must start with linear, angular (or be skills)")
         expected = meta.get("onnx_sha256")
         if expected and expected != self.sha256:
             raise PolicyError(f"{self.path}: contents do not match onnx_sha256 in {where}")

@@ -316,6 +316,7 @@ class ProbePolicy:
     action_names = ("linear", "angular")
     action_scale = (0.5, 2.0)
     description = "probe policy"
+    skills = None
 
     def __init__(self, spec: ObservationSpec | None = None, control_hz: float = 12.0) -> None:
         self.spec = spec or ObservationSpec()

@@ -109,14 +109,17 @@ def load_player(text: str) -> PlayerSpec:
             policy = OnnxPolicy(path)
         except PolicyError as e:
             raise EvalError(str(e)) from e
+        skills = policy.skills
         return PlayerSpec(
-            path.parent.name or path.stem, lambda: PolicyPlayer(policy, "ours"), policy.spec
+            path.parent.name or path.stem,
+            lambda: PolicyPlayer(policy, "ours", skills),
+            policy.spec,
         )
     if path.suffix == ".pt":
         from sim.training.checkpoint import load_policy_fn
 
-        fn, spec = load_policy_fn(path)
-        return PlayerSpec(path.stem, lambda: PolicyPlayer(fn, "ours"), spec)
+        fn, spec, skills = load_policy_fn(path)
+        return PlayerSpec(path.stem, lambda: PolicyPlayer(fn, "ours", skills), spec)
     raise EvalError(f"{path}: expected a .onnx policy or a .pt checkpoint")
 
 

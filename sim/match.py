@@ -15,8 +15,9 @@ from typing import Any, Literal
 
 import numpy as np
 
-from sim.config import ConfigError, RewardConfig, WorldConfig, merge
-from sim.geometry import Alliance, field_to_robot, heading_vector
+from sim.config import ConfigError, RewardConfig, RobotConfig, WorldConfig, merge
+from sim.field import FieldSpec
+from sim.geometry import Alliance, field_to_robot, heading_vector, to_alliance_frame
 from sim.observation import (
     FrameStack,
     GoalMemory,
@@ -25,6 +26,7 @@ from sim.observation import (
     RobotView,
     build_frame,
 )
+from sim.skills import SkillConfig, SkillDriver
 from sim.world import RING_FLOOR, RING_HELD, DriveCommand, StepEvents, World
 
 REWARD_COMPONENTS = (
@@ -69,6 +71,8 @@ class EnvConfig:
     end_on_pin: bool = True
     action_intake: bool = False
     action_clamp: bool = False
+    # A skill action space (sim/skills.py): one score per option, a controller drives the best.
+    skills: SkillConfig | None = None
     max_steps: int | None = None
     goal_start_share: float = 0.0
     midgame_start_share: float = 0.0
@@ -94,6 +98,8 @@ class EnvConfig:
 
     @property
     def action_size(self) -> int:
+        if self.skills is not None:
+            return self.skills.n_options
         return 2 + int(self.action_intake) + int(self.action_clamp)
 
 
@@ -107,7 +113,12 @@ def make_config(config: EnvConfig | dict[str, Any] | None = None, **overrides: A
     data = {} if isinstance(config, EnvConfig) else dict(config or {})
     data.update(overrides)
     obs = data.pop("observation", None)
+    skills = data.pop("skills", None)
     cfg = merge(base, data, "env")
+    if isinstance(skills, SkillConfig):
+        cfg = replace(cfg, skills=skills)
+    elif isinstance(skills, dict):
+        cfg = replace(cfg, skills=merge(cfg.skills or SkillConfig(), skills, "env.skills"))
     if isinstance(obs, ObservationSpec):
         cfg = replace(cfg, observation=obs)
     elif obs is not None:
@@ -166,6 +177,20 @@ class RobotStep:
     info: dict[str, Any]
 
 
+def skill_settings(field: FieldSpec, alliance: Alliance, robot: RobotConfig) -> dict[str, Any]:
+    """What a SkillConfig takes from the field and the robot: the alliance's platform in its
+    alliance frame (the same for both alliances), the robot's length and top speeds."""
+    plat = field.platform(alliance)
+    (cx, cy), _ = to_alliance_frame(plat.center, None, alliance)
+    box = tuple(round(float(v), 4) for v in (cx, cy, plat.size[0] / 2, plat.size[1] / 2))
+    return {
+        "platform_box": box,
+        "robot_length_m": round(robot.length_m, 4),
+        "max_linear_mps": round(robot.max_linear_mps, 4),
+        "max_angular_rad_s": round(robot.max_angular_rad_s, 4),
+    }
+
+
 class MatchCore:
     def __init__(self, config: EnvConfig, world_config: WorldConfig | None = None, client=None):
         self.config = config
@@ -186,6 +211,13 @@ class MatchCore:
         self.pins: list[int] = []
         self.rng = np.random.default_rng(0)
         self.ended_by_pin = False
+        self.drivers: list[SkillDriver] = []
+
+    def skill_driver(self, index: int, skills: SkillConfig) -> SkillDriver:
+        """A fresh controller for robot `index`, its platform and size from this world."""
+        r = self.world.robots[index]
+        settings = skill_settings(self.world.field, r.alliance, r.config)
+        return SkillDriver(replace(skills, **settings), self.spec)
 
     def _probe_spec_world(self) -> World:
         # Robots exist only after a reset; the spec needs their capacities.
@@ -212,8 +244,11 @@ class MatchCore:
             )
         if not np.all(np.isfinite(a)):
             return DriveCommand(0.0, 0.0, intake=False, clamp=None)
-        a = np.clip(a, -1.0, 1.0)
         rc = self.world.robots[index].config
+        if self.config.skills is not None:
+            v, w = self.drivers[index].command(self.stacks[index].observation(), a)
+            return DriveCommand(v, w)
+        a = np.clip(a, -1.0, 1.0)
         k = 2
         intake = True
         clamp = None
@@ -241,6 +276,10 @@ class MatchCore:
                 if rng.random() < self.config.goal_start_share:
                     self._start_at_goal(r.index, rng)
         self.stacks = [FrameStack(self.spec) for _ in self.world.robots]
+        if self.config.skills is not None:
+            self.drivers = [
+                self.skill_driver(r.index, self.config.skills) for r in self.world.robots
+            ]
         self.memories = [RingMemory(self.spec) for _ in self.world.robots]
         self.goal_memories = [GoalMemory(self.spec) for _ in self.world.robots]
         self.totals = [dict.fromkeys(REWARD_COMPONENTS, 0.0) for _ in self.world.robots]

@@ -17,6 +17,7 @@ import numpy as np
 
 from sim.match import MatchCore
 from sim.scripted import GreedyChaser
+from sim.skills import SkillConfig, SkillDriver
 from sim.world import DriveCommand
 
 ActionFn = Callable[[np.ndarray], np.ndarray]
@@ -74,14 +75,23 @@ class ScriptedPlayer:
 
 
 class PolicyPlayer:
-    """A policy that maps the stacked observation to an action in [-1, 1]^n."""
+    """A policy that maps the stacked observation to an action in [-1, 1]^n, or, with
+    `skills`, to one score per skill that its own controller drives (sim/skills.py)."""
 
-    def __init__(self, fn: ActionFn, name: str = "policy") -> None:
+    def __init__(self, fn: ActionFn, name: str = "policy", skills: SkillConfig | None = None):
         self.fn = fn
         self.name = name
+        self.skills = skills
+        self._driver: SkillDriver | None = None
 
     def reset(self, core: MatchCore, index: int, rng: np.random.Generator) -> None:
-        pass
+        if self.skills is not None:
+            self._driver = core.skill_driver(index, self.skills)
 
     def act(self, core: MatchCore, index: int, obs: np.ndarray) -> DriveCommand:
-        return core.command(index, self.fn(obs))
+        if self._driver is None:
+            return core.command(index, self.fn(obs))
+        action = np.asarray(self.fn(obs), dtype=np.float64)
+        if not np.all(np.isfinite(action)):
+            return DriveCommand(0.0, 0.0)
+        return DriveCommand(*self._driver.command(obs, action))

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from sim.observation import ObservationError, ObservationSpec
+from sim.skills import SkillConfig, skill_config_from_dict
 
 FORMAT = "pacman-pete-policy"
 FORMAT_VERSION = 1
@@ -132,6 +133,12 @@ class OnnxPolicy:
     @property
     def spec(self) -> ObservationSpec:
         return self.meta.spec
+
+    @property
+    def skills(self) -> SkillConfig | None:
+        """The skill controller's settings when the actions are skill scores (sim/skills.py)."""
+        data = self.meta.raw["actions"].get("skills")
+        return None if data is None else skill_config_from_dict(data)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         x = np.asarray(obs, dtype=np.float32)

@@ -1,5 +1,5 @@
-"""What the daemon may import: from the simulator only sim.observation (numpy), and never torch,
-PyBullet or Gymnasium, so that the Jetson needs only the `jetson` extra."""
+"""What the daemon may import: from the simulator only sim.observation and sim.skills (numpy),
+and never torch, PyBullet or Gymnasium, so that the Jetson needs only the `jetson` extra."""
 
 from __future__ import annotations
 
@@ -22,14 +22,14 @@ def imported_modules(path: Path) -> set[str]:
     return out
 
 
-def test_daemon_modules_import_only_sim_observation_from_the_simulator() -> None:
+def test_daemon_modules_import_only_the_observation_and_skills_from_the_simulator() -> None:
     files = sorted(JETSON.glob("*.py"))
     assert len(files) >= 12
     for path in files:
         for mod in imported_modules(path):
             top = mod.split(".")[0]
             if top == "sim":
-                assert mod == "sim.observation", f"{path.name} imports {mod}"
+                assert mod in ("sim.observation", "sim.skills"), f"{path.name} imports {mod}"
             assert top not in HEAVY, f"{path.name} imports {mod}"
 
 
@@ -40,7 +40,8 @@ def test_the_daemon_loads_without_torch_or_the_simulators_physics() -> None:
         "from jetson.service import build\n"
         "sims = sorted(m for m in sys.modules if m.split('.')[0] == 'sim')\n"
         # sim.route: the numpy-only tour behind the observation's route slots.
-        "assert sims == ['sim', 'sim.geometry', 'sim.observation', 'sim.route'], sims\n"
+        "expected = ['sim', 'sim.geometry', 'sim.observation', 'sim.route', 'sim.skills']\n"
+        "assert sims == expected, sims\n"
         f"assert not any(m.split('.')[0] in {HEAVY!r} for m in sys.modules)\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True, timeout=60)

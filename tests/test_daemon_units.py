@@ -518,3 +518,28 @@ def test_a_goal_memory_policy_reads_the_brains_clamp_and_drops_the_held_goal() -
     assert clamped_and_goals() == (1.0, 1), "the held goal leaves the slots"
     d.decide(state(40, goal_clamped=255), None)  # a Brain without a clamp sensor reads as open
     assert clamped_and_goals()[0] == 0.0
+
+
+def test_a_skill_policy_is_driven_by_the_skill_controller() -> None:
+    from sim.skills import SkillConfig
+
+    spec = ObservationSpec(n_stack=0)
+    skills = SkillConfig(ring_options=2, goal_options=0, platform=False)
+
+    class SkillPolicy(ProbePolicy):
+        action_names = ("ring0", "ring1")
+        action_scale = (1.0, 1.0)
+
+        def __call__(self, obs):
+            return np.array([-1.0, 1.0], dtype=np.float32)  # always the second-nearest ring
+
+    policy = SkillPolicy(spec)
+    policy.skills = skills
+    d = Decider(policy)
+    # Rings straight ahead (nearest) and ahead-right (second): the robot turns right to ring1.
+    seen = PerceptionInput(1, 0.05, np.array([[0.0, 0.8], [0.5, 1.2]]))
+    out = d.decide(state(0), seen)
+    assert out.drove and out.linear > 0 and out.angular > 0
+    # Only one ring known: the second slot is empty and the robot turns in place, looking.
+    out = d.decide(state(100), PerceptionInput(2, 0.05, np.array([[0.0, 0.8]])))
+    assert out.linear == 0.0 and out.angular > 0

@@ -96,3 +96,32 @@ def test_the_jetson_side_needs_no_torch() -> None:
         "assert 'pybullet' not in sys.modules\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_a_skill_policy_exports_its_controller_and_both_readers_load_it(tmp_path: Path) -> None:
+    from jetson.policy import OnnxPolicy as JetsonPolicy
+
+    spec = ObservationSpec(n_stack=1, goal_memory=True, goal_clamp_offset_m=0.35)
+    env = make_config(
+        observation={"n_stack": 1, "goal_memory": True},
+        skills={"ring_options": 3, "goal_options": 1},
+    )
+    torch.manual_seed(0)
+    agent = Agent(spec.size, env.action_size, PPOConfig(hidden=(16,)))
+    onnx_path, meta_path = export_policy(agent, spec, env, tmp_path)
+    meta = json.loads(meta_path.read_text())
+    assert meta["actions"]["names"] == ["ring0", "ring1", "ring2", "goal0", "platform"]
+    skills = meta["actions"]["skills"]
+    # The controller's settings come from the field and the robot, saved for the Jetson.
+    assert skills["max_linear_mps"] == 0.904 and skills["max_angular_rad_s"] == 4.8
+    assert skills["platform_box"][0] == pytest.approx(-1.524, abs=1e-3)
+    sim_side, jetson_side = OnnxPolicy(onnx_path), JetsonPolicy(onnx_path)
+    assert sim_side.skills == jetson_side.skills and sim_side.skills is not None
+    assert sim_side.skills.n_options == 5
+    obs = np.zeros(spec.size, dtype=np.float32)
+    np.testing.assert_array_equal(sim_side(obs), jetson_side(obs))
+    # Names that do not match the skills are refused.
+    meta["actions"]["names"][0] = "linear"
+    meta_path.write_text(json.dumps(meta))
+    with pytest.raises(Exception, match="skill names"):
+        JetsonPolicy(onnx_path)

@@ -222,3 +222,35 @@ def test_imitation_config_is_checked_and_its_weight_falls_to_zero() -> None:
     assert [late.coef_at(s) for s in (0, 1999, 2000, 2500, 3000)] == [0.0, 0.0, 1.0, 0.5, 0.0]
     with pytest.raises(ConfigError, match=r"until_step .* must come after from_step"):
         parse_config({**EASY, "imitation": {**back, "until_step": 1500}})
+
+
+def test_a_skill_policy_learns_to_pick_rings_and_exports_its_controller(tmp_path: Path) -> None:
+    # Skills from a start that prefers the platform: training must learn to pick the ring.
+    cfg = dict(EASY, name="easy-skills", total_steps=8192)
+    cfg["env"] = dict(
+        EASY["env"],
+        observation={"n_stack": 0, "ring_memory": True, "goal_memory": True},
+        skills={"ring_options": 1, "goal_options": 1, "platform": True},
+    )
+    cfg["ppo"] = dict(
+        EASY["ppo"], init_action_bias=[-0.5, 0.0, 0.5], init_log_std=0.0, learning_rate=3e-3
+    )
+    rings_per_iteration: list[float] = []
+
+    def record(p: Progress) -> bool:
+        if p.episodes:
+            rings_per_iteration.append(fmean(e.rings for e in p.episodes))
+        return False
+
+    run = tmp_path / "run"
+    train(parse_config(cfg), run, progress=False, callback=record)
+    first, last = fmean(rings_per_iteration[:2]), fmean(rings_per_iteration[-2:])
+    assert last >= first + 1.0, (first, last, rings_per_iteration)
+    meta = json.loads((run / "policy.json").read_text())
+    assert meta["actions"]["names"] == ["ring0", "goal0", "platform"]
+
+    from sim.evaluate import evaluate, load_player
+
+    ours = load_player(str(run))
+    summary = evaluate(ours, None, 2, 0, "capped", base_env={"max_steps": 96})
+    assert summary.side(0)["rings"].mean >= 1.0

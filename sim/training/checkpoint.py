@@ -17,6 +17,7 @@ import torch
 
 from sim.observation import ObservationSpec
 from sim.ppo import Agent
+from sim.skills import SkillConfig
 from sim.training.config import TrainConfig, parse_config
 
 CHECKPOINT_VERSION = 1
@@ -56,12 +57,14 @@ def agent_from_checkpoint(state: dict[str, Any]) -> tuple[Agent, ObservationSpec
     return agent, spec, cfg
 
 
-def load_policy_fn(path: str | Path) -> tuple[Callable[[np.ndarray], np.ndarray], ObservationSpec]:
-    agent, spec, _ = agent_from_checkpoint(load_checkpoint(path))
+def load_policy_fn(
+    path: str | Path,
+) -> tuple[Callable[[np.ndarray], np.ndarray], ObservationSpec, SkillConfig | None]:
+    agent, spec, cfg = agent_from_checkpoint(load_checkpoint(path))
 
     @torch.no_grad()
     def fn(obs: np.ndarray) -> np.ndarray:
         x = torch.as_tensor(np.asarray(obs, dtype=np.float32))
         return agent.deterministic(x[None] if x.ndim == 1 else x).numpy().reshape(-1)
 
-    return fn, spec
+    return fn, spec, cfg.env_config().skills

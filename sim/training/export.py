@@ -14,6 +14,7 @@ from __future__ import annotations
 import importlib.metadata
 import json
 import warnings
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +54,19 @@ def versions() -> dict[str, str]:
 def action_scale(env: EnvConfig) -> dict[str, Any]:
     """How [-1, 1] actions become commands for the learning robot (the world's first robot)."""
     robot = env.world.robots[(env.world.red or env.world.blue)[0]]
+    if env.skills is not None:
+        from sim.field import load_field
+        from sim.match import skill_settings
+
+        skills = replace(env.skills, **skill_settings(load_field(env.world.field), "red", robot))
+        n = skills.n_options
+        return {
+            "names": skills.option_names(),
+            "scale": [1.0] * n,
+            "units": ["score: the highest option is driven (sim/skills.py)"] * n,
+            "range": [-1.0, 1.0],
+            "skills": asdict(skills),
+        }
     names = ["linear", "angular"]
     scale = [robot.max_linear_mps, robot.max_angular_rad_s]
     units = ["m/s forward", "rad/s clockwise (heading increasing)"]

@@ -42,6 +42,7 @@ import torch
 from sim.match import MatchCore
 from sim.observation import ObservationSpec
 from sim.ppo import Agent, Batch, RewardScaler, compute_gae, ppo_update
+from sim.skills import SkillConfig
 from sim.training.checkpoint import build_agent, load_checkpoint, save_checkpoint
 from sim.training.config import TrainConfig
 from sim.training.export import export_policy, versions
@@ -253,7 +254,12 @@ def _write_run_info(run_dir: Path, cfg: TrainConfig, spec: ObservationSpec, resu
 
 
 def evaluate_agent(
-    agent: Agent, spec: ObservationSpec, opponent: str, matches: int, seed: int
+    agent: Agent,
+    spec: ObservationSpec,
+    opponent: str,
+    matches: int,
+    seed: int,
+    skills: SkillConfig | None = None,
 ) -> dict[str, float]:
     """Deterministic matches of the current agent (capped scenario); the scalars to log."""
     from sim.evaluate import PlayerSpec, evaluate, load_player
@@ -263,7 +269,7 @@ def evaluate_agent(
     def act(obs: np.ndarray) -> np.ndarray:
         return agent.deterministic(torch.as_tensor(obs, dtype=torch.float32)[None])[0].numpy()
 
-    ours = PlayerSpec("ours", lambda: PolicyPlayer(act, "ours"), spec)
+    ours = PlayerSpec("ours", lambda: PolicyPlayer(act, "ours", skills), spec)
     summary = evaluate(ours, load_player(opponent), matches, seed, "capped")
     a, b = summary.side(0), summary.side(1)
     return {
@@ -467,7 +473,12 @@ def train(
             if ev_cfg.every_steps and run.step - last_eval >= ev_cfg.every_steps:
                 last_eval = run.step
                 ev = evaluate_agent(
-                    run.agent, run.spec, ev_cfg.opponent, ev_cfg.matches, ev_cfg.seed
+                    run.agent,
+                    run.spec,
+                    ev_cfg.opponent,
+                    ev_cfg.matches,
+                    ev_cfg.seed,
+                    run.env.skills,
                 )
                 for k, v in ev.items():
                     if math.isfinite(v):

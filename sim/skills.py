@@ -1,0 +1,181 @@
+"""Skills: a policy that picks WHAT to do, and a controller that knows HOW.
+
+With a skill action space the policy's action is one score per option; the highest wins and a
+pure-pursuit controller drives it. The options refer to the observation's own slots, so the
+controller needs nothing the policy does not see (numpy only: the Jetson runs it beside the
+policy, from the same observation):
+
+    ring k      drive onto the ring in ring slot k (nearest first) with pure pursuit;
+    goal j      back onto the goal in goal slot j until the clamp takes it;
+    platform    drive onto the alliance's platform and stop there.
+
+An empty slot makes its option a slow turn in place (looking for something). Control follows
+sim.planner: targets far off the nose are turned to in place, a target beside the bumper is
+backed away from, a robot that stops moving while driving backs off.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, fields
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sim.observation import ObservationSpec
+
+
+@dataclass(frozen=True)
+class SkillConfig:
+    ring_options: int = 4  # the nearest ring slots the policy can pick from
+    goal_options: int = 2
+    platform: bool = True
+    # The alliance's platform in its alliance frame (centre x, y and half extents), metres.
+    platform_box: tuple[float, float, float, float] = (0.0, -1.5, 0.6, 0.3)
+    # The robot's size and top speeds (filled from the robot's config by the simulator and
+    # saved with the policy, so the Jetson drives the robot the policy was trained on).
+    robot_length_m: float = 0.381
+    max_linear_mps: float = 1.0
+    max_angular_rad_s: float = 4.8
+    lookahead_m: float = 0.3
+    turn_gain: float = 4.0
+    turn_in_place_rad: float = 1.1
+    stuck_window_s: float = 1.2
+    stuck_distance_m: float = 0.04
+    backoff_s: float = 0.6
+
+    @property
+    def n_options(self) -> int:
+        return self.ring_options + self.goal_options + int(self.platform)
+
+    def option_names(self) -> list[str]:
+        names = [f"ring{k}" for k in range(self.ring_options)]
+        names += [f"goal{j}" for j in range(self.goal_options)]
+        return names + (["platform"] if self.platform else [])
+
+    def check(self, spec: ObservationSpec) -> None:
+        if self.ring_options > spec.n_rings:
+            raise ValueError(f"skills: {self.ring_options} ring options, {spec.n_rings} slots")
+        if self.goal_options and (not spec.goal_memory or self.goal_options > spec.n_goals):
+            raise ValueError("skills: goal options need the goal memory's slots")
+
+
+def skill_config_from_dict(data: dict[str, Any]) -> SkillConfig:
+    known = {f.name for f in fields(SkillConfig)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise ValueError(f"skills: unknown keys {unknown}")
+    values = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
+    return SkillConfig(**values)
+
+
+class SkillDriver:
+    """One robot's controller; reset() at the start of every match."""
+
+    def __init__(self, config: SkillConfig, spec: ObservationSpec) -> None:
+        config.check(spec)
+        self.config = config
+        self.spec = spec
+        self.v_max = config.max_linear_mps
+        self.w_max = config.max_angular_rad_s
+        self._trail: deque[tuple[float, float, float]] = deque()
+        self._backoff_until = -1.0
+        self._backoff_turn = 1.0
+
+    def reset(self) -> None:
+        self._trail.clear()
+        self._backoff_until = -1.0
+
+    def option(self, action: NDArray[np.floating]) -> int:
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        return int(np.argmax(a[: self.config.n_options]))
+
+    def command(
+        self, obs: NDArray[np.floating], action: NDArray[np.floating]
+    ) -> tuple[float, float]:
+        """(linear m/s, angular rad/s clockwise) for the stacked observation and the action."""
+        s, c = self.spec, self.config
+        f = np.asarray(obs, dtype=np.float64)[: s.frame_size]
+        unit = s.length_unit_m
+        now = float(f[0]) * s.match_length_s
+        pos = f[1:3] * unit
+        self._trail.append((now, float(pos[0]), float(pos[1])))
+        while self._trail and self._trail[0][0] < now - c.stuck_window_s:
+            self._trail.popleft()
+        if now < self._backoff_until:
+            return -0.6 * self.v_max, self._backoff_turn * 0.5 * self.w_max
+        k = self.option(action)
+        if k < c.ring_options:
+            slot = f[s.ring_offset + 3 * k : s.ring_offset + 3 * k + 3]
+            if slot[2] <= 0:
+                return 0.0, 0.3 * self.w_max
+            return self._pursue(slot[:2] * unit, now)
+        k -= c.ring_options
+        if k < c.goal_options:
+            slot = f[s.goal_offset + 3 * k : s.goal_offset + 3 * k + 3]
+            if slot[2] <= 0:
+                return 0.0, 0.3 * self.w_max
+            return self._reverse_onto(slot[:2] * unit, now)
+        return self._platform(f, pos)
+
+    # --- the skills -------------------------------------------------------------------------
+
+    def _pursue(self, target: NDArray[np.float64], now: float) -> tuple[float, float]:
+        c = self.config
+        tx, ty = float(target[0]), float(target[1])
+        bearing = math.atan2(tx, ty)  # positive: to the right, a clockwise turn
+        if abs(bearing) > math.radians(60) and math.hypot(tx, ty) < c.robot_length_m * 0.9:
+            return -0.4 * self.v_max, math.copysign(0.6 * self.w_max, bearing)
+        if abs(bearing) > c.turn_in_place_rad:
+            return 0.0, float(np.clip(c.turn_gain * bearing, -self.w_max, self.w_max))
+        d = math.hypot(tx, ty)
+        px, py = (
+            (tx, ty) if d <= c.lookahead_m else (tx * c.lookahead_m / d, ty * c.lookahead_m / d)
+        )
+        d2 = px * px + py * py
+        curvature = 2.0 * px / d2 if d2 > 1e-9 else 0.0
+        v = self.v_max
+        if abs(curvature) * v > self.w_max:
+            v = self.w_max / abs(curvature)
+        if self._stuck(now, v):
+            self._backoff_until = now + c.backoff_s
+            self._backoff_turn = -1.0 if bearing > 0 else 1.0
+            self._trail.clear()
+        return v, v * curvature
+
+    def _reverse_onto(self, goal: NDArray[np.float64], now: float) -> tuple[float, float]:
+        gx, gy = float(goal[0]), float(goal[1])
+        dist = math.hypot(gx, gy)
+        if dist > 1.0:
+            # Drive to a point half a metre short of it first, nose on.
+            stage = goal * (1.0 - 0.5 / dist)
+            return self._pursue(stage, now)
+        back = math.atan2(-gx, -gy)  # bearing seen from the back: positive turns clockwise
+        w = float(np.clip(self.config.turn_gain * back, -self.w_max, self.w_max))
+        v = -0.7 * self.v_max * max(0.0, math.cos(back)) ** 3
+        if self._stuck(now, abs(v)):
+            self._backoff_until = now + self.config.backoff_s / 2
+            self._backoff_turn = 1.0
+            self._trail.clear()
+            return 0.5 * self.v_max, 0.0
+        return v, w
+
+    def _platform(self, f: NDArray[np.float64], pos: NDArray[np.float64]) -> tuple[float, float]:
+        cx, cy, hx, hy = self.config.platform_box
+        if abs(pos[0] - cx) < hx - 0.2 and abs(pos[1] - cy) < hy - 0.2:
+            return 0.0, 0.0
+        cos_h, sin_h = float(f[3]), float(f[4])
+        dx, dy = cx - pos[0], cy - pos[1]
+        # Into the robot frame: x right = (cos_h, -sin_h), y forward = (sin_h, cos_h).
+        local = np.array([dx * cos_h - dy * sin_h, dx * sin_h + dy * cos_h])
+        return self._pursue(local, float(f[0]) * self.spec.match_length_s)
+
+    def _stuck(self, now: float, v: float) -> bool:
+        c = self.config
+        if v < 0.2 or len(self._trail) < 2 or now - self._trail[0][0] < c.stuck_window_s * 0.95:
+            return False
+        _, x0, y0 = self._trail[0]
+        _, x1, y1 = self._trail[-1]
+        return math.hypot(x1 - x0, y1 - y0) < c.stuck_distance_m

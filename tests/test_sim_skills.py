@@ -1,0 +1,190 @@
+"""The skill action space: the controller drives the option the policy scores highest."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sim.evaluate import eval_env, make_cores, play_match
+from sim.match import EnvConfig, make_config
+from sim.observation import ObservationSpec, RobotView, build_frame
+from sim.players import IdlePlayer, PolicyPlayer
+from sim.skills import SkillConfig, SkillDriver, skill_config_from_dict
+
+SPEC = ObservationSpec(n_stack=0, goal_memory=True, goal_clamp_offset_m=0.35)
+SKILLS = SkillConfig(
+    ring_options=2, goal_options=2, platform=True, platform_box=(0, -1.5, 0.3, 0.6)
+)
+RING0, RING1, GOAL0, GOAL1, PLATFORM = range(5)
+
+
+def frame(
+    rings: list[tuple[float, float]] = (),  # type: ignore[assignment]
+    goals: list[tuple[float, float]] = (),  # type: ignore[assignment]
+    x: float = 0.0,
+    y: float = 0.0,
+    heading: float = 0.0,
+    t: float = 10.0,
+) -> np.ndarray:
+    view = RobotView(
+        x=x,
+        y=y,
+        heading_deg=heading,
+        alliance="red",
+        time_s=t,
+        rings_robot_xy=np.array(rings, dtype=float).reshape(-1, 2),
+        goals_robot_xy=np.array(goals, dtype=float).reshape(-1, 2),
+    )
+    return build_frame(SPEC, view)
+
+
+def pick(option: int) -> np.ndarray:
+    a = np.full(SKILLS.n_options, -1.0)
+    a[option] = 1.0
+    return a
+
+
+def test_options_are_named_in_action_order() -> None:
+    assert SKILLS.option_names() == ["ring0", "ring1", "goal0", "goal1", "platform"]
+    assert SkillDriver(SKILLS, SPEC).option(pick(GOAL0)) == GOAL0
+
+
+def test_a_ring_ahead_is_driven_at_and_one_to_the_right_is_turned_to() -> None:
+    d = SkillDriver(SKILLS, SPEC)
+    v, w = d.command(frame(rings=[(0.0, 1.0)]), pick(RING0))
+    assert v == pytest.approx(SKILLS.max_linear_mps) and w == pytest.approx(0.0)
+    v, w = d.command(frame(rings=[(0.4, 1.0)]), pick(RING0))
+    assert v > 0 and w > 0  # clockwise toward +x (the robot's right)
+    # Far off the nose: turn in place first.
+    v, w = d.command(frame(rings=[(-1.0, -0.5)]), pick(RING0))
+    assert v == 0.0 and w < 0
+
+
+def test_ring_slots_are_nearest_first_and_ring1_is_the_second() -> None:
+    d = SkillDriver(SKILLS, SPEC)
+    f = frame(rings=[(0.5, 2.0), (-0.3, 0.6)])
+    _, w0 = d.command(f, pick(RING0))
+    _, w1 = d.command(f, pick(RING1))
+    assert w0 < 0 < w1  # the nearer ring is on the left
+
+
+def test_an_empty_slot_turns_in_place_looking() -> None:
+    v, w = SkillDriver(SKILLS, SPEC).command(frame(rings=[(0.0, 1.0)]), pick(RING1))
+    assert v == 0.0 and w > 0
+
+
+def test_a_goal_is_backed_onto_and_a_far_one_approached_nose_first() -> None:
+    d = SkillDriver(SKILLS, SPEC)
+    v, w = d.command(frame(goals=[(0.0, -0.6)]), pick(GOAL0))
+    assert v < 0 and w == pytest.approx(0.0)
+    v, _ = d.command(frame(goals=[(0.0, 2.0)]), pick(GOAL0))
+    assert v > 0  # to a point short of it first
+    # The second goal slot holds the farther goal.
+    _, w = d.command(frame(goals=[(0.0, -0.6), (0.5, -0.6)]), pick(GOAL1))
+    assert w != pytest.approx(0.0)
+
+
+def test_the_platform_is_driven_to_and_the_robot_stops_on_it() -> None:
+    d = SkillDriver(SKILLS, SPEC)
+    # Facing the platform (south, heading 180) from 1 m north of it: straight on.
+    v, w = d.command(frame(x=0.0, y=-0.5, heading=180.0), pick(PLATFORM))
+    assert v > 0 and abs(w) < 1e-6
+    assert d.command(frame(x=0.0, y=-1.5, heading=90.0), pick(PLATFORM)) == (0.0, 0.0)
+
+
+def test_a_robot_that_stops_moving_backs_off() -> None:
+    d = SkillDriver(SKILLS, SPEC)
+    f_ring = [(0.0, 1.0)]
+    out = [d.command(frame(rings=f_ring, t=10.0 + k / 12), pick(RING0)) for k in range(20)]
+    assert out[0][0] > 0 and any(v < 0 for v, _ in out)
+
+
+def test_config_is_checked_against_the_observation() -> None:
+    with pytest.raises(ValueError, match="ring options"):
+        SkillDriver(SkillConfig(ring_options=20), SPEC)
+    with pytest.raises(ValueError, match="goal memory"):
+        SkillDriver(SkillConfig(goal_options=1), ObservationSpec(n_stack=0))
+    with pytest.raises(ValueError, match="unknown keys"):
+        skill_config_from_dict({"ring_options": 2, "laser": True})
+    restored = skill_config_from_dict({"platform_box": [0, -1.5, 0.3, 0.6], "ring_options": 2})
+    assert restored.platform_box == (0, -1.5, 0.3, 0.6)
+
+
+def test_env_config_with_skills_has_one_action_per_option() -> None:
+    cfg = make_config(skills={"ring_options": 3, "goal_options": 1})
+    assert isinstance(cfg, EnvConfig) and cfg.skills is not None
+    assert cfg.action_size == 5
+    assert make_config().action_size == 2
+
+
+def test_a_skill_player_collects_rings_and_takes_a_goal() -> None:
+    # A rule in the skill space (nearest ring; a goal once it holds rings and no goal) against
+    # an idle opponent: the controller alone must collect rings and clamp a goal.
+    spec_env = eval_env(
+        "capped",
+        "training",
+        ObservationSpec(n_stack=0, ring_memory=True, goal_memory=True),
+        {"world": {"start_jitter_m": 0.0}, "max_steps": 12 * 25},
+    )
+    cores = make_cores(spec_env)
+    core = cores["duel"]
+    spec = core.spec
+    skills = SkillConfig(ring_options=2, goal_options=1, platform=False)
+
+    def rule(obs: np.ndarray) -> np.ndarray:
+        held, clamped = obs[5] * spec.ring_capacity_norm, obs[6] > 0.5
+        return pick_of(skills, 2 if held >= 2 and not clamped else 0)
+
+    try:
+        record = play_match(cores, PolicyPlayer(rule, "rule", skills), IdlePlayer(), 7, "red")
+        robot = core.world.robots[0]
+        assert record.rings[0] >= 4
+        assert robot.carried_goal is not None
+        assert record.score[0] > record.score[1]
+    finally:
+        for c in cores.values():
+            c.close()
+
+
+def pick_of(skills: SkillConfig, option: int) -> np.ndarray:
+    a = np.zeros(skills.n_options)
+    a[option] = 1.0
+    return a
+
+
+def test_skill_commands_match_pure_pursuit_geometry() -> None:
+    # A ring 0.2 m ahead and 0.2 m right, inside the 0.3 m lookahead: the arc through it has
+    # curvature 2 x / d^2 = 5 per metre. Beyond the lookahead the arc goes through the point
+    # 0.3 m along the line to it: 2 sin(45 deg) / 0.3.
+    d = SkillDriver(SKILLS, SPEC)
+    v, w = d.command(frame(rings=[(0.2, 0.2)]), pick(RING0))
+    assert w / v == pytest.approx(5.0, rel=1e-3)
+    v, w = d.command(frame(rings=[(0.6, 0.6)]), pick(RING0))
+    assert w / v == pytest.approx(2 * math.sin(math.pi / 4) / 0.3, rel=1e-3)
+    assert abs(w) <= SKILLS.max_angular_rad_s + 1e-9
+    assert math.isfinite(v)
+
+
+def test_the_gymnasium_env_takes_skill_actions() -> None:
+    from gymnasium.utils.env_checker import check_env
+
+    from sim.env import TippingPointEnv
+
+    env = TippingPointEnv(
+        skills={"ring_options": 2, "goal_options": 1},
+        observation={"n_stack": 0, "ring_memory": True, "goal_memory": True},
+        max_steps=24,
+    )
+    try:
+        check_env(env, skip_render_check=True)
+        assert env.action_space.shape == (4,)
+        env.reset(seed=0)
+        start = np.array(env.world.robots[env.agent_index].xy)
+        for _ in range(12):
+            env.step(np.array([1.0, -1.0, -1.0, -1.0], dtype=np.float32))  # the nearest ring
+        moved = np.linalg.norm(np.array(env.world.robots[env.agent_index].xy) - start)
+        assert moved > 0.2
+    finally:
+        env.close()
