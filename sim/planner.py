@@ -88,6 +88,9 @@ class Planner:
         self._backoff_until = -1.0
         self._backoff_turn = 1.0
         self._parked = False
+        # What the last act() was doing, field frame: ("ring" | "goal" | "home", point) or
+        # ("other", None) (backing off, searching). A skill policy's teacher reads it.
+        self.intent: tuple[str, np.ndarray | None] = ("other", None)
 
     # --- the Player interface ----------------------------------------------------------------
 
@@ -100,6 +103,7 @@ class Planner:
         self._trail = []
         self._backoff_until = -1.0
         self._parked = False
+        self.intent = ("other", None)
 
     def act(self, core: MatchCore, index: int, obs: np.ndarray | None = None) -> DriveCommand:
         view = core.view(index)
@@ -202,6 +206,7 @@ class Planner:
         self._trail.append((now, x, y))
         while self._trail and self._trail[0][0] < now - c.stuck_window_s:
             self._trail.pop(0)
+        self.intent = ("other", None)
         if now < self._backoff_until:
             return DriveCommand(
                 -0.6 * rc.max_linear_mps, self._backoff_turn * 0.5 * rc.max_angular_rad_s
@@ -210,11 +215,13 @@ class Planner:
         if c.fetch_goal and robot.carried_goal is None and room <= 0 and not self._parked:
             goal = self._free_goal(world, index, pose)
             if goal is not None:
+                self.intent = ("goal", goal)
                 return self._reverse_onto(world, index, pose, goal, now)
 
         if c.endgame and self._go_home(world, index, pose, room):
             plat = world.field.platform(robot.alliance)
             cx, cy = plat.center
+            self.intent = ("home", np.array([cx, cy]))
             # Aim for the platform's middle; stop once well on it.
             inner = abs(x - cx) < plat.size[0] / 2 - 0.2 and abs(y - cy) < plat.size[1] / 2 - 0.2
             if inner or self._parked:
@@ -238,6 +245,7 @@ class Planner:
         if now - self._target_since > c.give_up_s:
             self._ignore(target, now + c.give_up_s)
             self._target = None
+        self.intent = ("ring", target)
         return self._pursue(world, index, pose, target, after, now)
 
     def _free_goal(

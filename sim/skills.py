@@ -179,3 +179,37 @@ class SkillDriver:
         _, x0, y0 = self._trail[0]
         _, x1, y1 = self._trail[-1]
         return math.hypot(x1 - x0, y1 - y0) < c.stuck_distance_m
+
+
+def option_for(
+    kind: str,
+    point_robot_xy: NDArray[np.floating] | None,
+    obs: NDArray[np.floating],
+    spec: ObservationSpec,
+    config: SkillConfig,
+    match_m: float = 0.3,
+) -> int | None:
+    """The option that does what a planner intends (sim.planner.Planner.intent, its point in the
+    robot frame): the ring or goal slot nearest its target, or the platform; None when no option
+    does it (a target outside the slots, backing off, searching)."""
+    f = np.asarray(obs, dtype=np.float64)[: spec.frame_size]
+    unit = spec.length_unit_m
+    if kind == "home":
+        return config.n_options - 1 if config.platform else None
+    if point_robot_xy is None or kind not in ("ring", "goal"):
+        return None
+    offset, count, first = (
+        (spec.ring_offset, config.ring_options, 0)
+        if kind == "ring"
+        else (spec.goal_offset, config.goal_options, config.ring_options)
+    )
+    if count == 0:
+        return None
+    slots = f[offset : offset + 3 * count].reshape(count, 3)
+    filled = slots[:, 2] > 0
+    if not filled.any():
+        return None
+    d = np.hypot(*(slots[:, :2] * unit - np.asarray(point_robot_xy)[None, :]).T)
+    d[~filled] = np.inf
+    k = int(np.argmin(d))
+    return first + k if d[k] <= match_m else None

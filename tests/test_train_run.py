@@ -254,3 +254,41 @@ def test_a_skill_policy_learns_to_pick_rings_and_exports_its_controller(tmp_path
     ours = load_player(str(run))
     summary = evaluate(ours, None, 2, 0, "capped", base_env={"max_steps": 96})
     assert summary.side(0)["rings"].mean >= 1.0
+
+
+def test_for_a_skill_policy_the_planner_teacher_names_the_option_it_would_take() -> None:
+    """A learner that follows its skill advice collects rings; the advice is a ring option
+    early on and a goal option once the intake is full."""
+    import numpy as np
+
+    from sim.match import make_config
+    from sim.training.rollout import RolloutConfig, _Slot
+
+    env = make_config(
+        {
+            "max_steps": 12 * 30,
+            "world": {"start_jitter_m": 0.0, "start_jitter_deg": 0.0},
+            "observation": {"n_stack": 0, "ring_memory": True, "goal_memory": True},
+            "skills": {"ring_options": 4, "goal_options": 2},
+        }
+    )
+    assert env.skills is not None
+    slot = _Slot(env, RolloutConfig(workers=0, envs_per_worker=1), seed=4, slot=0, teacher="planner")
+    slot.set_kind("none", -1)
+    slot.reset()
+    names = env.skills.option_names()
+    chosen: list[str] = []
+    for _ in range(12 * 30):
+        advice = slot.advice()
+        if np.isfinite(advice).all():
+            assert sorted(advice.tolist()) == [-1.0] * (len(names) - 1) + [1.0]
+            chosen.append(names[int(np.argmax(advice))])
+        else:
+            advice = np.zeros(len(names))
+            advice[0] = 1.0  # no option does what the planner does now: the nearest ring
+        _, done, trunc = slot.step(advice, np.zeros(len(names)))
+        if done or trunc:
+            break
+    robot = slot.core.world.robots[slot.learner]
+    assert robot.collected >= 10
+    assert chosen[0].startswith("ring") and any(c.startswith("goal") for c in chosen)

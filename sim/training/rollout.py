@@ -39,15 +39,21 @@ from typing import Any, Literal
 import numpy as np
 
 from sim.config import ConfigError
-from sim.geometry import other_alliance
+from sim.geometry import field_to_robot, other_alliance
 from sim.match import REWARD_COMPONENTS, EnvConfig, MatchCore
 from sim.planner import Planner
 from sim.players import IdlePlayer, Player, RandomPlayer, ScriptedPlayer
+from sim.skills import option_for
 from sim.world import DriveCommand
 
 OPPONENT_KINDS = ("policy", "planner", "scripted", "random", "idle", "none")
 TEACHERS = ("none", "planner")
 ADVICE_SIZE = 2  # a teacher advises (linear, angular): the drive, not the intake or clamp
+
+
+def advice_size(config: EnvConfig) -> int:
+    """A teacher's label width: (linear, angular), or one score per skill."""
+    return config.skills.n_options if config.skills is not None else ADVICE_SIZE
 LearnerSide = Literal["random", "red", "blue"]
 
 
@@ -273,10 +279,24 @@ class _Slot:
 
     def advice(self) -> np.ndarray:
         """The teacher's action for the learner's current state; call once per state (the
-        planner keeps a map and a trail of poses, as when it drives)."""
+        planner keeps a map and a trail of poses, as when it drives). For a skill policy: +1
+        for the option that does what the planner intends, -1 for the others."""
+        skills = self.config.skills
         if self.teacher is None:
-            return np.full(ADVICE_SIZE, np.nan, np.float32)
+            return np.full(advice_size(self.config), np.nan, np.float32)
         command = self.teacher.act(self.core, self.learner)
+        if skills is not None:
+            kind, point = self.teacher.intent
+            robot = self.core.world.robots[self.learner]
+            local = None
+            if point is not None:
+                local = field_to_robot(np.asarray(point)[None, :], robot.xy, robot.heading)[0]
+            k = option_for(kind, local, self.obs[self.learner], self.core.spec, skills)
+            if k is None:
+                return np.full(skills.n_options, np.nan, np.float32)
+            label = np.full(skills.n_options, -1.0, np.float32)
+            label[k] = 1.0
+            return label
         rc = self.core.world.robots[self.learner].config
         drive = (command.linear / rc.max_linear_mps, command.angular / rc.max_angular_rad_s)
         return np.clip(np.asarray(drive, np.float32), -1.0, 1.0)

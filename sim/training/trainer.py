@@ -46,7 +46,7 @@ from sim.skills import SkillConfig
 from sim.training.checkpoint import build_agent, load_checkpoint, save_checkpoint
 from sim.training.config import TrainConfig
 from sim.training.export import export_policy, versions
-from sim.training.rollout import ADVICE_SIZE, EpisodeStats, VecMatches
+from sim.training.rollout import EpisodeStats, VecMatches, advice_size
 from sim.training.selfplay import OpponentPool
 
 POOL = "pool"
@@ -357,7 +357,8 @@ def train(
         rew_buf = np.zeros((steps_per_env, n), np.float32)
         done_buf = np.zeros((steps_per_env, n), bool)
         val_buf = np.zeros((steps_per_env, n), np.float32)
-        advice_buf = np.full((steps_per_env, n, ADVICE_SIZE), np.nan, np.float32)
+        n_advice = advice_size(run.env)
+        advice_buf = np.full((steps_per_env, n, n_advice), np.nan, np.float32)
         advice = first.advice
         while run.step < cfg.total_steps:
             if cfg.phase_index(run.step) != phase:
@@ -433,7 +434,7 @@ def train(
                 advantages=torch.from_numpy(adv.reshape(-1)),
                 returns=torch.from_numpy(ret.reshape(-1)),
                 values=torch.from_numpy(val_buf.reshape(-1)),
-                advice=torch.from_numpy(advice_buf.reshape(-1, ADVICE_SIZE)),
+                advice=torch.from_numpy(advice_buf.reshape(-1, n_advice)),
             )
             torch.set_num_threads(cfg.torch_threads)
             imitation = cfg.imitation.coef_at(run.step)
