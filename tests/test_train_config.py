@@ -86,14 +86,21 @@ def test_phases_apply_in_order_and_may_not_resize_buffers() -> None:
     assert late.env_config().reward.score == 0.2 and late.env_config().reward.ring == 2.0
     assert late.opponents == {"idle": 1.0} and late.phases == ()
     assert cfg.at_step(0).env_config().reward.score == 0.0
-    default = load_config("default")
-    # The shipped curriculum: goal starts, then none with the parking shaping, then a fine-tune.
-    shares = [default.at_step(s).env_config().goal_start_share for s in (0, 800_000, 1_400_000)]
+    drive = load_config("drive")
+    # The drive policy's curriculum: goal starts, then none with the parking shaping, then a
+    # fine-tune.
+    shares = [drive.at_step(s).env_config().goal_start_share for s in (0, 800_000, 1_400_000)]
     assert shares == [0.3, 0.1, 0.0]
-    assert default.at_step(0).env_config().reward.park == 0.0
-    assert default.at_step(1_400_000).env_config().reward.park == 2.0
-    assert default.at_step(2_000_000).env_config().goal_start_share == 0.15
-    assert default.at_step(2_000_000).env_config().world.robots["15in"].ring_capacity == 10
+    assert drive.at_step(0).env_config().reward.park == 0.0
+    assert drive.at_step(1_400_000).env_config().reward.park == 2.0
+    assert drive.at_step(2_000_000).env_config().goal_start_share == 0.15
+    assert drive.at_step(2_000_000).env_config().world.robots["15in"].ring_capacity == 10
+    # The shipped config scores skills and has the planner as a teacher.
+    default = load_config("default")
+    skills = default.env_config().skills
+    assert skills is not None and skills.option_names()[0] == "ring0"
+    assert default.env_config().action_size == len(default.ppo.init_action_bias) == 7
+    assert default.imitation.teacher == "planner" and default.imitation.coef_at(0) > 0
     with pytest.raises(ConfigError, match="may set only"):
         parse_config({**base, "phases": [{"from_step": 10, "rollout": {"workers": 3}}]})
     with pytest.raises(ConfigError, match="from_step"):
