@@ -14,6 +14,8 @@ What is here (Schulman et al. 2017, and the "37 implementation details" CleanRL 
     advantage normalisation and global gradient-norm clipping;
   - an optional imitation term: the squared distance between the actor's mean and a teacher's
     action, where the batch carries one (NaN rows carry none);
+  - rows whose action the environment ignored (Batch.deciding False: a manoeuvre the policy
+    committed to is under way) train the critic only, as in an options / semi-MDP setting;
   - running mean/variance normalisation of observations (saved with the policy, so the exported
     network sees the same inputs) and of rewards (scaled by the running standard deviation of the
     discounted return, as gymnasium's NormalizeReward does).
@@ -306,6 +308,9 @@ class Batch:
     values: torch.Tensor
     # A teacher's action per row, (rows, k) for the first k action dimensions; NaN: no label.
     advice: torch.Tensor | None = None
+    # Per row, whether its action decided anything (False: the environment ignored it, e.g.
+    # during a manoeuvre the policy committed to); such rows train the critic only.
+    deciding: torch.Tensor | None = None
 
     def __len__(self) -> int:
         return int(self.obs.shape[0])
@@ -342,9 +347,15 @@ def ppo_update(
             adv = batch.advantages[idx]
             if cfg.norm_adv and len(idx) > 1:
                 adv = (adv - adv.mean()) / (adv.std() + 1e-8)
-            pg_loss = torch.max(
+            pg_rows = torch.max(
                 -adv * ratio, -adv * torch.clamp(ratio, 1 - cfg.clip_coef, 1 + cfg.clip_coef)
-            ).mean()
+            )
+            if batch.deciding is None:
+                pg_loss, ent = pg_rows.mean(), entropy.mean()
+            else:
+                w = batch.deciding[idx].float()
+                pg_loss = (pg_rows * w).sum() / w.sum().clamp(min=1.0)
+                ent = (entropy * w).sum() / w.sum().clamp(min=1.0)
 
             ret = batch.returns[idx]
             if cfg.clip_vloss:
@@ -354,13 +365,14 @@ def ppo_update(
             else:
                 v_loss = 0.5 * ((value - ret) ** 2).mean()
 
-            ent = entropy.mean()
             loss = pg_loss - cfg.ent_coef * ent + cfg.vf_coef * v_loss
             im_loss = torch.zeros(())
             if imitate:
                 assert batch.advice is not None
                 target = batch.advice[idx]
                 labelled = torch.isfinite(target).all(-1)
+                if batch.deciding is not None:
+                    labelled &= batch.deciding[idx]
                 if bool(labelled.any()):
                     k = target.shape[-1]
                     mean = agent.actor_mean(agent.obs_norm(batch.obs[idx][labelled]))[:, :k]

@@ -5,6 +5,8 @@ pure-pursuit controller drives it. The options refer to the observation's own sl
 controller needs nothing the policy does not see (numpy only: the Jetson runs it beside the
 policy, from the same observation):
 
+    route       drive onto the first stop of the route slots (the planner's tour over the
+                rings the memory knows, sim/route.py), with `route_option`;
     ring k      drive onto the ring in ring slot k (nearest first) with pure pursuit;
     goal j      back onto the goal in goal slot j until the clamp takes it;
     platform    drive onto the alliance's platform and stop there.
@@ -29,6 +31,7 @@ from sim.observation import ObservationSpec
 
 @dataclass(frozen=True)
 class SkillConfig:
+    route_option: bool = False  # the route's first stop (needs the observation's route slots)
     ring_options: int = 4  # the nearest ring slots the policy can pick from
     goal_options: int = 2
     platform: bool = True
@@ -42,24 +45,47 @@ class SkillConfig:
     lookahead_m: float = 0.3
     turn_gain: float = 4.0
     turn_in_place_rad: float = 1.1
+    # A goal option, once picked, is driven until the clamp closes or this long (0: off): one
+    # pick is the whole manoeuvre, so a policy that tries a goal sees what it brings.
+    commit_goal_s: float = 0.0
     stuck_window_s: float = 1.2
     stuck_distance_m: float = 0.04
     backoff_s: float = 0.6
 
     @property
     def n_options(self) -> int:
-        return self.ring_options + self.goal_options + int(self.platform)
+        return int(self.route_option) + self.ring_options + self.goal_options + int(self.platform)
 
     def option_names(self) -> list[str]:
-        names = [f"ring{k}" for k in range(self.ring_options)]
+        names = ["route"] if self.route_option else []
+        names += [f"ring{k}" for k in range(self.ring_options)]
         names += [f"goal{j}" for j in range(self.goal_options)]
         return names + (["platform"] if self.platform else [])
 
     def check(self, spec: ObservationSpec) -> None:
+        if self.route_option and not spec.route_slots:
+            raise ValueError("skills: the route option needs the observation's route slots")
+        if self.n_options < 1:
+            raise ValueError("skills: no options")
         if self.ring_options > spec.n_rings:
             raise ValueError(f"skills: {self.ring_options} ring options, {spec.n_rings} slots")
         if self.goal_options and (not spec.goal_memory or self.goal_options > spec.n_goals):
             raise ValueError("skills: goal options need the goal memory's slots")
+
+
+def _to_robot(
+    point: NDArray[np.float64], pos: NDArray[np.float64], cos_h: float, sin_h: float
+) -> NDArray[np.float64]:
+    """Alliance frame -> robot frame (x right = (cos_h, -sin_h), y forward = (sin_h, cos_h))."""
+    dx, dy = point[0] - pos[0], point[1] - pos[1]
+    return np.array([dx * cos_h - dy * sin_h, dx * sin_h + dy * cos_h])
+
+
+def _to_alliance(
+    local: NDArray[np.float64], pos: NDArray[np.float64], cos_h: float, sin_h: float
+) -> NDArray[np.float64]:
+    x, y = float(local[0]), float(local[1])
+    return np.array([pos[0] + x * cos_h + y * sin_h, pos[1] - x * sin_h + y * cos_h])
 
 
 def skill_config_from_dict(data: dict[str, Any]) -> SkillConfig:
@@ -83,10 +109,26 @@ class SkillDriver:
         self._trail: deque[tuple[float, float, float]] = deque()
         self._backoff_until = -1.0
         self._backoff_turn = 1.0
+        self._commit_point: NDArray[np.float64] | None = None  # alliance frame
+        self._commit_until = -1.0
 
     def reset(self) -> None:
         self._trail.clear()
         self._backoff_until = -1.0
+        self._commit_point = None
+
+    def committed(self, obs: NDArray[np.floating]) -> bool:
+        """Whether the next command() ignores its action: a goal manoeuvre is under way (the
+        clamp still open and its time not up)."""
+        if self._commit_point is None:
+            return False
+        s = self.spec
+        f = np.asarray(obs, dtype=np.float64)[: s.frame_size]
+        clamped = s.goal_memory and f[len(s.scalars) - 1] > 0.5
+        if clamped or float(f[0]) * s.match_length_s >= self._commit_until:
+            self._commit_point = None
+            return False
+        return True
 
     def option(self, action: NDArray[np.floating]) -> int:
         a = np.asarray(action, dtype=np.float64).reshape(-1)
@@ -104,9 +146,21 @@ class SkillDriver:
         self._trail.append((now, float(pos[0]), float(pos[1])))
         while self._trail and self._trail[0][0] < now - c.stuck_window_s:
             self._trail.popleft()
+        if self.committed(obs):
+            local = _to_robot(self._commit_point, pos, float(f[3]), float(f[4]))
+            if now < self._backoff_until:
+                return -0.6 * self.v_max, self._backoff_turn * 0.5 * self.w_max
+            return self._reverse_onto(local, now)
         if now < self._backoff_until:
             return -0.6 * self.v_max, self._backoff_turn * 0.5 * self.w_max
         k = self.option(action)
+        if c.route_option:
+            if k == 0:
+                slot = f[s.route_offset : s.route_offset + 3]
+                if slot[2] <= 0:
+                    return 0.0, 0.3 * self.w_max
+                return self._pursue(slot[:2] * unit, now)
+            k -= 1
         if k < c.ring_options:
             slot = f[s.ring_offset + 3 * k : s.ring_offset + 3 * k + 3]
             if slot[2] <= 0:
@@ -117,6 +171,9 @@ class SkillDriver:
             slot = f[s.goal_offset + 3 * k : s.goal_offset + 3 * k + 3]
             if slot[2] <= 0:
                 return 0.0, 0.3 * self.w_max
+            if c.commit_goal_s > 0:
+                self._commit_point = _to_alliance(slot[:2] * unit, pos, float(f[3]), float(f[4]))
+                self._commit_until = now + c.commit_goal_s
             return self._reverse_onto(slot[:2] * unit, now)
         return self._platform(f, pos)
 
@@ -166,10 +223,7 @@ class SkillDriver:
         cx, cy, hx, hy = self.config.platform_box
         if abs(pos[0] - cx) < hx - 0.2 and abs(pos[1] - cy) < hy - 0.2:
             return 0.0, 0.0
-        cos_h, sin_h = float(f[3]), float(f[4])
-        dx, dy = cx - pos[0], cy - pos[1]
-        # Into the robot frame: x right = (cos_h, -sin_h), y forward = (sin_h, cos_h).
-        local = np.array([dx * cos_h - dy * sin_h, dx * sin_h + dy * cos_h])
+        local = _to_robot(np.array([cx, cy]), pos, float(f[3]), float(f[4]))
         return self._pursue(local, float(f[0]) * self.spec.match_length_s)
 
     def _stuck(self, now: float, v: float) -> bool:
@@ -198,10 +252,15 @@ def option_for(
         return config.n_options - 1 if config.platform else None
     if point_robot_xy is None or kind not in ("ring", "goal"):
         return None
+    route = int(config.route_option)
+    if kind == "ring" and route:
+        stop = f[spec.route_offset : spec.route_offset + 3]
+        if stop[2] > 0 and np.hypot(*(stop[:2] * unit - np.asarray(point_robot_xy))) <= match_m:
+            return 0
     offset, count, first = (
-        (spec.ring_offset, config.ring_options, 0)
+        (spec.ring_offset, config.ring_options, route)
         if kind == "ring"
-        else (spec.goal_offset, config.goal_options, config.ring_options)
+        else (spec.goal_offset, config.goal_options, route + config.ring_options)
     )
     if count == 0:
         return None

@@ -188,3 +188,54 @@ def test_the_gymnasium_env_takes_skill_actions() -> None:
         assert moved > 0.2
     finally:
         env.close()
+
+
+def test_the_route_option_drives_to_the_routes_first_stop_and_the_teacher_names_it() -> None:
+    from sim.skills import option_for
+
+    spec = ObservationSpec(n_stack=0, ring_memory=True, route_slots=1)
+    skills = SkillConfig(route_option=True, ring_options=2, goal_options=0, platform=False)
+    assert skills.option_names() == ["route", "ring0", "ring1"]
+    view = RobotView(
+        x=0.0,
+        y=0.0,
+        heading_deg=0.0,
+        alliance="red",
+        time_s=5.0,
+        rings_robot_xy=np.array([[-0.3, 0.8], [0.6, 1.5]]),
+        route_robot_xy=np.array([[0.6, 1.5]]),  # the tour starts at the farther ring
+    )
+    f = build_frame(spec, view)
+    d = SkillDriver(skills, spec)
+    _, w_route = d.command(f, np.array([1.0, 0.0, 0.0]))
+    _, w_ring0 = d.command(f, np.array([0.0, 1.0, 0.0]))
+    assert w_route > 0 > w_ring0
+    assert option_for("ring", np.array([0.6, 1.5]), f, spec, skills) == 0
+    assert option_for("ring", np.array([-0.3, 0.8]), f, spec, skills) == 1
+    assert option_for("ring", np.array([2.0, 2.0]), f, spec, skills) is None
+    with pytest.raises(ValueError, match="route slots"):
+        SkillDriver(skills, ObservationSpec(n_stack=0))
+
+
+def test_a_committed_goal_manoeuvre_ignores_the_policy_until_the_clamp_closes() -> None:
+    skills = SkillConfig(ring_options=2, goal_options=2, platform=True, commit_goal_s=3.0)
+    d = SkillDriver(skills, SPEC)
+    f = frame(rings=[(0.0, 1.0)], goals=[(0.0, -0.6)], t=10.0)
+    assert not d.committed(f)
+    v, _ = d.command(f, pick(GOAL0))
+    assert v < 0 and d.committed(f)
+    # The policy now asks for the ring ahead: ignored, the robot keeps reversing to the goal,
+    # which stays where it was in the field as the robot moves (0.1 m closer).
+    f2 = frame(rings=[(0.0, 1.0)], goals=[(0.0, -0.5)], y=-0.1, t=10.5)
+    v, w = d.command(f2, pick(RING0))
+    assert v < 0 and w == pytest.approx(0.0, abs=1e-6)
+    # The clamp closes: the next action decides again.
+    view = RobotView(x=0.0, y=-0.6, heading_deg=0.0, alliance="red", time_s=11.0,
+                     rings_robot_xy=np.array([[0.0, 1.6]]), goal_clamped=True)  # fmt: skip
+    f3 = build_frame(SPEC, view)
+    assert not d.committed(f3)
+    v, _ = d.command(f3, pick(RING0))
+    assert v > 0
+    # Or its time runs out.
+    d.command(f, pick(GOAL1 - 1))
+    assert d.committed(frame(t=12.9)) and not d.committed(frame(t=13.1))

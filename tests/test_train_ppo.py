@@ -156,3 +156,36 @@ def test_imitation_pulls_the_mean_to_the_teacher_and_skips_unlabelled_rows() -> 
         assert torch.allclose(agent.deterministic(obs), before, atol=0.02)
     finally:
         torch.set_num_threads(threads)
+
+
+def test_rows_whose_action_decided_nothing_train_only_the_critic() -> None:
+    torch.manual_seed(0)
+    cfg = PPOConfig(hidden=(8,), n_epochs=2, minibatch_size=16, ent_coef=0.01)
+    rows = 32
+
+    def run(deciding: bool) -> tuple[bool, bool]:
+        torch.manual_seed(1)
+        agent = Agent(4, 2, cfg)
+        actor = [q.detach().clone() for q in agent.actor_mean.parameters()]
+        critic = [q.detach().clone() for q in agent.critic.parameters()]
+        optimizer = torch.optim.Adam(agent.parameters(), lr=1e-2)
+        g = torch.Generator().manual_seed(2)
+        obs = torch.randn(rows, 4, generator=g)
+        actions = torch.randn(rows, 2, generator=g)
+        with torch.no_grad():
+            logp, _, values = agent.evaluate(obs, actions)
+        batch = Batch(
+            obs, actions, logp, torch.randn(rows, generator=g), torch.randn(rows, generator=g),
+            values, deciding=torch.full((rows,), deciding),
+        )  # fmt: skip
+        ppo_update(agent, optimizer, batch, cfg, g)
+        moved_actor = any(
+            not torch.equal(a, b) for a, b in zip(actor, agent.actor_mean.parameters(), strict=True)
+        )
+        moved_critic = any(
+            not torch.equal(a, b) for a, b in zip(critic, agent.critic.parameters(), strict=True)
+        )
+        return moved_actor, moved_critic
+
+    assert run(True) == (True, True)
+    assert run(False) == (False, True)

@@ -273,7 +273,9 @@ def test_for_a_skill_policy_the_planner_teacher_names_the_option_it_would_take()
         }
     )
     assert env.skills is not None
-    slot = _Slot(env, RolloutConfig(workers=0, envs_per_worker=1), seed=4, slot=0, teacher="planner")
+    slot = _Slot(
+        env, RolloutConfig(workers=0, envs_per_worker=1), seed=4, slot=0, teacher="planner"
+    )
     slot.set_kind("none", -1)
     slot.reset()
     names = env.skills.option_names()
@@ -292,3 +294,26 @@ def test_for_a_skill_policy_the_planner_teacher_names_the_option_it_would_take()
     robot = slot.core.world.robots[slot.learner]
     assert robot.collected >= 10
     assert chosen[0].startswith("ring") and any(c.startswith("goal") for c in chosen)
+
+
+def test_a_committed_skill_makes_the_next_states_non_deciding() -> None:
+    import numpy as np
+
+    from sim.match import make_config
+    from sim.training.rollout import RolloutConfig, VecMatches
+
+    env = make_config(
+        {
+            "max_steps": 60,
+            "observation": {"n_stack": 0, "ring_memory": True, "goal_memory": True},
+            "skills": {"ring_options": 1, "goal_options": 1, "platform": False,
+                       "commit_goal_s": 2.0},
+        }
+    )  # fmt: skip
+    with VecMatches(env, RolloutConfig(workers=0, envs_per_worker=2), seed=1) as vec:
+        vec.set_kinds([("none", -1)] * 2)
+        first = vec.reset()
+        assert first.deciding is not None and first.deciding.all()
+        goal = np.array([[-1.0, 1.0], [1.0, -1.0]], np.float32)  # slot 0: goal; slot 1: ring
+        res = vec.step(goal, np.zeros_like(goal))
+        assert res.deciding is not None and res.deciding.tolist() == [False, True]

@@ -54,6 +54,8 @@ ADVICE_SIZE = 2  # a teacher advises (linear, angular): the drive, not the intak
 def advice_size(config: EnvConfig) -> int:
     """A teacher's label width: (linear, angular), or one score per skill."""
     return config.skills.n_options if config.skills is not None else ADVICE_SIZE
+
+
 LearnerSide = Literal["random", "red", "blue"]
 
 
@@ -142,6 +144,9 @@ class StepResult:
     # (n_envs, ADVICE_SIZE): the teacher's (linear, angular) action for learner_obs, in
     # [-1, 1]; NaN without a teacher.
     advice: np.ndarray | None = None
+    # (n_envs,): whether the learner's action for learner_obs decides anything (False while a
+    # skill manoeuvre it committed to is under way: sim.skills, commit_goal_s).
+    deciding: np.ndarray | None = None
 
 
 class _Slot:
@@ -277,6 +282,12 @@ class _Slot:
             return mine, self.obs[self.opponent]
         return mine, np.zeros_like(mine)
 
+    def deciding(self) -> bool:
+        """Whether the learner's next action will decide anything (see StepResult.deciding)."""
+        if self.config.skills is None or not self.core.drivers:
+            return True
+        return not self.core.drivers[self.learner].committed(self.obs[self.learner])
+
     def advice(self) -> np.ndarray:
         """The teacher's action for the learner's current state; call once per state (the
         planner keeps a map and a trail of poses, as when it drives). For a skill policy: +1
@@ -383,6 +394,7 @@ class _Group:
             final if final is not None else np.zeros_like(mine),
             episodes,
             np.stack([s.advice() for s in self.slots]),
+            np.array([s.deciding() for s in self.slots], bool),
         )
 
     def close(self) -> None:
@@ -430,6 +442,7 @@ def _merge(results: list[StepResult]) -> StepResult:
         np.concatenate([r.final_obs for r in results]),
         [e for r in results for e in r.episodes],
         np.concatenate([r.advice for r in results if r.advice is not None]),
+        np.concatenate([r.deciding for r in results if r.deciding is not None]),
     )
 
 

@@ -360,6 +360,8 @@ def train(
         n_advice = advice_size(run.env)
         advice_buf = np.full((steps_per_env, n, n_advice), np.nan, np.float32)
         advice = first.advice
+        deciding = first.deciding
+        deciding_buf = np.ones((steps_per_env, n), bool)
         while run.step < cfg.total_steps:
             if cfg.phase_index(run.step) != phase:
                 vec.close()
@@ -375,7 +377,7 @@ def train(
                 pending = list(active)
                 first = vec.reset()
                 next_obs, opp_obs = first.learner_obs, first.opponent_obs
-                advice = first.advice
+                advice, deciding = first.advice, first.deciding
                 run.scaler.ret[:] = 0.0
             t0 = time.perf_counter()
             if p.anneal_lr:
@@ -409,7 +411,9 @@ def train(
                 done_buf[t] = res.dones
                 if advice is not None:
                     advice_buf[t] = advice
+                deciding_buf[t] = True if deciding is None else deciding
                 next_obs, opp_obs, advice = res.learner_obs, res.opponent_obs, res.advice
+                deciding = res.deciding
                 for ep in res.episodes:
                     finished.append(ep)
                     if ep.kind == "policy" and ep.result is not None:
@@ -435,6 +439,7 @@ def train(
                 returns=torch.from_numpy(ret.reshape(-1)),
                 values=torch.from_numpy(val_buf.reshape(-1)),
                 advice=torch.from_numpy(advice_buf.reshape(-1, n_advice)),
+                deciding=torch.from_numpy(deciding_buf.reshape(-1)),
             )
             torch.set_num_threads(cfg.torch_threads)
             imitation = cfg.imitation.coef_at(run.step)
