@@ -36,6 +36,7 @@ import numpy as np
 from sim.geometry import field_to_robot, robot_to_field
 from sim.match import MatchCore
 from sim.route import TourConfig, leg_costs, tour
+from sim.skills import Trail
 from sim.visibility import camera_pose, in_frustum
 from sim.world import DriveCommand, World
 
@@ -84,7 +85,7 @@ class Planner:
         self._ignored_until = np.zeros(0)
         self._target: np.ndarray | None = None
         self._target_since = 0.0
-        self._trail: list[tuple[float, float, float]] = []
+        self._trail = Trail(self.config.stuck_window_s, self.config.stuck_distance_m)
         self._backoff_until = -1.0
         self._backoff_turn = 1.0
         self._parked = False
@@ -100,7 +101,7 @@ class Planner:
         self._ignored_until = np.full(len(self.known), -1.0)
         self._target = None
         self._target_since = 0.0
-        self._trail = []
+        self._trail.clear()
         self._backoff_until = -1.0
         self._parked = False
         self.intent = ("other", None)
@@ -203,9 +204,7 @@ class Planner:
         rc = robot.config
         now = world.time_s
         x, y, _h = pose
-        self._trail.append((now, x, y))
-        while self._trail and self._trail[0][0] < now - c.stuck_window_s:
-            self._trail.pop(0)
+        self._trail.push(now, x, y)
         self.intent = ("other", None)
         if now < self._backoff_until:
             return DriveCommand(
@@ -288,7 +287,7 @@ class Planner:
             np.clip(self.config.turn_gain * back, -rc.max_angular_rad_s, rc.max_angular_rad_s)
         )
         v = -0.7 * rc.max_linear_mps * max(0.0, math.cos(back)) ** 3
-        if self._stuck(now, abs(v)):
+        if self._trail.stuck(now, abs(v)):
             self._backoff_until = now + self.config.backoff_s / 2
             self._backoff_turn = 1.0
             self._trail.clear()
@@ -345,21 +344,13 @@ class Planner:
         if abs(curvature) * v > w_max:
             v = w_max / abs(curvature)
         w = v * curvature
-        if self._stuck(now, v):
+        if self._trail.stuck(now, v):
             self._backoff_until = now + c.backoff_s
             self._backoff_turn = -1.0 if bearing > 0 else 1.0
             self._ignore(target, now + c.give_up_s)
             self._target = None
             self._trail.clear()
         return DriveCommand(v, w)
-
-    def _stuck(self, now: float, v: float) -> bool:
-        c = self.config
-        if v < 0.2 or len(self._trail) < 2 or now - self._trail[0][0] < c.stuck_window_s * 0.95:
-            return False
-        _, x0, y0 = self._trail[0]
-        _, x1, y1 = self._trail[-1]
-        return math.hypot(x1 - x0, y1 - y0) < c.stuck_distance_m
 
 
 def pursuit_point(path_robot: np.ndarray, lookahead: float) -> tuple[float, float]:

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim.skills import Trail
 from sim.world import RING_FLOOR, DriveCommand, World
 
 
@@ -38,7 +39,7 @@ class GreedyChaser:
 
     def reset(self) -> None:
         self._target: int | None = None
-        self._trail: list[tuple[float, float, float]] = []
+        self._trail = Trail(self.config.stuck_window_s, self.config.stuck_distance_m)
         self._backoff_until = -1.0
         self._backoff_dir = 1.0
         self._target_since = 0.0
@@ -50,9 +51,7 @@ class GreedyChaser:
         r = world.robots[self.index]
         rc = r.config
         t = world.time_s
-        self._trail.append((t, r.x, r.y))
-        while self._trail and self._trail[0][0] < t - c.stuck_window_s:
-            self._trail.pop(0)
+        self._trail.push(t, r.x, r.y)
         if t < self._backoff_until:
             return DriveCommand(
                 -0.6 * rc.max_linear_mps, self._backoff_dir * 0.5 * rc.max_angular_rad_s
@@ -69,7 +68,7 @@ class GreedyChaser:
             )
             w = max(-rc.max_angular_rad_s, min(rc.max_angular_rad_s, c.turn_gain * back))
             v = -0.6 * rc.max_linear_mps * max(0.0, math.cos(back)) ** 3
-            if self._stuck(t, abs(v)):
+            if self._trail.stuck(t, abs(v)):
                 self._backoff_until = t + c.backoff_s / 2
                 self._backoff_dir = 1.0
                 self._trail.clear()
@@ -90,20 +89,12 @@ class GreedyChaser:
                 self._ignored[self._target] = t + c.give_up_s
             self._target = None
             self._target_since = t
-        if self._stuck(t, v):
+        if self._trail.stuck(t, v):
             self._backoff_until = t + c.backoff_s
             self._backoff_dir = -1.0 if err > 0 else 1.0
             self._target = None
             self._trail.clear()
         return DriveCommand(v, w)
-
-    def _stuck(self, t: float, v: float) -> bool:
-        c = self.config
-        if v < 0.2 or len(self._trail) < 2 or t - self._trail[0][0] < c.stuck_window_s * 0.95:
-            return False
-        _, x0, y0 = self._trail[0]
-        _, x1, y1 = self._trail[-1]
-        return math.hypot(x1 - x0, y1 - y0) < c.stuck_distance_m
 
     def _fetch_goal(self, world: World) -> tuple[float, float] | None:
         """A point in front of the nearest free goal of ours (or a neutral one): from there the

@@ -73,6 +73,31 @@ class SkillConfig:
             raise ValueError("skills: goal options need the goal memory's slots")
 
 
+class Trail:
+    """A robot's recent positions, to tell one that drives from one that is stuck (the planner,
+    the scripted chaser and the skill controller back off when it is)."""
+
+    def __init__(self, window_s: float, min_distance_m: float) -> None:
+        self.window_s = window_s
+        self.min_distance_m = min_distance_m
+        self._points: deque[tuple[float, float, float]] = deque()
+
+    def push(self, now: float, x: float, y: float) -> None:
+        self._points.append((now, x, y))
+        while self._points and self._points[0][0] < now - self.window_s:
+            self._points.popleft()
+
+    def clear(self) -> None:
+        self._points.clear()
+
+    def stuck(self, now: float, speed: float) -> bool:
+        """Commanded to drive (speed >= 0.2 m/s) for a whole window without moving."""
+        p = self._points
+        if speed < 0.2 or len(p) < 2 or now - p[0][0] < self.window_s * 0.95:
+            return False
+        return math.hypot(p[-1][1] - p[0][1], p[-1][2] - p[0][2]) < self.min_distance_m
+
+
 def _to_robot(
     point: NDArray[np.float64], pos: NDArray[np.float64], cos_h: float, sin_h: float
 ) -> NDArray[np.float64]:
@@ -106,7 +131,7 @@ class SkillDriver:
         self.spec = spec
         self.v_max = config.max_linear_mps
         self.w_max = config.max_angular_rad_s
-        self._trail: deque[tuple[float, float, float]] = deque()
+        self._trail = Trail(config.stuck_window_s, config.stuck_distance_m)
         self._backoff_until = -1.0
         self._backoff_turn = 1.0
         self._commit_point: NDArray[np.float64] | None = None  # alliance frame
@@ -143,9 +168,7 @@ class SkillDriver:
         unit = s.length_unit_m
         now = float(f[0]) * s.match_length_s
         pos = f[1:3] * unit
-        self._trail.append((now, float(pos[0]), float(pos[1])))
-        while self._trail and self._trail[0][0] < now - c.stuck_window_s:
-            self._trail.popleft()
+        self._trail.push(now, float(pos[0]), float(pos[1]))
         if self.committed(obs):
             local = _to_robot(self._commit_point, pos, float(f[3]), float(f[4]))
             if now < self._backoff_until:
@@ -196,7 +219,7 @@ class SkillDriver:
         v = self.v_max
         if abs(curvature) * v > self.w_max:
             v = self.w_max / abs(curvature)
-        if self._stuck(now, v):
+        if self._trail.stuck(now, v):
             self._backoff_until = now + c.backoff_s
             self._backoff_turn = -1.0 if bearing > 0 else 1.0
             self._trail.clear()
@@ -212,7 +235,7 @@ class SkillDriver:
         back = math.atan2(-gx, -gy)  # bearing seen from the back: positive turns clockwise
         w = float(np.clip(self.config.turn_gain * back, -self.w_max, self.w_max))
         v = -0.7 * self.v_max * max(0.0, math.cos(back)) ** 3
-        if self._stuck(now, abs(v)):
+        if self._trail.stuck(now, abs(v)):
             self._backoff_until = now + self.config.backoff_s / 2
             self._backoff_turn = 1.0
             self._trail.clear()
@@ -225,14 +248,6 @@ class SkillDriver:
             return 0.0, 0.0
         local = _to_robot(np.array([cx, cy]), pos, float(f[3]), float(f[4]))
         return self._pursue(local, float(f[0]) * self.spec.match_length_s)
-
-    def _stuck(self, now: float, v: float) -> bool:
-        c = self.config
-        if v < 0.2 or len(self._trail) < 2 or now - self._trail[0][0] < c.stuck_window_s * 0.95:
-            return False
-        _, x0, y0 = self._trail[0]
-        _, x1, y1 = self._trail[-1]
-        return math.hypot(x1 - x0, y1 - y0) < c.stuck_distance_m
 
 
 def option_for(
