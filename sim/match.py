@@ -118,7 +118,12 @@ def make_config(config: EnvConfig | dict[str, Any] | None = None, **overrides: A
     if isinstance(skills, SkillConfig):
         cfg = replace(cfg, skills=skills)
     elif isinstance(skills, dict):
-        cfg = replace(cfg, skills=merge(cfg.skills or SkillConfig(), skills, "env.skills"))
+        try:
+            cfg = replace(cfg, skills=merge(cfg.skills or SkillConfig(), skills, "env.skills"))
+        except ValueError as e:
+            raise ConfigError(str(e)) from e
+    elif skills is not None:
+        raise ConfigError(f"env.skills: expected a table, got {type(skills).__name__}")
     if isinstance(obs, ObservationSpec):
         cfg = replace(cfg, observation=obs)
     elif obs is not None:

@@ -52,6 +52,21 @@ class SkillConfig:
     stuck_distance_m: float = 0.04
     backoff_s: float = 0.6
 
+    def __post_init__(self) -> None:
+        counts = (self.ring_options, self.goal_options)
+        if any(isinstance(n, bool) or not isinstance(n, int) or n < 0 for n in counts):
+            raise ValueError(f"skills: ring_options and goal_options must be >= 0, got {counts}")
+        positive = ("robot_length_m", "max_linear_mps", "max_angular_rad_s", "lookahead_m",
+                    "turn_gain", "turn_in_place_rad", "stuck_window_s")  # fmt: skip
+        bad = [k for k in positive if not getattr(self, k) > 0]
+        bad += [
+            k for k in ("commit_goal_s", "stuck_distance_m", "backoff_s") if getattr(self, k) < 0
+        ]
+        if len(self.platform_box) != 4 or min(self.platform_box[2:], default=0) <= 0:
+            bad.append("platform_box")
+        if bad:
+            raise ValueError(f"skills: out of range: {bad}")
+
     @property
     def n_options(self) -> int:
         return int(self.route_option) + self.ring_options + self.goal_options + int(self.platform)

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from sim.config import ConfigError
 from sim.evaluate import eval_env, make_cores, play_match
 from sim.match import EnvConfig, make_config
 from sim.observation import ObservationSpec, RobotView, build_frame
@@ -27,6 +28,8 @@ def frame(
     y: float = 0.0,
     heading: float = 0.0,
     t: float = 10.0,
+    route: list[tuple[float, float]] = (),  # type: ignore[assignment]
+    spec: ObservationSpec = SPEC,
 ) -> np.ndarray:
     view = RobotView(
         x=x,
@@ -36,8 +39,9 @@ def frame(
         time_s=t,
         rings_robot_xy=np.array(rings, dtype=float).reshape(-1, 2),
         goals_robot_xy=np.array(goals, dtype=float).reshape(-1, 2),
+        route_robot_xy=np.array(route, dtype=float).reshape(-1, 2),
     )
-    return build_frame(SPEC, view)
+    return build_frame(spec, view)
 
 
 def pick(option: int) -> np.ndarray:
@@ -108,6 +112,12 @@ def test_config_is_checked_against_the_observation() -> None:
         SkillDriver(SkillConfig(goal_options=1), ObservationSpec(n_stack=0))
     with pytest.raises(ValueError, match="unknown keys"):
         skill_config_from_dict({"ring_options": 2, "laser": True})
+    with pytest.raises(ConfigError, match="ring_options"):
+        make_config(skills={"ring_options": -1})
+    with pytest.raises(ConfigError, match="unknown keys"):
+        make_config(skills={"rings": 2})
+    with pytest.raises(ConfigError, match="commit_goal_s"):
+        make_config(skills={"commit_goal_s": -1.0})
     restored = skill_config_from_dict({"platform_box": [0, -1.5, 0.3, 0.6], "ring_options": 2})
     assert restored.platform_box == (0, -1.5, 0.3, 0.6)
 
@@ -196,16 +206,8 @@ def test_the_route_option_drives_to_the_routes_first_stop_and_the_teacher_names_
     spec = ObservationSpec(n_stack=0, ring_memory=True, route_slots=1)
     skills = SkillConfig(route_option=True, ring_options=2, goal_options=0, platform=False)
     assert skills.option_names() == ["route", "ring0", "ring1"]
-    view = RobotView(
-        x=0.0,
-        y=0.0,
-        heading_deg=0.0,
-        alliance="red",
-        time_s=5.0,
-        rings_robot_xy=np.array([[-0.3, 0.8], [0.6, 1.5]]),
-        route_robot_xy=np.array([[0.6, 1.5]]),  # the tour starts at the farther ring
-    )
-    f = build_frame(spec, view)
+    # The tour starts at the farther ring.
+    f = frame(rings=[(-0.3, 0.8), (0.6, 1.5)], route=[(0.6, 1.5)], spec=spec)
     d = SkillDriver(skills, spec)
     _, w_route = d.command(f, np.array([1.0, 0.0, 0.0]))
     _, w_ring0 = d.command(f, np.array([0.0, 1.0, 0.0]))
