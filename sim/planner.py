@@ -36,7 +36,7 @@ import numpy as np
 from sim.geometry import field_to_robot, robot_to_field
 from sim.match import MatchCore
 from sim.route import TourConfig, leg_costs, tour
-from sim.skills import Trail
+from sim.skills import Trail, arc_through, back_onto, turn_first
 from sim.visibility import camera_pose, in_frustum
 from sim.world import DriveCommand, World
 
@@ -281,12 +281,9 @@ class Planner:
             stage = goal + 0.5 * (np.array([x, y]) - goal) / dist
             return self._pursue(world, index, pose, stage, None, now)
         gx, gy = field_to_robot(goal[None, :], (x, y), h)[0]
-        # Bearing of the goal seen from the robot's back: positive means turn clockwise.
-        back = math.atan2(-gx, -gy)
-        w = float(
-            np.clip(self.config.turn_gain * back, -rc.max_angular_rad_s, rc.max_angular_rad_s)
+        v, w = back_onto(
+            float(gx), float(gy), rc.max_linear_mps, rc.max_angular_rad_s, self.config.turn_gain
         )
-        v = -0.7 * rc.max_linear_mps * max(0.0, math.cos(back)) ** 3
         if self._trail.stuck(now, abs(v)):
             self._backoff_until = now + self.config.backoff_s / 2
             self._backoff_turn = 1.0
@@ -332,18 +329,14 @@ class Planner:
         bearing = math.atan2(tx, ty)  # positive: to the right, a clockwise turn
         v_max = c.max_speed * rc.max_linear_mps
         w_max = rc.max_angular_rad_s
-        if abs(bearing) > math.radians(60) and math.hypot(tx, ty) < rc.length_m * 0.9:
-            # Beside the bumper: no arc brings it into the intake; back away while turning.
-            return DriveCommand(-0.4 * rc.max_linear_mps, math.copysign(0.6 * w_max, bearing))
-        if abs(bearing) > c.turn_in_place_rad:
-            return DriveCommand(0.0, float(np.clip(c.turn_gain * bearing, -w_max, w_max)))
+        turn = turn_first(
+            float(tx), float(ty), rc.max_linear_mps, w_max, c.turn_gain, c.turn_in_place_rad,
+            rc.length_m,
+        )  # fmt: skip
+        if turn is not None:
+            return DriveCommand(*turn)
         px, py = pursuit_point(local, c.lookahead_m)
-        d2 = px * px + py * py
-        curvature = 2.0 * px / d2 if d2 > 1e-9 else 0.0
-        v = v_max
-        if abs(curvature) * v > w_max:
-            v = w_max / abs(curvature)
-        w = v * curvature
+        v, w = arc_through(px, py, v_max, w_max)
         if self._trail.stuck(now, v):
             self._backoff_until = now + c.backoff_s
             self._backoff_turn = -1.0 if bearing > 0 else 1.0

@@ -113,6 +113,49 @@ class Trail:
         return math.hypot(p[-1][1] - p[0][1], p[-1][2] - p[0][2]) < self.min_distance_m
 
 
+def turn_first(
+    tx: float,
+    ty: float,
+    max_linear_mps: float,
+    max_angular_rad_s: float,
+    turn_gain: float,
+    turn_in_place_rad: float,
+    robot_length_m: float,
+) -> tuple[float, float] | None:
+    """(v, w) for a target (robot frame) that no arc reaches yet: beside the bumper (back away
+    while turning) or far off the nose (turn in place); None when an arc will do."""
+    bearing = math.atan2(tx, ty)  # positive: to the right, a clockwise turn
+    if abs(bearing) > math.radians(60) and math.hypot(tx, ty) < robot_length_m * 0.9:
+        return -0.4 * max_linear_mps, math.copysign(0.6 * max_angular_rad_s, bearing)
+    if abs(bearing) > turn_in_place_rad:
+        w = float(np.clip(turn_gain * bearing, -max_angular_rad_s, max_angular_rad_s))
+        return 0.0, w
+    return None
+
+
+def arc_through(
+    px: float, py: float, speed: float, max_angular_rad_s: float
+) -> tuple[float, float]:
+    """Pure pursuit's (v, w): the arc through the lookahead point (curvature 2 x / d^2), slowed
+    only where the turn-rate limit demands."""
+    d2 = px * px + py * py
+    curvature = 2.0 * px / d2 if d2 > 1e-9 else 0.0
+    v = speed
+    if abs(curvature) * v > max_angular_rad_s:
+        v = max_angular_rad_s / abs(curvature)
+    return v, v * curvature
+
+
+def back_onto(
+    gx: float, gy: float, max_linear_mps: float, max_angular_rad_s: float, turn_gain: float
+) -> tuple[float, float]:
+    """(v, w) that turns the robot's back to a goal (robot frame) and reverses onto it, faster
+    the better it is lined up."""
+    back = math.atan2(-gx, -gy)  # bearing seen from the back: positive turns clockwise
+    w = float(np.clip(turn_gain * back, -max_angular_rad_s, max_angular_rad_s))
+    return -0.7 * max_linear_mps * max(0.0, math.cos(back)) ** 3, w
+
+
 def _to_robot(
     point: NDArray[np.float64], pos: NDArray[np.float64], cos_h: float, sin_h: float
 ) -> NDArray[np.float64]:
@@ -220,25 +263,21 @@ class SkillDriver:
     def _pursue(self, target: NDArray[np.float64], now: float) -> tuple[float, float]:
         c = self.config
         tx, ty = float(target[0]), float(target[1])
-        bearing = math.atan2(tx, ty)  # positive: to the right, a clockwise turn
-        if abs(bearing) > math.radians(60) and math.hypot(tx, ty) < c.robot_length_m * 0.9:
-            return -0.4 * self.v_max, math.copysign(0.6 * self.w_max, bearing)
-        if abs(bearing) > c.turn_in_place_rad:
-            return 0.0, float(np.clip(c.turn_gain * bearing, -self.w_max, self.w_max))
+        turn = turn_first(
+            tx, ty, self.v_max, self.w_max, c.turn_gain, c.turn_in_place_rad, c.robot_length_m
+        )
+        if turn is not None:
+            return turn
         d = math.hypot(tx, ty)
         px, py = (
             (tx, ty) if d <= c.lookahead_m else (tx * c.lookahead_m / d, ty * c.lookahead_m / d)
         )
-        d2 = px * px + py * py
-        curvature = 2.0 * px / d2 if d2 > 1e-9 else 0.0
-        v = self.v_max
-        if abs(curvature) * v > self.w_max:
-            v = self.w_max / abs(curvature)
+        v, w = arc_through(px, py, self.v_max, self.w_max)
         if self._trail.stuck(now, v):
             self._backoff_until = now + c.backoff_s
-            self._backoff_turn = -1.0 if bearing > 0 else 1.0
+            self._backoff_turn = -1.0 if math.atan2(tx, ty) > 0 else 1.0
             self._trail.clear()
-        return v, v * curvature
+        return v, w
 
     def _reverse_onto(self, goal: NDArray[np.float64], now: float) -> tuple[float, float]:
         gx, gy = float(goal[0]), float(goal[1])
@@ -247,9 +286,7 @@ class SkillDriver:
             # Drive to a point half a metre short of it first, nose on.
             stage = goal * (1.0 - 0.5 / dist)
             return self._pursue(stage, now)
-        back = math.atan2(-gx, -gy)  # bearing seen from the back: positive turns clockwise
-        w = float(np.clip(self.config.turn_gain * back, -self.w_max, self.w_max))
-        v = -0.7 * self.v_max * max(0.0, math.cos(back)) ** 3
+        v, w = back_onto(gx, gy, self.v_max, self.w_max, self.config.turn_gain)
         if self._trail.stuck(now, abs(v)):
             self._backoff_until = now + self.config.backoff_s / 2
             self._backoff_turn = 1.0
