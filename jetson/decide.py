@@ -132,7 +132,12 @@ class Decider:
             return Decision(0.0, 0.0, False, "policy output not finite", seen, len(rings))
         if self._driver is not None:
             # A skill policy: its highest-scored skill, driven from the same observation.
-            linear, angular = self._driver.command(obs, action)
+            try:
+                linear, angular = self._driver.command(obs, action)
+            except Exception as exc:
+                return Decision(
+                    0.0, 0.0, False, "error", seen, len(rings), f"{type(exc).__name__}: {exc}"
+                )
             return Decision(linear, angular, True, "policy", seen, len(rings))
         action = np.clip(action, -1.0, 1.0)
         linear, angular = (action[:2] * self._scale).tolist()

@@ -543,3 +543,25 @@ def test_a_skill_policy_is_driven_by_the_skill_controller() -> None:
     # Only one ring known: the second slot is empty and the robot turns in place, looking.
     out = d.decide(state(100), PerceptionInput(2, 0.05, np.array([[0.0, 0.8]])))
     assert out.linear == 0.0 and out.angular > 0
+
+
+def test_a_skill_controller_that_raises_is_a_stop_with_the_error() -> None:
+    from sim.skills import SkillConfig
+
+    class SkillPolicy(ProbePolicy):
+        action_names = ("ring0",)
+        action_scale = (1.0,)
+
+        def __call__(self, obs):
+            return np.array([1.0, 0.0], dtype=np.float32)
+
+    policy = SkillPolicy(ObservationSpec(n_stack=0))
+    policy.skills = SkillConfig(ring_options=2, goal_options=0, platform=False)
+    d = Decider(policy)
+
+    def broken(obs, action):
+        raise RuntimeError("controller broke")
+
+    d._driver.command = broken  # type: ignore[union-attr]
+    out = d.decide(state(0), rings(1))
+    assert not out.drove and out.linear == 0.0 and "controller broke" in (out.error or "")
