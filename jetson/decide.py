@@ -175,6 +175,7 @@ class Decider:
             # Without a clamp sensor the policy is told the clamp is open, and the goal memory
             # never sees a goal taken.
             goal_clamped=state.goal_clamped == CLAMP_HOLDS,
+            intake_fills=self.config.intake_fills,
         )
         # Only a fresh camera frame may tell the memory that a ring is gone.
         view = self._memory.observe(view) if fresh else self._memory.recall(view)

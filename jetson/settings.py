@@ -60,6 +60,7 @@ class DecisionConfig:
     decision_hz: float | None = None  # None: the policy's control rate, else 12 Hz
     driver_time_offset_s: float = 0.0  # match time at the start of driver control
     rings_held: int = 0  # what the observation says when the Brain has no ring counter
+    intake_fills: bool = True  # the intake has a capacity (a policy with spec intake_flag reads it)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "drive_phases", tuple(self.drive_phases))
@@ -80,6 +81,8 @@ class DecisionConfig:
             raise ConfigError("decision driver_time_offset_s must be >= 0")
         if not (isinstance(self.rings_held, int) and self.rings_held >= 0):
             raise ConfigError("decision rings_held must be a whole number >= 0")
+        if not isinstance(self.intake_fills, bool):
+            raise ConfigError("decision intake_fills must be true or false")
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)

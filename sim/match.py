@@ -60,7 +60,10 @@ class EnvConfig:
     into. midgame_start_share is another: the share of episodes that start as the middle of a
     match, where a learned policy loses most to the planner (sim/TRAINING.md, "Where the planner
     still wins"): a random 20-60 % of the floor rings gone, each robot holding some of them
-    (up to a full intake) with its back to one of its goals.
+    (up to a full intake) with its back to one of its goals. uncapped_share is the share of
+    episodes in which every robot's intake never fills (the uncapped scenario's robots), so
+    that a policy whose observation says whether its intake fills (spec intake_flag) learns
+    both games.
     """
 
     world: WorldConfig = field(default_factory=WorldConfig)
@@ -76,6 +79,7 @@ class EnvConfig:
     max_steps: int | None = None
     goal_start_share: float = 0.0
     midgame_start_share: float = 0.0
+    uncapped_share: float = 0.0
     # Gymnasium env only: which robot learns and who plays against it.
     agent_alliance: Literal["red", "blue", "random"] = "red"
     opponent: Literal["none", "scripted", "policy"] = "scripted"
@@ -95,6 +99,8 @@ class EnvConfig:
             raise ConfigError(
                 f"midgame_start_share must be in [0, 1], got {self.midgame_start_share}"
             )
+        if not 0.0 <= self.uncapped_share <= 1.0:
+            raise ConfigError(f"uncapped_share must be in [0, 1], got {self.uncapped_share}")
 
     @property
     def action_size(self) -> int:
@@ -271,6 +277,9 @@ class MatchCore:
     def reset(self, rng: np.random.Generator) -> list[np.ndarray]:
         self.rng = rng
         self.world.reset(rng)
+        if self.config.uncapped_share > 0 and rng.random() < self.config.uncapped_share:
+            for r in self.world.robots:
+                r.config = replace(r.config, ring_capacity=None)
         midgame = (
             self.config.midgame_start_share > 0 and rng.random() < self.config.midgame_start_share
         )
@@ -360,6 +369,7 @@ class MatchCore:
             rings_held=r.held,
             others_robot_xy=others,
             goal_clamped=r.carried_goal is not None,
+            intake_fills=r.config.ring_capacity is not None,
         )
 
     def frame(self, index: int) -> np.ndarray:

@@ -72,8 +72,8 @@ from numpy.typing import ArrayLike, NDArray
 from sim.geometry import Alliance, field_to_robot, robot_to_field, to_alliance_frame
 from sim.route import TourConfig, tour
 
-SPEC_VERSION = 4
-SUPPORTED_VERSIONS = (1, 2, 3, 4)
+SPEC_VERSION = 5
+SUPPORTED_VERSIONS = (1, 2, 3, 4, 5)
 SEEN, REMEMBERED = 1.0, 0.5  # a ring slot's ok value
 SCALARS = ("time", "x", "y", "cos_h", "sin_h", "held")
 SCALAR_MEANINGS = {
@@ -84,6 +84,7 @@ SCALAR_MEANINGS = {
     "sin_h": "sin(own heading in the alliance frame)",
     "held": "rings held / ring_capacity_norm",
     "clamped": "1 while the clamp holds a mobile goal, else 0 (goal_memory)",
+    "fills": "1 when the intake has a capacity, 0 when it never fills (intake_flag)",
 }
 
 
@@ -162,6 +163,8 @@ class ObservationSpec:
     route_candidates: int = 6
     route_turn_cost_m_per_rad: float = 0.15
     route_switch_margin_m: float = 0.1
+    # Version 5: whether the robot's intake fills (the `fills` scalar).
+    intake_flag: bool = False
 
     def __post_init__(self) -> None:
         if self.version not in SUPPORTED_VERSIONS:
@@ -175,6 +178,8 @@ class ObservationSpec:
             raise ObservationError("goal_memory needs observation spec version 3")
         if self.route_slots and (self.version < 4 or not self.ring_memory):
             raise ObservationError("route_slots needs observation spec version 4 and ring_memory")
+        if self.intake_flag and self.version < 5:
+            raise ObservationError("intake_flag needs observation spec version 5")
         for name in ("prior_rings", "prior_goals"):
             object.__setattr__(self, name, _points(getattr(self, name), name))
         object.__setattr__(self, "memory_intake_zone", _zone(self.memory_intake_zone))
@@ -218,7 +223,15 @@ class ObservationSpec:
 
     @property
     def scalars(self) -> tuple[str, ...]:
-        return (*SCALARS, "clamped") if self.goal_memory else SCALARS
+        extra = ("clamped",) * self.goal_memory + ("fills",) * self.intake_flag
+        return (*SCALARS, *extra)
+
+    def scalar_index(self, name: str) -> int:
+        """Where a scalar sits in a frame (ObservationError when this spec has none of it)."""
+        try:
+            return self.scalars.index(name)
+        except ValueError:
+            raise ObservationError(f"this observation spec has no {name!r} scalar") from None
 
     @property
     def goal_slots(self) -> int:
@@ -314,6 +327,8 @@ class ObservationSpec:
             layout = {k: v for k, v in layout.items() if k not in _ROUTE_FIELDS}
         if not self.goal_memory:
             layout = {k: v for k, v in layout.items() if k not in _GOAL_FIELDS}
+        if not self.intake_flag:
+            layout.pop("intake_flag")
         blob = json.dumps(layout, sort_keys=True).encode()
         return hashlib.sha256(blob).hexdigest()[:16]
 
@@ -380,6 +395,7 @@ class RobotView:
     goals_robot_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
     # The route's stops, robot frame, tour order (RingMemory with spec.route_slots).
     route_robot_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    intake_fills: bool = True  # the intake has a capacity (False: it never fills)
 
 
 def _as_points(value: ArrayLike, what: str) -> NDArray[np.float64]:
@@ -445,9 +461,11 @@ def build_frame(
     out[4] = math.sin(h)
     out[5] = view.rings_held / spec.ring_capacity_norm
     if spec.goal_memory:
-        out[len(SCALARS)] = 1.0 if view.goal_clamped else 0.0
+        out[spec.scalar_index("clamped")] = 1.0 if view.goal_clamped else 0.0
         goals = _as_points(view.goals_robot_xy, "goals_robot_xy")
         _fill_slots(out, spec.goal_offset, spec.n_goals, goals, unit, 0.0, None)
+    if spec.intake_flag:
+        out[spec.scalar_index("fills")] = 1.0 if view.intake_fills else 0.0
     rel = spec.relative_noise
     _fill_slots(out, len(spec.scalars), spec.n_other_robots, others, unit, rel, rng)
     ok = None
@@ -547,8 +565,9 @@ class RingMemory:
             d = np.linalg.norm(known - self.target, axis=1)
             if d.min() <= s.memory_merge_m:
                 current = int(d.argmin())
-        # As the planner plans: as many stops as the intake has room for (at least one).
-        room = max(1, s.ring_capacity_norm - view.rings_held)
+        # As the planner plans: as many stops as the intake has room for (at least one; a
+        # full intake's worth when it never fills).
+        room = max(1, s.ring_capacity_norm - view.rings_held * view.intake_fills)
         order = tour(pos, heading, known, room, s.tour, current)
         self.target = known[order[0]].copy() if order else None
         stops = known[order[: s.route_slots]]
@@ -649,8 +668,8 @@ def observation_bounds(spec: ObservationSpec) -> tuple[NDArray[np.float32], NDAr
     low[0], high[0] = 0.0, 1.0
     low[3:5], high[3:5] = -1.0, 1.0
     low[5], high[5] = 0.0, 8.0
-    if spec.goal_memory:
-        low[len(SCALARS)], high[len(SCALARS)] = 0.0, 1.0
+    flags = [spec.scalar_index(n) for n in ("clamped", "fills") if n in spec.scalars]
+    low[flags], high[flags] = 0.0, 1.0
     ok_idx = np.arange(len(spec.scalars) + 2, spec.frame_size, 3)
     low[ok_idx], high[ok_idx] = 0.0, 1.0
     return np.tile(low, spec.n_frames), np.tile(high, spec.n_frames)

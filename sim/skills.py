@@ -207,7 +207,7 @@ class SkillDriver:
             return False
         s = self.spec
         f = np.asarray(obs, dtype=np.float64)[: s.frame_size]
-        clamped = s.goal_memory and f[len(s.scalars) - 1] > 0.5
+        clamped = s.goal_memory and f[s.scalar_index("clamped")] > 0.5
         if clamped or float(f[0]) * s.match_length_s >= self._commit_until:
             self._commit_point = None
             return False

@@ -373,9 +373,21 @@ def test_latency_percentiles() -> None:
     assert LatencyStats.summary_ms([])["n"] == 0
 
 
+def test_the_configured_intake_reaches_a_policy_that_reads_it() -> None:
+    spec = ObservationSpec(version=5, intake_flag=True, n_stack=0)
+    fills = spec.scalar_index("fills")
+    for configured, expected in ((True, 1.0), (False, 0.0)):
+        policy = ProbePolicy(spec)
+        policy.keep_observations = True
+        Decider(policy, DecisionConfig(intake_fills=configured)).decide(state(0), None)
+        assert policy.observations[-1][fills] == expected
+
+
 def test_decision_config_is_checked() -> None:
     with pytest.raises(ConfigError, match="perception_max_age_s"):
         DecisionConfig(perception_max_age_s=0)
+    with pytest.raises(ConfigError, match="intake_fills must be true or false"):
+        DecisionConfig(intake_fills="no")  # type: ignore[arg-type]
     assert replace(DecisionConfig(), valid_ms=100).valid_ms == 100
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -219,25 +220,29 @@ def test_the_route_option_drives_to_the_routes_first_stop_and_the_teacher_names_
         SkillDriver(skills, ObservationSpec(n_stack=0))
 
 
-def test_a_committed_goal_manoeuvre_ignores_the_policy_until_the_clamp_closes() -> None:
+# With the intake flag (spec 5) the clamp is no longer the last scalar.
+@pytest.mark.parametrize("spec", [SPEC, replace(SPEC, version=5, intake_flag=True)])
+def test_a_committed_goal_manoeuvre_ignores_the_policy_until_the_clamp_closes(
+    spec: ObservationSpec,
+) -> None:
     skills = SkillConfig(ring_options=2, goal_options=2, platform=True, commit_goal_s=3.0)
-    d = SkillDriver(skills, SPEC)
-    f = frame(rings=[(0.0, 1.0)], goals=[(0.0, -0.6)], t=10.0)
+    d = SkillDriver(skills, spec)
+    f = frame(rings=[(0.0, 1.0)], goals=[(0.0, -0.6)], t=10.0, spec=spec)
     assert not d.committed(f)
     v, _ = d.command(f, pick(GOAL0))
     assert v < 0 and d.committed(f)
     # The policy now asks for the ring ahead: ignored, the robot keeps reversing to the goal,
     # which stays where it was in the field as the robot moves (0.1 m closer).
-    f2 = frame(rings=[(0.0, 1.0)], goals=[(0.0, -0.5)], y=-0.1, t=10.5)
+    f2 = frame(rings=[(0.0, 1.0)], goals=[(0.0, -0.5)], y=-0.1, t=10.5, spec=spec)
     v, w = d.command(f2, pick(RING0))
     assert v < 0 and w == pytest.approx(0.0, abs=1e-6)
     # The clamp closes: the next action decides again.
     view = RobotView(x=0.0, y=-0.6, heading_deg=0.0, alliance="red", time_s=11.0,
                      rings_robot_xy=np.array([[0.0, 1.6]]), goal_clamped=True)  # fmt: skip
-    f3 = build_frame(SPEC, view)
+    f3 = build_frame(spec, view)
     assert not d.committed(f3)
     v, _ = d.command(f3, pick(RING0))
     assert v > 0
     # Or its time runs out.
     d.command(f, pick(GOAL1 - 1))
-    assert d.committed(frame(t=12.9)) and not d.committed(frame(t=13.1))
+    assert d.committed(frame(t=12.9, spec=spec)) and not d.committed(frame(t=13.1, spec=spec))
