@@ -63,7 +63,8 @@ class EnvConfig:
     (up to a full intake) with its back to one of its goals. uncapped_share is the share of
     episodes in which every robot's intake never fills (the uncapped scenario's robots), so
     that a policy whose observation says whether its intake fills (spec intake_flag) learns
-    both games.
+    both games; uncapped_reward (RewardConfig keys) overrides the reward in those matches, for
+    the uncapped task is ring collection ("every ring collected counts"), not the goal game.
     """
 
     world: WorldConfig = field(default_factory=WorldConfig)
@@ -80,6 +81,7 @@ class EnvConfig:
     goal_start_share: float = 0.0
     midgame_start_share: float = 0.0
     uncapped_share: float = 0.0
+    uncapped_reward: dict[str, Any] = field(default_factory=dict)
     # Gymnasium env only: which robot learns and who plays against it.
     agent_alliance: Literal["red", "blue", "random"] = "red"
     opponent: Literal["none", "scripted", "policy"] = "scripted"
@@ -101,6 +103,11 @@ class EnvConfig:
             )
         if not 0.0 <= self.uncapped_share <= 1.0:
             raise ConfigError(f"uncapped_share must be in [0, 1], got {self.uncapped_share}")
+        merge(self.reward, self.uncapped_reward, "env.uncapped_reward")  # names a bad key
+
+    def match_reward(self, uncapped: bool) -> RewardConfig:
+        """The reward of a match, by whether its intakes never fill (uncapped_share)."""
+        return merge(self.reward, self.uncapped_reward) if uncapped else self.reward
 
     @property
     def action_size(self) -> int:
@@ -214,6 +221,7 @@ class MatchCore:
                 f"observation.match_length_s is {self.spec.match_length_s} but the match lasts "
                 f"{self.world.match_length_s} s (isolation + interaction); set them equal"
             )
+        self.reward = config.reward  # this match's (EnvConfig.match_reward)
         self.stacks: list[FrameStack] = []
         self.memories: list[RingMemory] = []
         self.goal_memories: list[GoalMemory] = []
@@ -277,9 +285,11 @@ class MatchCore:
     def reset(self, rng: np.random.Generator) -> list[np.ndarray]:
         self.rng = rng
         self.world.reset(rng)
-        if self.config.uncapped_share > 0 and rng.random() < self.config.uncapped_share:
+        uncapped = self.config.uncapped_share > 0 and rng.random() < self.config.uncapped_share
+        if uncapped:
             for r in self.world.robots:
                 r.config = replace(r.config, ring_capacity=None)
+        self.reward = self.config.match_reward(uncapped)
         midgame = (
             self.config.midgame_start_share > 0 and rng.random() < self.config.midgame_start_share
         )
@@ -388,7 +398,7 @@ class MatchCore:
     def step(self, commands: list[DriveCommand]) -> tuple[list[RobotStep], bool, StepEvents]:
         """One control step for every robot; returns per-robot results and whether it ended."""
         w = self.world
-        cfg = self.config.reward
+        cfg = self.reward
         before = [r.collected for r in w.robots]
         events = w.step(commands)
         pinned = set()
@@ -453,7 +463,7 @@ class MatchCore:
     def _ring_potential(self, index: int) -> float:
         """Distance (m) from the robot's front to the nearest ring on the floor; 0 when its
         intake is full or no ring is left (the approach shaping's potential)."""
-        if not self.config.reward.approach:
+        if not self.reward.approach:
             return 0.0
         w = self.world
         r = w.robots[index]
@@ -469,7 +479,7 @@ class MatchCore:
     def _goal_potential(self, index: int) -> float:
         """Distance (m) from the robot's clamp point to the nearest goal it could score with
         that no robot holds; 0 while it holds one or none is free (goal_approach's potential)."""
-        if not self.config.reward.goal_approach:
+        if not self.reward.goal_approach:
             return 0.0
         w = self.world
         r = w.robots[index]
@@ -487,7 +497,7 @@ class MatchCore:
     def _park_potential(self, index: int) -> float:
         """Distance (m) from the robot to its platform (shrunk by park_margin_m) in the match's
         last park_from_s seconds, else 0 (the park shaping's potential)."""
-        cfg = self.config.reward
+        cfg = self.reward
         w = self.world
         if not cfg.park or w.time_s < w.match_length_s - cfg.park_from_s:
             return 0.0
@@ -509,7 +519,7 @@ class MatchCore:
         for g in w.goals:
             if not self._goal_scores_for(g.index, alliance):
                 continue
-            if self.config.reward.goal_zone == "home":
+            if self.reward.goal_zone == "home":
                 owner, _ = w.goal_owner(g)
                 n += owner == alliance
             else:

@@ -102,3 +102,29 @@ def test_uncapped_share_gives_matches_whose_intakes_never_fill() -> None:
         assert all(o[i] == 1.0 for o in obs)
         assert all(r.config.ring_capacity == 10 for r in plain.world.robots)
     plain.close()
+
+
+def test_uncapped_matches_take_their_own_reward() -> None:
+    pytest.importorskip("pybullet")
+    from sim.config import ConfigError
+    from sim.match import MatchCore, make_config
+    from sim.world import DriveCommand
+
+    with pytest.raises(ConfigError, match=r"env.uncapped_reward: unknown keys \['sore'\]"):
+        make_config(uncapped_reward={"sore": 0.0})
+    cfg = make_config(uncapped_share=0.5, reward={"ring": 2.0}, uncapped_reward={"ring": 0.0})
+    assert cfg.match_reward(False).ring == 2.0 and cfg.match_reward(True).ring == 0.0
+    core = MatchCore(cfg)
+    paid = {True: 0.0, False: 0.0}
+    seen = set()
+    for seed in range(10):
+        core.reset(np.random.default_rng(seed))
+        uncapped = core.world.robots[0].config.ring_capacity is None
+        assert core.reward.ring == (0.0 if uncapped else 2.0)
+        seen.add(uncapped)
+        for _ in range(30):  # straight ahead from the start: into the rings there
+            results, _, _ = core.step([DriveCommand(1.0, 0.0) for _ in core.world.robots])
+            paid[uncapped] += sum(r.components["rings"] for r in results)
+    assert seen == {True, False}
+    assert paid[False] > 0 and paid[True] == 0.0, "the step pays the match's own reward"
+    core.close()
