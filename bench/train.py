@@ -2,7 +2,7 @@
 
     python -m bench.train [--config capped] [--policy models/policy/policy.onnx]
                           [--original PATH] [--matches 100] [--matches-h2h 40]
-                          [--matches-high 4] [--skip-competence] [--skip-high] [--jobs 2]
+                          [--matches-high 10] [--skip-competence] [--skip-high] [--jobs 2]
 
 Three measurements, each with the random policy beside it (so a metric met by chance shows):
 
@@ -192,7 +192,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--original", type=Path, default=DEFAULT_ORIGINAL)
     parser.add_argument("--matches", type=int, default=100, help="strength matches per player")
     parser.add_argument("--matches-h2h", type=int, default=40, help="head-to-head matches")
-    parser.add_argument("--matches-high", type=int, default=4, help="per row, high fidelity")
+    parser.add_argument("--matches-high", type=int, default=10, help="per row, high fidelity")
     # 8192 = 8 rollouts of capped.toml: checks at 8k, 16k, ... 49k, inside the 50k target.
     parser.add_argument("--eval-every", type=int, default=8192)
     parser.add_argument(

@@ -95,11 +95,14 @@ def test_phases_apply_in_order_and_may_not_resize_buffers() -> None:
     assert drive.at_step(1_400_000).env_config().reward.park == 2.0
     assert drive.at_step(2_000_000).env_config().goal_start_share == 0.15
     assert drive.at_step(2_000_000).env_config().world.robots["15in"].ring_capacity == 10
-    # The shipped config scores skills and has the planner as a teacher.
+    # The shipped config scores skills, has the planner as a teacher and plays both games.
     default = load_config("default")
-    skills = default.env_config().skills
-    assert skills is not None and skills.option_names()[0] == "ring0"
-    assert default.env_config().action_size == len(default.ppo.init_action_bias) == 7
+    env = default.env_config()
+    skills = env.skills
+    assert skills is not None and skills.option_names()[:2] == ["route", "ring0"]
+    assert env.action_size == len(default.ppo.init_action_bias) == 8
+    assert env.observation is not None and env.observation.intake_flag
+    assert env.uncapped_share > 0 and env.match_reward(True).clamp == 0.0 < env.reward.clamp
     assert default.imitation.teacher == "planner" and default.imitation.coef_at(0) > 0
     with pytest.raises(ConfigError, match="may set only"):
         parse_config({**base, "phases": [{"from_step": 10, "rollout": {"workers": 3}}]})
