@@ -221,7 +221,9 @@ class MatchCore:
                 f"observation.match_length_s is {self.spec.match_length_s} but the match lasts "
                 f"{self.world.match_length_s} s (isolation + interaction); set them equal"
             )
-        self.reward = config.reward  # this match's (EnvConfig.match_reward)
+        # This match's reward: the config's, or in a match whose intakes never fill, its own.
+        self._rewards = {False: config.reward, True: config.match_reward(True)}
+        self.reward = config.reward
         self.stacks: list[FrameStack] = []
         self.memories: list[RingMemory] = []
         self.goal_memories: list[GoalMemory] = []
@@ -289,7 +291,7 @@ class MatchCore:
         if uncapped:
             for r in self.world.robots:
                 r.config = replace(r.config, ring_capacity=None)
-        self.reward = self.config.match_reward(uncapped)
+        self.reward = self._rewards[uncapped]
         midgame = (
             self.config.midgame_start_share > 0 and rng.random() < self.config.midgame_start_share
         )
