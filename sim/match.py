@@ -224,6 +224,7 @@ class MatchCore:
         # This match's reward: the config's, or in a match whose intakes never fill, its own.
         self._rewards = {False: config.reward, True: config.match_reward(True)}
         self.reward = config.reward
+        self.uncapped = False  # this match's intakes never fill (EnvConfig.uncapped_share)
         self.stacks: list[FrameStack] = []
         self.memories: list[RingMemory] = []
         self.goal_memories: list[GoalMemory] = []
@@ -291,6 +292,7 @@ class MatchCore:
         if uncapped:
             for r in self.world.robots:
                 r.config = replace(r.config, ring_capacity=None)
+        self.uncapped = uncapped
         self.reward = self._rewards[uncapped]
         midgame = (
             self.config.midgame_start_share > 0 and rng.random() < self.config.midgame_start_share

@@ -322,12 +322,14 @@ def ppo_update(
     batch: Batch,
     cfg: PPOConfig,
     generator: torch.Generator | None = None,
-    imitation_coef: float = 0.0,
+    imitation_coef: float | torch.Tensor = 0.0,
 ) -> dict[str, float]:
-    """n_epochs passes of minibatch gradient steps on the clipped objective (plus imitation_coef
-    x the imitation term when the batch has advice); returns statistics."""
+    """n_epochs passes of minibatch gradient steps on the clipped objective (plus the imitation
+    term when the batch has advice, weighted by imitation_coef: one number, or one per row);
+    returns statistics."""
     n = len(batch)
-    imitate = imitation_coef > 0 and batch.advice is not None
+    im_weight = torch.as_tensor(imitation_coef, dtype=torch.float32).expand(n)
+    imitate = batch.advice is not None and bool((im_weight > 0).any())
     mb = min(cfg.minibatch_size, n)
     clipfracs: list[float] = []
     stats: dict[str, float] = {}
@@ -376,8 +378,9 @@ def ppo_update(
                 if bool(labelled.any()):
                     k = target.shape[-1]
                     mean = agent.actor_mean(agent.obs_norm(batch.obs[idx][labelled]))[:, :k]
-                    im_loss = ((mean - target[labelled]) ** 2).sum(-1).mean()
-                    loss = loss + imitation_coef * im_loss
+                    rows = ((mean - target[labelled]) ** 2).sum(-1)
+                    im_loss = rows.mean()
+                    loss = loss + (im_weight[idx][labelled] * rows).mean()
             optimizer.zero_grad()
             loss.backward()
             nn.utils.clip_grad_norm_(agent.parameters(), cfg.max_grad_norm)

@@ -158,6 +158,35 @@ def test_imitation_pulls_the_mean_to_the_teacher_and_skips_unlabelled_rows() -> 
         torch.set_num_threads(threads)
 
 
+def test_a_per_row_imitation_weight_teaches_only_the_weighted_rows() -> None:
+    """Two states, both labelled; a weight of 0 on the second (a capped match after its
+    teacher left) keeps it where it was while the first is pulled to its label."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        torch.manual_seed(0)
+        gen = torch.Generator().manual_seed(0)
+        cfg = PPOConfig(hidden=(16,), learning_rate=3e-3, n_epochs=4, minibatch_size=64)
+        agent = Agent(2, 2, cfg)
+        opt = torch.optim.Adam(agent.parameters(), lr=cfg.learning_rate)
+        obs = torch.cat([torch.ones(128, 2), -torch.ones(128, 2)])
+        advice = torch.cat([torch.tensor([[0.7, -0.4]]).expand(128, 2), torch.ones(128, 2)])
+        weight = torch.cat([torch.ones(128), torch.zeros(128)])
+        zeros = torch.zeros(256)
+        before = agent.deterministic(obs[128:129]).detach().clone()
+        for _ in range(40):
+            actions, logp, values = agent.act(obs, gen)
+            batch = Batch(obs, actions, logp, zeros, values, values, advice)
+            ppo_update(agent, opt, batch, cfg, gen, imitation_coef=weight)
+        taught = agent.deterministic(obs[:1])[0]
+        assert torch.allclose(taught, torch.tensor([0.7, -0.4]), atol=0.05), taught
+        untaught = agent.deterministic(obs[128:129])
+        # Shared weights move it a little; its own label (1, 1) would have moved it all the way.
+        assert (untaught - 1.0).abs().min() > 0.5, (before, untaught)
+    finally:
+        torch.set_num_threads(threads)
+
+
 def test_rows_whose_action_decided_nothing_train_only_the_critic() -> None:
     torch.manual_seed(0)
     cfg = PPOConfig(hidden=(8,), n_epochs=2, minibatch_size=16, ent_coef=0.01)

@@ -224,6 +224,49 @@ def test_imitation_config_is_checked_and_its_weight_falls_to_zero() -> None:
         parse_config({**EASY, "imitation": {**back, "until_step": 1500}})
 
 
+def test_the_teacher_can_stay_longer_in_uncapped_matches() -> None:
+    from sim.config import ConfigError
+
+    kept = {"teacher": "planner", "coef": 2.0, "until_step": 1000, "uncapped_until_step": 0}
+    im = parse_config({**EASY, "imitation": kept}).imitation
+    assert [im.coef_at(s) for s in (0, 500, 1000)] == [2.0, 1.0, 0.0]
+    assert [im.coef_at(s, uncapped=True) for s in (0, 500, 1000, 10**7)] == [2.0] * 4
+    later = parse_config({**EASY, "imitation": {**kept, "uncapped_until_step": 2000}}).imitation
+    assert [later.coef_at(s, uncapped=True) for s in (1000, 2000)] == [1.0, 0.0]
+    # Unset, uncapped matches follow until_step.
+    same = parse_config({**EASY, "imitation": {**kept, "uncapped_until_step": None}}).imitation
+    assert same.coef_at(500, uncapped=True) == same.coef_at(500) == 1.0
+    for bad in (-5, "soon"):
+        with pytest.raises(ConfigError, match="uncapped_until_step"):
+            parse_config({**EASY, "imitation": {**kept, "uncapped_until_step": bad}})
+
+
+def test_each_row_knows_its_game_and_the_teacher_parks_only_where_parking_pays() -> None:
+    import numpy as np
+
+    from sim.match import make_config
+    from sim.training.rollout import RolloutConfig, VecMatches, _Slot
+
+    paid = {"park": 2.0, "elevated_end": 5.0}
+    for share, want in ((0.0, False), (1.0, True)):
+        env = make_config(
+            {"max_steps": 4, "uncapped_share": share, "reward": paid,
+             "uncapped_reward": {"park": 0.0, "elevated_end": 0.0}}
+        )  # fmt: skip
+        with VecMatches(env, RolloutConfig(workers=0, envs_per_worker=3), seed=2) as vec:
+            vec.set_kinds([("none", -1)] * 3)
+            first = vec.reset()
+            assert first.uncapped is not None and (first.uncapped == want).all()
+            for _ in range(6):  # through a reset: the new match's rows keep their game
+                step = vec.step(np.zeros((3, 2), np.float32), np.zeros((3, 2), np.float32))
+                assert step.uncapped is not None and (step.uncapped == want).all()
+        slot = _Slot(env, RolloutConfig(workers=0), seed=2, slot=0, teacher="planner")
+        slot.set_kind("none", -1)
+        slot.reset()
+        assert slot.teacher is not None and slot.teacher.config.endgame is (not want)
+        slot.close()
+
+
 def test_a_skill_policy_learns_to_pick_rings_and_exports_its_controller(tmp_path: Path) -> None:
     # Skills from a start that prefers the platform: training must learn to pick the ring.
     cfg = dict(EASY, name="easy-skills", total_steps=8192)

@@ -67,7 +67,10 @@ class ImitationConfig:
     gains coef x the mean squared distance between the actor's mean and that action from
     from_step on (a teacher can come back for a resumed run's fine-tune), and coef falls linearly
     to 0 at until_step (0: never falls), after which reward alone decides, so the policy can
-    outgrow its teacher. The planner sees rings without the observation's noise and
+    outgrow its teacher. uncapped_until_step, when set, is where the pull falls to 0 in
+    uncapped matches instead (0: never falls there): the ring race is a fixed routine (collect
+    to the bell) that reward alone learns short of the teacher, while the goal game needs
+    reward to outgrow it. The planner sees rings without the observation's noise and
     knows the field's layout: privileged labels, for training only; the exported policy still
     acts on its observation alone.
     """
@@ -76,24 +79,33 @@ class ImitationConfig:
     coef: float = 1.0
     until_step: int = 0
     from_step: int = 0
+    uncapped_until_step: int | None = None
 
     def __post_init__(self) -> None:
         if self.teacher not in TEACHERS:
             raise ConfigError(f"imitation.teacher must be one of {TEACHERS}: {self.teacher!r}")
         if self.coef < 0 or self.until_step < 0 or self.from_step < 0:
             raise ConfigError("imitation: coef, from_step and until_step must be >= 0")
-        if self.until_step and self.until_step <= self.from_step:
-            raise ConfigError(
-                f"imitation: until_step ({self.until_step}) must come after from_step "
-                f"({self.from_step}), or be 0 (never falls)"
-            )
+        for name in ("until_step", "uncapped_until_step"):
+            until = getattr(self, name)
+            if until is not None and (not isinstance(until, int) or until < 0):
+                raise ConfigError(f"imitation: {name} must be a step count >= 0: {until!r}")
+            if until and until <= self.from_step:
+                raise ConfigError(
+                    f"imitation: {name} ({until}) must come after from_step "
+                    f"({self.from_step}), or be 0 (never falls)"
+                )
 
-    def coef_at(self, step: int) -> float:
+    def coef_at(self, step: int, uncapped: bool = False) -> float:
+        """The teacher's weight at `step`, in an uncapped match or a capped one."""
         if self.teacher == "none" or step < self.from_step:
             return 0.0
-        if self.until_step == 0:
+        until = self.until_step
+        if uncapped and self.uncapped_until_step is not None:
+            until = self.uncapped_until_step
+        if until == 0:
             return self.coef
-        span = self.until_step - self.from_step
+        span = until - self.from_step
         return self.coef * max(0.0, 1.0 - (step - self.from_step) / span)
 
 

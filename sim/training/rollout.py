@@ -17,7 +17,9 @@ plays both); the other is the opponent, of a kind chosen per slot:
 A teacher (`teacher="planner"`) drives a shadow of the learner's robot: for every observation the
 learner acts on, the action the planner would take from the same state (its own view: GPS pose,
 visible rings, the field's layout), in the policy's action units. The trainer's imitation term
-pulls the policy toward it (DAgger: the labels come from the states the learner visits).
+pulls the policy toward it (DAgger: the labels come from the states the learner visits). The
+teacher plays the match's game: it drives onto the platform at the end only where the match's
+reward pays for it, so in an uncapped match paid as ring collection it collects to the bell.
 
 A slot's kind and tag (the caller's opponent id) change only when its match ends, so each match
 has exactly one opponent, which is what ELO needs. Finished matches reset on their own; their
@@ -38,10 +40,10 @@ from typing import Any, Literal
 
 import numpy as np
 
-from sim.config import ConfigError
+from sim.config import ConfigError, RewardConfig
 from sim.geometry import field_to_robot, other_alliance
 from sim.match import REWARD_COMPONENTS, EnvConfig, MatchCore
-from sim.planner import Planner
+from sim.planner import Planner, PlannerConfig
 from sim.players import IdlePlayer, Player, RandomPlayer, ScriptedPlayer
 from sim.skills import option_for
 from sim.world import DriveCommand
@@ -147,6 +149,15 @@ class StepResult:
     # (n_envs,): whether the learner's action for learner_obs decides anything (False while a
     # skill manoeuvre it committed to is under way: sim.skills, commit_goal_s).
     deciding: np.ndarray | None = None
+    # (n_envs,): whether learner_obs belongs to an uncapped match (EnvConfig.uncapped_share),
+    # where the trainer may keep its teacher longer (ImitationConfig.uncapped_until_step).
+    uncapped: np.ndarray | None = None
+
+
+def teacher_for(reward: RewardConfig) -> Planner:
+    """The planner that teaches a match paid by `reward`: the usual one, parking at the end
+    only when parking pays."""
+    return Planner(PlannerConfig(endgame=reward.park > 0 or reward.elevated_end > 0))
 
 
 class _Slot:
@@ -177,7 +188,10 @@ class _Slot:
         self.steps = 0
         self.reward = 0.0
         self.fill_time: float | None = None
-        self.teacher = Planner() if teacher == "planner" else None
+        self.teacher: Planner | None = None
+        self._teachers: dict[bool, Planner] = {}
+        if teacher == "planner":
+            self._teachers = {u: teacher_for(config.match_reward(u)) for u in (False, True)}
 
     def _core(self, alliance: str, solo: bool) -> MatchCore:
         key = (alliance, solo)
@@ -214,7 +228,8 @@ class _Slot:
         self.player = _make_player(self.kind) if self.opponent is not None else None
         if self.player is not None and self.opponent is not None:
             self.player.reset(self.core, self.opponent, rng)
-        if self.teacher is not None:
+        if self._teachers:
+            self.teacher = self._teachers[self.core.uncapped]
             self.teacher.reset(self.core, self.learner, rng)
         self.steps = 0
         self.reward = 0.0
@@ -395,6 +410,7 @@ class _Group:
             episodes,
             np.stack([s.advice() for s in self.slots]),
             np.array([s.deciding() for s in self.slots], bool),
+            np.array([s.core.uncapped for s in self.slots], bool),
         )
 
     def close(self) -> None:
@@ -443,6 +459,7 @@ def _merge(results: list[StepResult]) -> StepResult:
         [e for r in results for e in r.episodes],
         np.concatenate([r.advice for r in results if r.advice is not None]),
         np.concatenate([r.deciding for r in results if r.deciding is not None]),
+        np.concatenate([r.uncapped for r in results if r.uncapped is not None]),
     )
 
 

@@ -362,6 +362,8 @@ def train(
         advice = first.advice
         deciding = first.deciding
         deciding_buf = np.ones((steps_per_env, n), bool)
+        uncapped = first.uncapped
+        uncapped_buf = np.zeros((steps_per_env, n), bool)
         while run.step < cfg.total_steps:
             if cfg.phase_index(run.step) != phase:
                 vec.close()
@@ -377,7 +379,7 @@ def train(
                 pending = list(active)
                 first = vec.reset()
                 next_obs, opp_obs = first.learner_obs, first.opponent_obs
-                advice, deciding = first.advice, first.deciding
+                advice, deciding, uncapped = first.advice, first.deciding, first.uncapped
                 run.scaler.ret[:] = 0.0
             t0 = time.perf_counter()
             if p.anneal_lr:
@@ -412,8 +414,9 @@ def train(
                 if advice is not None:
                     advice_buf[t] = advice
                 deciding_buf[t] = True if deciding is None else deciding
+                uncapped_buf[t] = False if uncapped is None else uncapped
                 next_obs, opp_obs, advice = res.learner_obs, res.opponent_obs, res.advice
-                deciding = res.deciding
+                deciding, uncapped = res.deciding, res.uncapped
                 for ep in res.episodes:
                     finished.append(ep)
                     if ep.kind == "policy" and ep.result is not None:
@@ -443,7 +446,11 @@ def train(
             )
             torch.set_num_threads(cfg.torch_threads)
             imitation = cfg.imitation.coef_at(run.step)
-            losses = ppo_update(run.agent, run.optimizer, batch, p, run.gen, imitation)
+            imitation_uncapped = cfg.imitation.coef_at(run.step, uncapped=True)
+            weights = np.where(uncapped_buf.reshape(-1), imitation_uncapped, imitation)
+            losses = ppo_update(
+                run.agent, run.optimizer, batch, p, run.gen, torch.from_numpy(weights)
+            )
             torch.set_num_threads(1)
             run.agent.obs_norm.update(obs_buf.reshape(-1, size))
             run.iteration += 1
@@ -458,6 +465,7 @@ def train(
             stats["charts/learning_rate"] = run.optimizer.param_groups[0]["lr"]
             if cfg.imitation.teacher != "none":
                 stats["charts/imitation_coef"] = imitation
+                stats["charts/imitation_coef_uncapped"] = imitation_uncapped
             stats["selfplay/elo"] = run.pool.learner_elo
             stats["charts/episodes"] = float(run.episodes)
             for k, v in stats.items():
