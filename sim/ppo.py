@@ -13,7 +13,8 @@ What is here (Schulman et al. 2017, and the "37 implementation details" CleanRL 
   - the clipped surrogate objective, a clipped value loss, an entropy bonus, per-minibatch
     advantage normalisation and global gradient-norm clipping;
   - an optional imitation term: the squared distance between the actor's mean and a teacher's
-    action, where the batch carries one (NaN rows carry none);
+    action, where the batch carries one (NaN rows carry none), weighted per row (a weight of 0
+    leaves the row untaught);
   - rows whose action the environment ignored (Batch.deciding False: a manoeuvre the policy
     committed to is under way) train the critic only, as in an options / semi-MDP setting;
   - running mean/variance normalisation of observations (saved with the policy, so the exported
@@ -372,7 +373,9 @@ def ppo_update(
             if imitate:
                 assert batch.advice is not None
                 target = batch.advice[idx]
-                labelled = torch.isfinite(target).all(-1)
+                # Rows whose weight is 0 (a game whose teacher has left) are not taught, and
+                # do not dilute the rows that are.
+                labelled = torch.isfinite(target).all(-1) & (im_weight[idx] > 0)
                 if batch.deciding is not None:
                     labelled &= batch.deciding[idx]
                 if bool(labelled.any()):
