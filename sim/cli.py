@@ -28,7 +28,8 @@ PettingZoo environments, PPO self-play training and evaluation.
   pete-sim dataset         labelled camera frames as a perception dataset folder
 
 Players for eval/play: a policy.onnx, a checkpoint .pt, a run folder, original:PATH (the
-original team's ONNX), planner, planner-nearest, scripted, random, idle (and none as opponent).
+original team's ONNX), planner, planner-nearest, planner-collector (never parks), scripted,
+random, idle (and none as opponent).
 """
 
 _STACK = ("pacman-pete", "pybullet", "gymnasium", "pettingzoo", "torch", "numpy", "onnxruntime")

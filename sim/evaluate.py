@@ -5,8 +5,9 @@
 Players (`load_player`): a path to our policy.onnx (with policy.json beside it), a training
 checkpoint (.pt) or run folder, `original:PATH` (the original team's ONNX through
 sim.original_policy; a bare path to it works too), `planner` (= planner-route),
-`planner-nearest`, `scripted`, `random`, `idle`, and, as an opponent only, `none` (alone on the
-field).
+`planner-nearest`, `planner-collector` (the route planner without its endgame: it collects to the
+bell instead of parking, the stronger planner where only rings pay), `scripted`, `random`,
+`idle`, and, as an opponent only, `none` (alone on the field).
 
 Matches come in pairs on one seed, sides swapped (A red then A blue), so neither player gets the
 better start more often. Scenarios:
@@ -52,7 +53,15 @@ SCENARIOS: dict[str, dict[str, Any]] = {
         "reward": {"ring_cap": None},
     },
 }
-BUILTIN = ("planner", "planner-route", "planner-nearest", "scripted", "random", "idle")
+BUILTIN = (
+    "planner",
+    "planner-route",
+    "planner-nearest",
+    "planner-collector",
+    "scripted",
+    "random",
+    "idle",
+)
 FILL_TARGET = 10
 
 
@@ -78,6 +87,8 @@ def load_player(text: str) -> PlayerSpec:
         return PlayerSpec("planner", lambda: Planner(PlannerConfig(strategy="route")))
     if word == "planner-nearest":
         return PlayerSpec("planner-nearest", lambda: Planner(PlannerConfig(strategy="nearest")))
+    if word == "planner-collector":
+        return PlayerSpec("planner-collector", lambda: Planner(PlannerConfig(endgame=False)))
     if word == "scripted":
         return PlayerSpec("scripted", ScriptedPlayer)
     if word == "random":

@@ -12,6 +12,7 @@ from PIL import Image
 
 from sim.cli import main
 from sim.evaluate import EvalError, evaluate, load_player, mean_ci, wilson
+from sim.planner import Planner
 from sim.training.config import parse_config
 from sim.training.trainer import train
 
@@ -52,6 +53,14 @@ def test_unknown_players_are_named(tmp_path: Path) -> None:
     bad.write_text("x")
     with pytest.raises(EvalError, match=r"expected a \.onnx"):
         load_player(str(bad))
+
+
+def test_the_collector_is_the_planner_that_does_not_park() -> None:
+    # Where only rings pay (the uncapped benchmark) the fair planner collects to the bell.
+    planner, collector = load_player("planner").make(), load_player("planner-collector").make()
+    assert isinstance(planner, Planner) and isinstance(collector, Planner)
+    assert planner.config.endgame and not collector.config.endgame
+    assert collector.config.strategy == planner.config.strategy == "route"
 
 
 def test_random_is_the_floor_and_sides_alternate() -> None:
