@@ -1,6 +1,6 @@
 """Benchmark of the full-stack match: what perception, latency and the wire cost the policy.
 
-    python -m bench.match [--seeds 10] [--first-seed 0] [--policy PATH] [--seconds S] [--strict]
+    python -m bench.match [--seeds 20] [--first-seed 0] [--policy PATH] [--seconds S] [--strict]
 
 For each seed, one lockstep match with --stack full (brain_host + the cable + the Jetson daemon
 with perception on rendered frames) and one with --stack sim (the same policy straight in the
@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
         description=__doc__.splitlines()[0], formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    ap.add_argument("--seeds", type=int, default=10, help="matches per stack (default 10)")
+    ap.add_argument("--seeds", type=int, default=20, help="matches per stack (default 20)")
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--policy", type=Path, default=DEFAULT_POLICY)
     ap.add_argument("--opponent", default="planner")
