@@ -26,6 +26,7 @@ from jetson.perception.cnn.model import STRIDE, ExportWrapper, RingNet, export_o
 from jetson.perception.cnn.train import (  # noqa: E402
     TrainConfig,
     giou_loss,
+    ignore_mask,
     loss_fn,
     make_targets,
     train,
@@ -171,14 +172,67 @@ def test_augmentation_moves_boxes_with_the_image() -> None:
     box = np.array([[150.0, 100.0, 200.0, 140.0]])
     cfg = AugmentConfig()
     for _ in range(10):
-        patch, b = random_patch(rng, img, box, (192, 160), cfg)
+        patch, b, ignore = random_patch(rng, img, box, (192, 160), cfg, ignore=box)
         assert patch.shape == (160, 192, 3)
-        for x0, y0, x1, y1 in b:
+        for x0, y0, x1, y1 in np.concatenate([b, ignore]):
             inner = patch[int(y0) + 2 : int(y1) - 2, int(x0) + 2 : int(x1) - 2]
             if inner.size:
                 assert inner.mean() > 200  # the white block is where its box says
-    out, _ = augment(rng, img, box, (192, 160), cfg)
+    out, _, _ = augment(rng, img, box, (192, 160), cfg)
     assert out.shape == (160, 192, 3) and out.dtype == np.uint8
+
+
+def test_a_ring_cut_by_the_patch_edge_is_a_ring_or_ignored_never_background() -> None:
+    # Patches of a 192x160 image at scale 1 are the image itself, shifted by nothing: the
+    # boxes below are cut by the image's edge as a crop would cut them.
+    img = np.zeros((160, 192, 3), np.uint8)
+    boxes = np.array(
+        [
+            [-30.0, 50.0, 10.0, 70.0],  # a quarter left, 10x20 = 200 px: still a ring
+            [186.0, 50.0, 226.0, 70.0],  # 6x20 = 120 px of 800 left: still a ring
+            [50.0, -18.0, 90.0, 2.0],  # 40x2 = 80 px but 2 px high: ignored
+            [100.0, 156.0, 116.0, 170.0],  # 16x4 = 64 px left... of 224: a ring
+            [140.0, 157.0, 150.0, 167.0],  # 10x3 = 30 px left: ignored
+            [60.0, 60.0, 64.0, 64.0],  # whole, 4x4 = 16 px: the dataset labelled it, kept
+        ]
+    )
+    cfg = replace(AugmentConfig(), scale_range=(1.0, 1.0), aspect_jitter=0.0, flip=False)
+    _, b, ignore = random_patch(np.random.default_rng(0), img, boxes, (192, 160), cfg)
+    assert b.tolist() == [
+        [0.0, 50.0, 10.0, 70.0],
+        [186.0, 50.0, 192.0, 70.0],
+        [100.0, 156.0, 116.0, 160.0],
+        [60.0, 60.0, 64.0, 64.0],
+    ]
+    assert ignore.tolist() == [[50.0, 0.0, 90.0, 2.0], [140.0, 157.0, 150.0, 160.0]]
+    # Flipped, the ignore boxes move with the image.
+    cfg = replace(cfg, flip=True)
+    rng = np.random.default_rng(0)
+    while True:
+        _, b, ignore = random_patch(rng, img, boxes, (192, 160), cfg)
+        if b[0][0] > 100:  # this draw flipped
+            break
+    assert ignore.tolist() == [[102.0, 0.0, 142.0, 2.0], [42.0, 157.0, 52.0, 160.0]]
+
+
+def test_ignore_regions_cost_nothing_and_the_rest_of_the_background_does() -> None:
+    heat, reg, mask = make_targets([np.array([[10.0, 10.0, 30.0, 30.0]])], 64, 48)
+    ignore = ignore_mask([np.array([[40.0, 20.0, 52.0, 31.0]])], 64, 48)
+    # Cells 10-12 across (x 40-52 px), rows 5-7 (y 20-31 px, the last cell only touched).
+    assert ignore[0, 0].nonzero().tolist() == [[r, c] for r in (5, 6, 7) for c in (10, 11, 12)]
+    raw = torch.full((1, 5, 12, 16), -8.0)
+    raw[0, 0, 5, 5] = 8.0  # the ring, found
+    base, _ = loss_fn(raw, heat, reg, mask, ignore=ignore)
+    inside, outside = raw.clone(), raw.clone()
+    inside[0, 0, 6, 11] = 8.0  # a detection in the ignore region
+    outside[0, 0, 2, 11] = 8.0  # and one on plain background
+    in_loss, _ = loss_fn(inside, heat, reg, mask, ignore=ignore)
+    out_loss, _ = loss_fn(outside, heat, reg, mask, ignore=ignore)
+    assert float(in_loss) == pytest.approx(float(base))
+    assert float(out_loss) > float(base) + 5.0
+    # Without the mask the same region is background.
+    plain, _ = loss_fn(inside, heat, reg, mask)
+    assert float(plain) > float(base) + 5.0
 
 
 def test_giou_loss_by_hand() -> None:

@@ -34,7 +34,7 @@ from jetson.perception.evaluate import (
 )
 from jetson.perception.pipeline import Pipeline
 from jetson.perception.prefilter import HsvWindow, PrefilterConfig, prefilter
-from jetson.perception.synthetic import Ring, Scene, random_frame, render
+from jetson.perception.synthetic import Obstacle, Ring, Scene, random_frame, render
 
 CAMERA = CameraConfig()
 SMALL = CAMERA.intrinsics.scaled(320, 240)
@@ -227,6 +227,21 @@ def test_whole_ring_box_matches_the_render_and_shrinks_when_cut_by_the_edge() ->
     assert 0.4 < inside < 0.6
     # Behind the camera there is no box.
     assert ring_box_px(CAMERA.mount, SMALL, np.array([0.0, -1.0])) is None
+
+
+def test_rings_too_hidden_to_label_are_ignore_regions() -> None:
+    # A ring behind a box, all but its left edge hidden.
+    wall = Obstacle((-0.04, 0.85, 0.0), (0.4, 0.9, 0.3), (60, 60, 60))
+    scene = Scene(rings=[Ring(-0.3, 1.0), Ring(0.0, 1.0)], obstacles=[wall])
+    r = render(scene, SMALL, CAMERA.mount, None)
+    assert r.ring_ids.tolist() == [0]
+    assert len(r.ignore_boxes) == 1
+    x0, y0, x1, y1 = r.ignore_boxes[0]
+    assert (r.id_buffer[int(y0) : int(y1), int(x0) : int(x1)] == 1).any()
+    assert (r.id_buffer == 1).sum() < 0.35 * (r.id_buffer == 0).sum()
+    # Apart, both are rings and nothing is ignored.
+    apart = render(Scene(rings=[Ring(-0.3, 1.0), Ring(0.3, 1.0)]), SMALL, CAMERA.mount, None)
+    assert len(apart.boxes) == 2 and len(apart.ignore_boxes) == 0
 
 
 def test_difficult_rings_are_neither_to_be_found_nor_false() -> None:

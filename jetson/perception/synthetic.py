@@ -99,7 +99,8 @@ class Rendered:
     boxes (N, 4): visible extent of each labelled ring in pixels (x0, y0, x1, y1, x1/y1
     exclusive); rings_robot_xy (N, 2): their centres in the robot frame (x right, y forward);
     ring_ids (N,): their indices into the scene's ring list. Rings too occluded or too small to
-    label are left out of all three.
+    label are left out of all three; the visible extent of each of those is in ignore_boxes
+    (M, 4), which training counts as neither ring nor background.
     """
 
     frame: Frame
@@ -107,6 +108,7 @@ class Rendered:
     rings_robot_xy: FloatArray
     ring_ids: NDArray[np.int64]
     id_buffer: NDArray[np.int32]  # per pixel: index of the ring seen there, or -1
+    ignore_boxes: FloatArray = field(default_factory=lambda: np.zeros((0, 4)))
 
 
 def _rays(intr: Intrinsics, mount: CameraMount) -> tuple[FloatArray, FloatArray]:
@@ -311,15 +313,19 @@ def render(
         depth_m = _depth_noise(depth_m, rng)
     depth_m = depth_from_mm(depth_to_mm(depth_m))
 
-    boxes, xy, keep = [], [], []
+    boxes, xy, keep, ignore = [], [], [], []
     min_px = min_visible_px * (w * h) / (640 * 480)
     for i, ring in enumerate(scene.rings):
         vis = ids == i
         n_vis = int(vis.sum())
-        if n_vis < min_px or n_vis < min_visible_fraction * max(own_px[i], 1):
+        if n_vis == 0:
             continue
         ys, xs = np.nonzero(vis)
-        boxes.append([xs.min(), ys.min(), xs.max() + 1, ys.max() + 1])
+        box = [xs.min(), ys.min(), xs.max() + 1, ys.max() + 1]
+        if n_vis < min_px or n_vis < min_visible_fraction * max(own_px[i], 1):
+            ignore.append(box)
+            continue
+        boxes.append(box)
         xy.append([ring.x, ring.y])
         keep.append(i)
     frame = Frame(bgr, depth_m.astype(np.float32), intr, timestamp_s, index)
@@ -329,6 +335,7 @@ def render(
         rings_robot_xy=np.asarray(xy, dtype=np.float64).reshape(-1, 2),
         ring_ids=np.asarray(keep, dtype=np.int64),
         id_buffer=ids,
+        ignore_boxes=np.asarray(ignore, dtype=np.float64).reshape(-1, 4),
     )
 
 

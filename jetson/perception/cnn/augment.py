@@ -30,8 +30,23 @@ class AugmentConfig:
     noise_p: float = 0.5
     jpeg_p: float = 0.25
     prefilter_p: float = 0.2
-    min_visible: float = 0.45  # a box cut by the crop keeps its label if this much is left
+    # A ring cut by the patch's edge stays a ring while this much of its box is left (patch
+    # pixels; about the 40 pixels at 640x480 by which the simulator labels a ring cut by the
+    # image's edge). A smaller remnant becomes an ignore region: its pixels are still in the
+    # patch, and calling them background would teach the detector to miss rings at the edge.
+    min_cut_area_px: float = 48.0
     min_box_px: float = 3.0
+
+
+def _clip_boxes(
+    b: NDArray[np.float64], size: tuple[int, int]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Boxes clipped to a (width, height) patch, the area left and the area they had."""
+    pw, ph = size
+    clipped = np.clip(b, 0, [pw, ph, pw, ph])
+    area = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    left = (clipped[:, 2] - clipped[:, 0]) * (clipped[:, 3] - clipped[:, 1])
+    return clipped, left, area
 
 
 def random_patch(
@@ -41,8 +56,11 @@ def random_patch(
     size: tuple[int, int],
     cfg: AugmentConfig,
     base_scale: float = 1.0,
-) -> tuple[NDArray[np.uint8], NDArray[np.float64]]:
-    """A (width, height) = size patch of a randomly scaled, stretched, flipped image.
+    ignore: NDArray[np.float64] | None = None,
+) -> tuple[NDArray[np.uint8], NDArray[np.float64], NDArray[np.float64]]:
+    """A (width, height) = size patch of a randomly scaled, stretched, flipped image, its ring
+    boxes, and its ignore boxes (parts of rings that are neither ring nor background: `ignore`
+    moved with the image, plus rings the patch's edge cut too small).
 
     base_scale is the resize the detector applies to this image at run time, so that rings in
     patches have the sizes the detector will meet, give or take cfg.scale_range.
@@ -61,22 +79,22 @@ def random_patch(
     out = cv2.warpAffine(
         bgr, m, (pw, ph), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=fill
     )
-    b = boxes.reshape(-1, 4) * np.array([sx, sy, sx, sy]) - np.array([ox, oy, ox, oy])
-    clipped = np.clip(b, 0, [pw, ph, pw, ph])
-    area = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
-    kept_area = (clipped[:, 2] - clipped[:, 0]) * (clipped[:, 3] - clipped[:, 1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        visible = np.where(area > 0, kept_area / area, 0.0)
-    keep = (
-        (visible >= cfg.min_visible)
-        & (clipped[:, 2] - clipped[:, 0] >= cfg.min_box_px)
-        & (clipped[:, 3] - clipped[:, 1] >= cfg.min_box_px)
+    scale, shift = np.array([sx, sy, sx, sy]), np.array([ox, oy, ox, oy])
+    clipped, left, area = _clip_boxes(boxes.reshape(-1, 4) * scale - shift, size)
+    big_enough = (clipped[:, 2] - clipped[:, 0] >= cfg.min_box_px) & (
+        clipped[:, 3] - clipped[:, 1] >= cfg.min_box_px
     )
+    # A ring the crop did not cut keeps its label whatever its size: the dataset labelled it.
+    keep = big_enough & ((left >= cfg.min_cut_area_px) | (left >= area - 1e-6))
     b = clipped[keep]
+    ign_all = np.zeros((0, 4)) if ignore is None else ignore.reshape(-1, 4)
+    ign, ign_left, _ = _clip_boxes(ign_all * scale - shift, size)
+    ig = np.concatenate([ign[ign_left > 0], clipped[~keep & (left > 0)]])
     if cfg.flip and rng.random() < 0.5:
         out = out[:, ::-1].copy()
         b = np.stack([pw - b[:, 2], b[:, 1], pw - b[:, 0], b[:, 3]], axis=1)
-    return out, b
+        ig = np.stack([pw - ig[:, 2], ig[:, 1], pw - ig[:, 0], ig[:, 3]], axis=1)
+    return out, b, ig.reshape(-1, 4)
 
 
 def photometric(
@@ -122,6 +140,7 @@ def augment(
     size: tuple[int, int],
     cfg: AugmentConfig,
     base_scale: float = 1.0,
-) -> tuple[NDArray[np.uint8], NDArray[np.float64]]:
-    img, b = random_patch(rng, bgr, boxes, size, cfg, base_scale)
-    return photometric(rng, img, cfg), b
+    ignore: NDArray[np.float64] | None = None,
+) -> tuple[NDArray[np.uint8], NDArray[np.float64], NDArray[np.float64]]:
+    img, b, ig = random_patch(rng, bgr, boxes, size, cfg, base_scale, ignore)
+    return photometric(rng, img, cfg), b, ig

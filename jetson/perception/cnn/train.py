@@ -5,9 +5,11 @@
 Each source (a folder, or the synthetic frames) is drawn equally often, whatever its size, so a
 small real set is not drowned by thousands of renders. Every step takes a batch of random patches
 (cnn/augment.py), builds CenterNet targets at stride 4 and minimises the focal loss on the heatmap
-plus L1 on the offsets and log sizes. At the end the model is exported to ONNX, the score threshold
-that maximises F1 on the validation frames is chosen through the ONNX runtime (the same code the
-Jetson runs), and NAME.onnx, NAME.json (metadata and metrics) and NAME.pt (weights) are written.
+plus L1 on the offsets and log sizes; ignore regions (rings too hidden to label, rings cut small by
+the patch's edge) count as neither ring nor background. At the end the model is exported to ONNX,
+the score threshold that maximises F1 on the validation frames is chosen through the ONNX runtime
+(the same code the Jetson runs), and NAME.onnx, NAME.json (metadata and metrics) and NAME.pt
+(weights) are written.
 """
 
 from __future__ import annotations
@@ -76,6 +78,11 @@ class Source:
     name: str
     images: list[Image]
     boxes: list[Boxes]
+    # Per image, regions that are neither ring nor background (YOLO folders have none).
+    ignore: list[Boxes] | None = None
+
+    def ignore_of(self, i: int) -> Boxes:
+        return np.zeros((0, 4)) if self.ignore is None else self.ignore[i]
 
 
 def load_folder(path: Path, max_side: int, keep: set[str] | None = None, tag: str = "") -> Source:
@@ -96,7 +103,7 @@ def load_folder(path: Path, max_side: int, keep: set[str] | None = None, tag: st
 
 def synthetic_source(n: int, seed: int, size: tuple[int, int] = (320, 240)) -> Source:
     """n random scenes, each from its own seed (seed, seed + 1, ...), with a randomised mount."""
-    images, boxes = [], []
+    images, boxes, ignore = [], [], []
     for k in range(n):
         rng = np.random.default_rng(seed + k)
         mount = CameraMount(
@@ -107,7 +114,8 @@ def synthetic_source(n: int, seed: int, size: tuple[int, int] = (320, 240)) -> S
         r = random_frame(rng, Intrinsics().scaled(*size), mount, max_rings=10, decoys=True)
         images.append(r.frame.color)
         boxes.append(r.boxes)
-    return Source(f"synthetic[{seed}..{seed + n - 1}]", images, boxes)
+        ignore.append(r.ignore_boxes)
+    return Source(f"synthetic[{seed}..{seed + n - 1}]", images, boxes, ignore)
 
 
 def make_targets(
@@ -131,6 +139,18 @@ def make_targets(
             reg[n, :, iy, ix] = (cx - ix, cy - iy, math.log(max(bw, 0.1)), math.log(max(bh, 0.1)))
             mask[n, 0, iy, ix] = 1.0
     return torch.from_numpy(heat), torch.from_numpy(reg), torch.from_numpy(mask)
+
+
+def ignore_mask(ignore: list[Boxes], width: int, height: int) -> torch.Tensor:
+    """(B, 1, Hc, Wc): 1 in every cell an ignore box touches, where no loss calls it background."""
+    wc, hc = width // STRIDE, height // STRIDE
+    out = np.zeros((len(ignore), 1, hc, wc), np.float32)
+    for n, bs in enumerate(ignore):
+        for x0, y0, x1, y1 in bs:
+            c0, r0 = int(x0 // STRIDE), int(y0 // STRIDE)
+            c1, r1 = math.ceil(x1 / STRIDE), math.ceil(y1 / STRIDE)
+            out[n, 0, max(r0, 0) : min(r1, hc), max(c0, 0) : min(c1, wc)] = 1.0
+    return torch.from_numpy(out)
 
 
 def giou_loss(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
@@ -163,12 +183,16 @@ def loss_fn(
     reg: torch.Tensor,
     mask: torch.Tensor,
     giou_weight: float = 0.0,
+    ignore: torch.Tensor | None = None,
 ) -> tuple[torch.Tensor, dict[str, float]]:
     p = torch.sigmoid(raw[:, 0:1]).clamp(1e-4, 1 - 1e-4)
     pos = heat.eq(1.0).float()
     n_pos = pos.sum().clamp(min=1.0)
     pos_loss = -(torch.log(p) * (1 - p) ** 2 * pos).sum()
-    neg_loss = -(torch.log(1 - p) * p**2 * (1 - heat) ** 4 * (1 - pos)).sum()
+    neg = (1 - heat) ** 4 * (1 - pos)
+    if ignore is not None:
+        neg = neg * (1 - ignore)
+    neg_loss = -(torch.log(1 - p) * p**2 * neg).sum()
     focal = (pos_loss + neg_loss) / n_pos
     offset = functional.l1_loss(
         torch.sigmoid(raw[:, 1:3]) * mask, reg[:, 0:2] * mask, reduction="sum"
@@ -195,18 +219,19 @@ def loss_fn(
 
 def _batch(
     rng: np.random.Generator, sources: list[Source], cfg: TrainConfig, aug: AugmentConfig
-) -> tuple[torch.Tensor, list[Boxes]]:
-    imgs, boxes = [], []
+) -> tuple[torch.Tensor, list[Boxes], list[Boxes]]:
+    imgs, boxes, ignore = [], [], []
     for _ in range(cfg.batch):
         src = sources[int(rng.integers(len(sources)))]
         i = int(rng.integers(len(src.images)))
         image = src.images[i]
         base = cfg.input_long_side / max(image.shape[:2])
-        img, b = augment(rng, image, src.boxes[i], cfg.patch, aug, base)
+        img, b, ig = augment(rng, image, src.boxes[i], cfg.patch, aug, base, src.ignore_of(i))
         imgs.append(cv2.cvtColor(img, cv2.COLOR_BGR2RGB))
         boxes.append(b)
+        ignore.append(ig)
     x = torch.from_numpy(np.stack(imgs).transpose(0, 3, 1, 2).astype(np.float32) / 255.0)
-    return x, boxes
+    return x, boxes, ignore
 
 
 def evaluate(detector: CnnDetector, source: Source, thresholds: list[float]) -> dict[float, Counts]:
@@ -292,9 +317,10 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
     t0 = time.monotonic()
     running: dict[str, float] = {}
     for step in range(cfg.steps):
-        x, boxes = _batch(rng, sources, cfg, aug)
+        x, boxes, ignore = _batch(rng, sources, cfg, aug)
         heat, reg, mask = make_targets(boxes, cfg.patch[0], cfg.patch[1])
-        loss, parts = loss_fn(net(x), heat, reg, mask, cfg.giou_weight)
+        skip = ignore_mask(ignore, cfg.patch[0], cfg.patch[1])
+        loss, parts = loss_fn(net(x), heat, reg, mask, cfg.giou_weight, skip)
         opt.zero_grad()
         loss.backward()
         opt.step()
