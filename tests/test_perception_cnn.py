@@ -17,6 +17,7 @@ from jetson.perception.cnn.runtime import (
     metadata_path,
     to_input,
 )
+from jetson.perception.detection import Detection
 from jetson.perception.errors import DatasetError, ModelError
 
 torch = pytest.importorskip("torch")
@@ -24,7 +25,9 @@ ort = pytest.importorskip("onnxruntime")
 
 from jetson.perception.cnn.model import STRIDE, ExportWrapper, RingNet, export_onnx  # noqa: E402
 from jetson.perception.cnn.train import (  # noqa: E402
+    Source,
     TrainConfig,
+    evaluate,
     giou_loss,
     ignore_mask,
     loss_fn,
@@ -263,6 +266,26 @@ def test_giou_term_scores_a_box_of_the_wrong_shape() -> None:
     with_giou, parts_g = loss_fn(raw, heat, reg, mask, giou_weight=1.0)
     assert "giou" not in parts and parts_g["giou"] > 0.2
     assert float(with_giou) == pytest.approx(float(plain) + parts_g["giou"], rel=1e-5)
+
+
+def test_validation_counts_a_detected_ignore_region_as_neither_hit_nor_false_alarm() -> None:
+    class Fixed:
+        threshold = 0.0
+
+        def detect(self, _: object) -> list[Detection]:
+            return [
+                Detection(10, 10, 30, 30, 0.9),  # the ring
+                Detection(50, 10, 70, 30, 0.8),  # the ignore region
+                Detection(50, 50, 70, 70, 0.7),  # nothing
+            ]
+
+    image = np.zeros((96, 96, 3), np.uint8)
+    truth, ignore = np.array([[10.0, 10, 30, 30]]), np.array([[50.0, 10, 70, 30]])
+    counts = evaluate(Fixed(), Source("s", [image], [truth], [ignore]), [0.5, 0.75])  # type: ignore[arg-type]
+    assert (counts[0.5].tp, counts[0.5].fp, counts[0.5].fn) == (1, 1, 0)
+    assert (counts[0.75].tp, counts[0.75].fp, counts[0.75].fn) == (1, 0, 0)
+    plain = evaluate(Fixed(), Source("s", [image], [truth]), [0.5])  # type: ignore[arg-type]
+    assert (plain[0.5].tp, plain[0.5].fp) == (1, 2)
 
 
 def test_training_runs_end_to_end_and_writes_a_usable_model(tmp_path: Path) -> None:

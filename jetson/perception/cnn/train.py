@@ -235,14 +235,19 @@ def _batch(
 
 
 def evaluate(detector: CnnDetector, source: Source, thresholds: list[float]) -> dict[float, Counts]:
-    """Counts at each threshold (detections are computed once, at the lowest)."""
+    """Counts at each threshold (detections are computed once, at the lowest). A detection of
+    an ignore region is neither a hit nor a false alarm, as in training."""
     detector.threshold = min(thresholds)
     out = {t: Counts() for t in thresholds}
-    for img, truth in zip(source.images, source.boxes, strict=True):
+    for i, (img, truth) in enumerate(zip(source.images, source.boxes, strict=True)):
         dets = detector.detect(img)
         for t in thresholds:
             kept = [d for d in dets if d.score >= t]
-            out[t].add(len(kept), len(truth), len(match(kept, truth)))
+            hits = match(kept, truth)
+            found = {k for k, _ in hits}
+            rest = [d for k, d in enumerate(kept) if k not in found]
+            ignored = len(match(rest, source.ignore_of(i)))
+            out[t].add(len(kept) - ignored, len(truth), len(hits))
     return out
 
 
