@@ -309,10 +309,14 @@ def render_sample(world: World, cfg: DatasetConfig, k: int) -> SimSample:
         else:
             placed.append((r.index, _PARKED[0] + 2 * r.index, _PARKED[1], 0.0))
 
-    # A ring under a robot would have been pushed aside or taken in.
+    # A ring under a robot would have been pushed aside or taken in; one inside a goal's base
+    # cannot be at all (rendered, it is a ring cut in half by the base).
     if len(rings):
         clear = np.ones(len(rings), dtype=bool)
-        for tx, ty, tr in taken:
+        solid = taken + [
+            (gx, gy, g.spec.base_radius) for g, (gx, gy) in zip(world.goals, goal_xy, strict=True)
+        ]
+        for tx, ty, tr in solid:
             clear &= np.hypot(rings[:, 0] - tx, rings[:, 1] - ty) > tr + f.ring.radius
         rings = rings[clear]
     world.set_floor_rings(rings)

@@ -101,6 +101,26 @@ def test_truth_positions_agree_with_the_depth_image(folder: Path, samples: list)
     assert checked >= 2
 
 
+def test_no_ring_lies_inside_a_goal_base_or_under_a_robot() -> None:
+    from sim.dataset import _world_config, render_sample
+    from sim.world import World
+
+    world = World(_world_config())
+    try:
+        for k in range(12):
+            render_sample(world, CFG, k)
+            f = world.field
+            for g in world.goals:
+                d = np.hypot(world.ring_xy[:, 0] - g.x, world.ring_xy[:, 1] - g.y)
+                assert (d > g.spec.base_radius + f.ring.radius).all()
+            for r in world.robots:
+                if abs(r.x) < f.half:  # not parked out of the scene
+                    d = np.hypot(world.ring_xy[:, 0] - r.x, world.ring_xy[:, 1] - r.y)
+                    assert (d > r.config.radius_m + f.ring.radius).all()
+    finally:
+        world.close()
+
+
 def test_ring_colours_and_light_stay_inside_the_hsv_window() -> None:
     cfg = DatasetConfig(frames=3, seed=5, width=160, height=120, augment=False)
     ring_px = []
