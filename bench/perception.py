@@ -9,9 +9,10 @@
    or hidden behind another ring, a ring shows less), with F1 when rings under a quarter visible
    count as VOC's 'difficult' objects (a diagnostic beside the target). By default the
    simulator's test set: N frames (default 500) that `pete-sim dataset --seed 0` renders into
-   runs/bench-perception/sim-seed0-N/ the first time (a few minutes; later runs reuse it); the
-   shipped detector trained on seed 100's frames, and each frame draws from its own (seed, frame)
-   stream, so none is in both. --sim-data scores another such folder. --synthetic (or no
+   runs/bench-perception/sim-seed0-N/ the first time (a few minutes; later runs reuse it unless
+   the simulator's scenes changed since: sim.dataset.SCENES_VERSION); the shipped detector
+   trained on seed 100's frames, and each frame draws from its own (seed, frame) stream, so none
+   is in both. --sim-data scores another such folder. --synthetic (or no
    PyBullet) uses N frames of jetson.perception's own numpy renderer instead ("synthetic_"
    metrics), from seeds 2,000,000 up, which no training run uses.
 2. Real labelled images (a YOLO folder; the shared BLRSAI set when it is present): precision,
@@ -199,21 +200,23 @@ def pipeline_fps(dets: dict[str, Detector], camera: CameraConfig, result: Result
 def simulator_test_set(frames: int, seed: int = 0) -> Path | None:
     """The simulator's test set, rendered once into runs/; None without the simulator."""
     try:
-        from sim.dataset import DatasetConfig, write_dataset
+        from sim.dataset import SCENES_VERSION, DatasetConfig, write_dataset
     except ImportError as exc:
         print(f"bench.perception: no simulator ({exc}); using the numpy renderer")
         return None
     out = ROOT / "runs" / "bench-perception" / f"sim-seed{seed}-{frames}"
     done = out / "done"
-    if not done.is_file():
+    stamp = f"complete, scenes version {SCENES_VERSION}\n"
+    if not done.is_file() or done.read_text() != stamp:
+        # Not there, cut short, or rendered by code whose scenes differ: render it again.
         print(f"rendering the simulator test set into {out} ({frames} frames, seed {seed})")
         if out.exists():
             import shutil
 
-            shutil.rmtree(out)  # an interrupted render: start it again
+            shutil.rmtree(out)
         out.mkdir(parents=True)
         write_dataset(DatasetConfig(frames=frames, seed=seed), out, progress=True)
-        done.write_text("complete\n")
+        done.write_text(stamp)
     return out
 
 

@@ -49,6 +49,10 @@ _AMBIENT = (0.5, 0.7)  # ambient + diffuse = 1: a lit face never saturates and s
 _V_DRAW = (76.0 / _AMBIENT[0] + 8.0, 250.0)
 _PARKED = (50.0, 50.0)  # robots left out of a scene wait here, far beyond the far plane
 _REFERENCE_AREA = 640 * 480
+# Bumped whenever a (seed, frame) pair renders a different scene than before, so that a test set
+# rendered by older code is recognised (dataset.json's "scenes_version") and rendered again.
+# 2: no ring inside a goal's base.
+SCENES_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -394,6 +398,7 @@ def dataset_meta(cfg: DatasetConfig) -> dict[str, Any]:
         # Every robot's camera has the same optics; only the mount differs.
         "intrinsics": intrinsics_of(first),
         "min_ring_pixels": cfg.min_pixels_here,
+        "scenes_version": SCENES_VERSION,
         "hsv_window": HSV_WINDOW,
     }
     mounts = {name: mount_of(c) for name, c in cams.items()}
