@@ -2,7 +2,10 @@
 
     python -m bench.train [--config capped] [--policy models/policy/policy.onnx]
                           [--original PATH] [--matches 100] [--matches-h2h 40]
-                          [--matches-high 10] [--skip-competence] [--skip-high] [--jobs 2]
+                          [--matches-high 10] [--matches-h2h-high N] [--skip-competence]
+                          [--fidelity both|training|high] [--players ours,planner,...]
+                          [--rows capped,strength,h2h]
+                          [--name train] [--jobs 2]
 
 Three measurements, each with the random policy beside it (so a metric met by chance shows):
 
@@ -28,7 +31,15 @@ head-to-head  1v1 win rate by match score, same seeds, sides swapped: ours again
             an equal player wins: draws count as no win).
 
 The shipped policy is measured in training fidelity and in high fidelity (fewer matches there:
-a high-fidelity match costs ~15 s). Results: bench/results/train.json.
+a high-fidelity match costs ~15 s). Results: bench/results/train.json. A closer look at a few
+rows goes under another name, e.g. the strength and head-to-head rows in high fidelity with 100
+and 40 matches:
+
+    python -m bench.train --skip-competence --fidelity high --players ours,planner \
+        --rows strength,h2h --matches-high 100 --matches-h2h-high 40 --name train_high
+
+(--players also picks the head-to-head opponents: there, ours and the planner each against the
+planner.)
 """
 
 from __future__ import annotations
@@ -144,6 +155,16 @@ def _row(summary: Any) -> dict[str, Any]:
     return summary.as_dict()
 
 
+def _paired_difference(a: Any, b: Any) -> Any:
+    """Mean and 95 % interval of A's rings minus B's, match by match: both played the same
+    seeds against the same opponent, so each seed's luck cancels."""
+    from sim.evaluate import mean_ci
+
+    return mean_ci(
+        [float(x.rings[0] - y.rings[0]) for x, y in zip(a.matches, b.matches, strict=True)]
+    )
+
+
 def _eval_chunk(job: tuple[str, str, int, int, str, str, bool]) -> list[Any]:
     from sim.evaluate import evaluate, load_player
 
@@ -195,6 +216,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--matches", type=int, default=100, help="strength matches per player")
     parser.add_argument("--matches-h2h", type=int, default=40, help="head-to-head matches")
     parser.add_argument("--matches-high", type=int, default=10, help="per row, high fidelity")
+    parser.add_argument(
+        "--matches-h2h-high", type=int, default=None, help="head-to-head, high fidelity"
+    )
+    parser.add_argument("--fidelity", choices=("both", "training", "high"), default="both")
+    parser.add_argument(
+        "--players",
+        default="ours,random,original,planner,collector",
+        help="the players to evaluate and to meet head-to-head, comma-separated (a target needs "
+        "ours and the player it compares with)",
+    )
+    parser.add_argument(
+        "--rows", default="capped,strength,h2h", help="the measurements, comma-separated"
+    )
     # 8192 = 8 rollouts of capped.toml: checks at 8k, 16k, ... 49k, inside the 50k target.
     parser.add_argument("--eval-every", type=int, default=8192)
     parser.add_argument(
@@ -205,7 +239,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--run-dir", type=Path, default=REPO / "runs" / "bench-competence")
     parser.add_argument("--skip-competence", action="store_true")
-    parser.add_argument("--skip-high", action="store_true")
+    parser.add_argument("--skip-high", action="store_true", help="the same as --fidelity training")
     parser.add_argument("--skip-no-teacher", action="store_true")
     parser.add_argument("--name", default="train")
     parser.add_argument("--jobs", type=int, default=2, help="evaluation processes")
@@ -254,27 +288,39 @@ def main(argv: list[str] | None = None) -> int:
         print(f"no shipped policy at {args.policy}: stopping after competence", file=sys.stderr)
         result.report()
         return 1
+    wanted = {w.strip() for w in args.players.split(",") if w.strip()}
+    unknown = wanted - {"ours", "random", "original", "planner", "collector"}
+    if unknown:
+        parser.error(f"unknown players {sorted(unknown)}")
     players = {"ours": str(args.policy), "planner": "planner", "random": "random"}
     if args.original.is_file():
         players["original"] = f"original:{args.original}"
-    else:
+    elif "original" in wanted:
         print(f"original policy not found at {args.original}: its rows are skipped")
-
     words = {**players, "collector": "planner-collector"}
+    opponents = [o for o in ("planner", "original") if o in players and o in wanted]
+    players = {k: v for k, v in players.items() if k in wanted}
+    rows = {w.strip() for w in args.rows.split(",") if w.strip()}
+    if rows - {"capped", "strength", "h2h"}:
+        parser.error(f"unknown rows {sorted(rows - {'capped', 'strength', 'h2h'})}")
 
     def run(a: str, b: str, n: int, scenario: str, fidelity: str, stop: bool = False) -> Any:
         return parallel_eval(
             words[a], words.get(b, b), n, EVAL_SEED, scenario, fidelity, stop, args.jobs,
         )  # fmt: skip
 
-    fidelities = [("training", args.matches, args.matches_h2h, COMPETENCE_MATCHES)]
-    if not args.skip_high:
-        fidelities.append(("high", args.matches_high, args.matches_high, args.matches_high))
+    fidelity_choice = "training" if args.skip_high else args.fidelity
+    h2h_high = args.matches_h2h_high or args.matches_high
+    fidelities = []
+    if fidelity_choice in ("both", "training"):
+        fidelities.append(("training", args.matches, args.matches_h2h, COMPETENCE_MATCHES))
+    if fidelity_choice in ("both", "high"):
+        fidelities.append(("high", args.matches_high, h2h_high, args.matches_high))
     for fidelity, n_strength, n_h2h, n_capped in fidelities:
         tag = "" if fidelity == "training" else "_high"
         print(f"\n== {fidelity} fidelity ==", flush=True)
         # Competence of the shipped policy: capped matches against the planner.
-        for name in ("ours", "random"):
+        for name in [n for n in ("ours", "random") if n in players and "capped" in rows]:
             s = run(name, "planner", n_capped, "capped", fidelity, stop=True)
             a, b = s.side(0), s.side(1)
             details[f"capped_{name}_vs_planner{tag}"] = _row(s)
@@ -286,35 +332,30 @@ def main(argv: list[str] | None = None) -> int:
         # Strength: rings per uncapped match against the scripted chaser. The planner parks
         # in the last seconds, which this game does not pay; the collector is the planner that
         # does not, and ours must beat both.
-        for name in [*players, "collector"]:
-            s = run(name, "scripted", n_strength, "uncapped", fidelity)
+        strength = {}
+        for name in [*players, *(["collector"] if "collector" in wanted else [])] * (
+            "strength" in rows
+        ):
+            s = strength[name] = run(name, "scripted", n_strength, "uncapped", fidelity)
             details[f"uncapped_{name}_vs_scripted{tag}"] = _row(s)
             stat = s.side(0)["rings"]
             result.add(f"uncapped_rings_{name}{tag}", _num(stat.mean))
             result.add(f"uncapped_rings_ci95_{name}{tag}", _num(stat.half_width))
             print(f"uncapped, {name} vs scripted:\n{s.table()}\n", flush=True)
         m = result.metrics
-        result.add(
-            f"uncapped_rings_ours_minus_planner{tag}",
-            round(m[f"uncapped_rings_ours{tag}"] - m[f"uncapped_rings_planner{tag}"], 2),
-        )
-        result.target(f"uncapped_rings_ours_minus_planner{tag}", 0.0, ">=")
-        result.add(
-            f"uncapped_rings_ours_minus_collector{tag}",
-            round(m[f"uncapped_rings_ours{tag}"] - m[f"uncapped_rings_collector{tag}"], 2),
-        )
-        result.target(f"uncapped_rings_ours_minus_collector{tag}", 0.0, ">=")
-        if "original" in players:
-            result.add(
-                f"uncapped_rings_ours_minus_original{tag}",
-                round(m[f"uncapped_rings_ours{tag}"] - m[f"uncapped_rings_original{tag}"], 2),
-            )
-            result.target(f"uncapped_rings_ours_minus_original{tag}", 0.01, ">=")
+        for other, least in (("planner", 0.0), ("collector", 0.0), ("original", 0.01)):
+            ours, theirs = f"uncapped_rings_ours{tag}", f"uncapped_rings_{other}{tag}"
+            if ours in m and theirs in m:
+                key = f"uncapped_rings_ours_minus_{other}{tag}"
+                result.add(key, round(m[ours] - m[theirs], 2))
+                result.target(key, least, ">=")
+                # Both played the same seeds: the paired difference has a tighter interval.
+                if other != "original":
+                    diff = _paired_difference(strength["ours"], strength[other])
+                    result.add(f"{key}_paired_ci95", _num(diff.half_width))
         # Head-to-head by match score.
-        for name in ("ours", "random", "planner"):
-            for opp in ("planner", "original"):
-                if opp not in players:
-                    continue
+        for name in [n for n in ("ours", "random", "planner") if n in players and "h2h" in rows]:
+            for opp in opponents:
                 s = run(name, opp, n_h2h, "capped", fidelity)
                 details[f"h2h_{name}_vs_{opp}{tag}"] = _row(s)
                 result.add(f"h2h_win_rate_{name}_vs_{opp}{tag}", round(s.win_rate, 3))
