@@ -288,10 +288,17 @@ def main(argv: list[str] | None = None) -> int:
         print(f"no shipped policy at {args.policy}: stopping after competence", file=sys.stderr)
         result.report()
         return 1
-    wanted = {w.strip() for w in args.players.split(",") if w.strip()}
-    unknown = wanted - {"ours", "random", "original", "planner", "collector"}
-    if unknown:
-        parser.error(f"unknown players {sorted(unknown)}")
+
+    def words_of(text: str, known: set[str], what: str) -> set[str]:
+        chosen = {w.strip() for w in text.split(",") if w.strip()}
+        if chosen - known:
+            parser.error(f"unknown {what} {sorted(chosen - known)} (known: {sorted(known)})")
+        return chosen
+
+    wanted = words_of(
+        args.players, {"ours", "random", "original", "planner", "collector"}, "players"
+    )
+    rows = words_of(args.rows, {"capped", "strength", "h2h"}, "rows")
     players = {"ours": str(args.policy), "planner": "planner", "random": "random"}
     if args.original.is_file():
         players["original"] = f"original:{args.original}"
@@ -300,9 +307,6 @@ def main(argv: list[str] | None = None) -> int:
     words = {**players, "collector": "planner-collector"}
     opponents = [o for o in ("planner", "original") if o in players and o in wanted]
     players = {k: v for k, v in players.items() if k in wanted}
-    rows = {w.strip() for w in args.rows.split(",") if w.strip()}
-    if rows - {"capped", "strength", "h2h"}:
-        parser.error(f"unknown rows {sorted(rows - {'capped', 'strength', 'h2h'})}")
 
     def run(a: str, b: str, n: int, scenario: str, fidelity: str, stop: bool = False) -> Any:
         return parallel_eval(
@@ -333,9 +337,8 @@ def main(argv: list[str] | None = None) -> int:
         # in the last seconds, which this game does not pay; the collector is the planner that
         # does not, and ours must beat both.
         strength = {}
-        for name in [*players, *(["collector"] if "collector" in wanted else [])] * (
-            "strength" in rows
-        ):
+        collectors = [*players, *(["collector"] if "collector" in wanted else [])]
+        for name in collectors if "strength" in rows else []:
             s = strength[name] = run(name, "scripted", n_strength, "uncapped", fidelity)
             details[f"uncapped_{name}_vs_scripted{tag}"] = _row(s)
             stat = s.side(0)["rings"]
