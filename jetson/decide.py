@@ -11,6 +11,11 @@ Pure and deterministic (no I/O, no clock: the caller passes the perception's age
   the best one from the same observation, as it did in training.
   A perception result older than `perception_max_age_s`, or none, gives no rings: empty slots,
   as the policy saw rings it could not see.
+- A camera result is 50-150 ms old when it is used (exposure, detection, the frame's wait for the
+  next one). With `frame_pose` its rings are placed from the pose of that moment (PoseHistory:
+  the States' GPS poses, interpolated), then seen from the newest pose: turning at 4 rad/s, the
+  newest pose puts them 25 degrees off, and the ring memory then forgets the rings it should
+  have confirmed.
 - Frame stacking follows the training's control rate (`decision_hz`, normally the policy's): the
   stack takes a frame every control period (on the Brain's clock), and in between the newest slot
   holds the current frame, so each State is answered from fresh data while the history keeps the
@@ -25,6 +30,8 @@ Pure and deterministic (no I/O, no clock: the caller passes the perception's age
 
 from __future__ import annotations
 
+import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,6 +40,7 @@ from numpy.typing import NDArray
 from jetson.policy import Policy
 from jetson.settings import ConfigError, DecisionConfig
 from protocol.messages import Alliance, GpsStatus, MatchPhase, State
+from sim.geometry import field_to_robot, robot_to_field
 from sim.observation import FrameStack, GoalMemory, RingMemory, RobotView, build_frame
 from sim.skills import SkillDriver
 
@@ -65,6 +73,39 @@ class Decision:
         return self.reason == "policy"
 
 
+class PoseHistory:
+    """The GPS poses of the last States, to answer "where was the robot at time t"."""
+
+    def __init__(self, span_ms: float = 1000.0) -> None:
+        self.span_ms = span_ms
+        self._poses: deque[tuple[float, float, float, float]] = deque()
+
+    def clear(self) -> None:
+        self._poses.clear()
+
+    def push(self, time_ms: float, x: float, y: float, heading_deg: float) -> None:
+        if self._poses and time_ms < self._poses[-1][0]:
+            self._poses.clear()  # the Brain's clock went back: a reboot
+        self._poses.append((time_ms, x, y, heading_deg))
+        while self._poses[-1][0] - self._poses[0][0] > self.span_ms:
+            self._poses.popleft()
+
+    def at(self, time_ms: float) -> tuple[float, float, float] | None:
+        """The pose at time_ms, interpolated between the States around it (heading the short
+        way round); None when the history does not reach back that far or is empty."""
+        poses = self._poses
+        if not poses or time_ms < poses[0][0]:
+            return None
+        if time_ms >= poses[-1][0]:
+            return poses[-1][1:]
+        for (t0, x0, y0, h0), (t1, x1, y1, h1) in zip(poses, list(poses)[1:], strict=False):
+            if t0 <= time_ms <= t1:
+                f = 0.0 if t1 == t0 else (time_ms - t0) / (t1 - t0)
+                dh = (h1 - h0 + 180.0) % 360.0 - 180.0
+                return x0 + f * (x1 - x0), y0 + f * (y1 - y0), math.fmod(h0 + f * dh + 360.0, 360.0)
+        return poses[-1][1:]
+
+
 def stop(reason: str, error: str | None = None) -> Decision:
     return Decision(0.0, 0.0, False, reason, error=error)
 
@@ -92,6 +133,7 @@ class Decider:
         self._memory = RingMemory(self.spec)
         self._goals = GoalMemory(self.spec)
         self._driver = None if self._skills is None else SkillDriver(self._skills, self.spec)
+        self._poses = PoseHistory()
         self._next_push_ms = 0.0
         self._phase: MatchPhase | None = None
         self._phase_ms = 0
@@ -110,6 +152,7 @@ class Decider:
             return stop(f"phase {phase.name.lower()}")
         if entering:
             self._stack = None
+            self._poses.clear()
             self._memory.reset()
             self._goals.reset()
             if self._driver is not None:
@@ -118,11 +161,15 @@ class Decider:
             return stop("alliance unknown: set it in the Brain's config")
         if state.gps_status != GpsStatus.OK:
             return stop(f"gps {state.gps_status.name.lower()}")
+        self._poses.push(float(state.time_ms), state.x, state.y, state.heading)
         rings, seen = self._rings(perception)
         if seen == "fresh" and perception is not None and perception.error is not None:
             return Decision(0.0, 0.0, False, "perception error", seen, 0, perception.error)
+        seen_from = None
+        if seen == "fresh" and perception is not None and self.config.frame_pose:
+            seen_from = self._poses.at(state.time_ms - 1000.0 * max(perception.age_s, 0.0))
         try:
-            obs = self._observation(state, rings, fresh=seen == "fresh")
+            obs = self._observation(state, rings, fresh=seen == "fresh", seen_from=seen_from)
             action = np.asarray(self.policy(obs), dtype=np.float64).reshape(-1)
         except Exception as exc:
             return Decision(
@@ -159,8 +206,16 @@ class Decider:
         return self.config.rings_held if state.rings_held == RINGS_UNKNOWN else state.rings_held
 
     def _observation(
-        self, state: State, rings: NDArray[np.float64], fresh: bool = True
+        self,
+        state: State,
+        rings: NDArray[np.float64],
+        fresh: bool = True,
+        seen_from: tuple[float, float, float] | None = None,
     ) -> NDArray[np.float32]:
+        if seen_from is not None and len(rings) and not self.spec.ring_memory:
+            # No memory to place them: only move them into the newest pose's robot frame.
+            on_field = robot_to_field(rings, np.asarray(seen_from[:2]), seen_from[2])
+            rings = field_to_robot(on_field, np.array([state.x, state.y]), state.heading)
         t = state.phase_ms / 1000.0
         if state.phase == MatchPhase.DRIVER:
             t += self.config.driver_time_offset_s
@@ -178,7 +233,7 @@ class Decider:
             intake_fills=self.config.intake_fills,
         )
         # Only a fresh camera frame may tell the memory that a ring is gone.
-        view = self._memory.observe(view) if fresh else self._memory.recall(view)
+        view = self._memory.observe(view, seen_from) if fresh else self._memory.recall(view)
         view = self._goals.observe(view)
         frame = build_frame(self.spec, view)
         now_ms = float(state.time_ms)

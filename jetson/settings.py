@@ -61,6 +61,9 @@ class DecisionConfig:
     driver_time_offset_s: float = 0.0  # match time at the start of driver control
     rings_held: int = 0  # what the observation says when the Brain has no ring counter
     intake_fills: bool = True  # the intake has a capacity (a policy with spec intake_flag reads it)
+    # Place a camera result's rings from the pose the robot had when the frame was taken (the
+    # States' poses over the last second), not from the newest one.
+    frame_pose: bool = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "drive_phases", tuple(self.drive_phases))
@@ -83,6 +86,8 @@ class DecisionConfig:
             raise ConfigError("decision rings_held must be a whole number >= 0")
         if not isinstance(self.intake_fills, bool):
             raise ConfigError("decision intake_fills must be true or false")
+        if not isinstance(self.frame_pose, bool):
+            raise ConfigError("decision frame_pose must be true or false")
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)

@@ -506,23 +506,42 @@ class RingMemory:
         self.known = np.asarray(self.spec.prior_rings, dtype=np.float64).reshape(-1, 2)
         self.target = None
 
-    def observe(self, view: RobotView) -> RobotView:
+    def observe(
+        self, view: RobotView, seen_from: tuple[float, float, float] | None = None
+    ) -> RobotView:
         """Update the memory with the view's rings and return the view with the remembered
-        rings (known, not in view) added. Nothing changes for a spec without ring_memory."""
+        rings (known, not in view) added. Nothing changes for a spec without ring_memory.
+
+        `seen_from` is the pose (GPS field frame x, y, heading) the view's rings were seen
+        from, when the camera's frame is older than the view's pose: the rings are then given
+        in that pose's robot frame, are placed on the field from it, and only rings inside the
+        camera's cone *then* can be found missing. Placed from the current pose instead, a
+        frame 100 ms old taken while the robot turns at 4 rad/s lands 25 degrees off, matches
+        nothing and wipes the memory of every ring it should have confirmed."""
         if not self.spec.ring_memory:
             return view
         s = self.spec
         pos, heading = to_alliance_frame((view.x, view.y), view.heading_deg, view.alliance)
         assert heading is not None
+        cam_pos, cam_heading = pos, heading
+        if seen_from is not None:
+            cam_pos, cam_heading = to_alliance_frame(seen_from[:2], seen_from[2], view.alliance)
+            assert cam_heading is not None
         seen_local = _as_points(view.rings_robot_xy, "rings_robot_xy")
-        seen = robot_to_field(seen_local, pos, heading) if len(seen_local) else np.zeros((0, 2))
+        seen = (
+            robot_to_field(seen_local, cam_pos, cam_heading)
+            if len(seen_local)
+            else np.zeros((0, 2))
+        )
         known = self.known
         if len(known):
+            cam = field_to_robot(known, cam_pos, cam_heading)
+            cam_dist = np.hypot(cam[:, 0], cam[:, 1])
+            bearing = np.degrees(np.abs(np.arctan2(cam[:, 0], cam[:, 1])))
+            in_view = (bearing <= s.memory_fov_deg / 2) & (cam_dist >= s.memory_near_m)
+            in_view &= cam_dist <= s.memory_far_m
             local = field_to_robot(known, pos, heading)
             dist = np.hypot(local[:, 0], local[:, 1])
-            bearing = np.degrees(np.abs(np.arctan2(local[:, 0], local[:, 1])))
-            in_view = (bearing <= s.memory_fov_deg / 2) & (dist >= s.memory_near_m)
-            in_view &= dist <= s.memory_far_m
             matched = np.zeros(len(known), dtype=bool)
             if len(seen):
                 d = np.linalg.norm(known[:, None, :] - seen[None, :, :], axis=2)
@@ -543,6 +562,8 @@ class RingMemory:
                 known = known[~stale]
             known = np.concatenate([known, seen])
         self.known = known
+        if seen_from is not None and len(seen):
+            view = replace(view, rings_robot_xy=field_to_robot(seen, pos, heading))
         view = self._with_route(view, pos, heading)
         return self._with_remembered(view, known[: len(known) - len(seen)], pos, heading)
 

@@ -13,7 +13,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from jetson.decide import Decider, PerceptionInput
+from jetson.decide import Decider, PerceptionInput, PoseHistory
 from jetson.handshake import Handshake, LinkState
 from jetson.log import EventLog, LatencyStats, percentile
 from jetson.policy import OnnxPolicy, PolicyError
@@ -577,3 +577,43 @@ def test_a_skill_controller_that_raises_is_a_stop_with_the_error() -> None:
     d._driver.command = broken  # type: ignore[union-attr]
     out = d.decide(state(0), rings(1))
     assert not out.drove and out.linear == 0.0 and "controller broke" in (out.error or "")
+
+
+def test_pose_history_interpolates_the_short_way_round_and_forgets_a_reboot() -> None:
+    h = PoseHistory(span_ms=100.0)
+    assert h.at(0.0) is None
+    h.push(0.0, 0.0, 0.0, 350.0)
+    h.push(20.0, 1.0, 2.0, 10.0)
+    x, y, heading = h.at(10.0)
+    assert (x, y) == pytest.approx((0.5, 1.0)) and heading == pytest.approx(0.0, abs=1e-9)
+    assert h.at(-5.0) is None and h.at(50.0) == (1.0, 2.0, 10.0)
+    for t in range(40, 201, 20):
+        h.push(float(t), 0.0, 0.0, 0.0)
+    assert h.at(80.0) is None  # older than the span
+    h.push(5.0, 3.0, 3.0, 0.0)  # the Brain's clock went back
+    assert h.at(5.0) == (3.0, 3.0, 0.0) and h.at(4.0) is None
+
+
+def test_a_frame_taken_before_a_turn_is_placed_from_the_pose_it_was_taken_at() -> None:
+    # Red robot at (0.5, -0.5): facing +x (heading 90) until t=20, turning at 300 deg/s after.
+    # Prior ring A 1 m ahead of the first pose; the frame taken at t=20 shows it straight ahead.
+    spec = ObservationSpec(ring_memory=True, prior_rings=((1.5, -0.5),), n_stack=0)
+
+    def run(frame_pose: bool) -> tuple[np.ndarray, np.ndarray]:
+        policy = ProbePolicy(spec)
+        policy.keep_observations = True
+        d = Decider(policy, DecisionConfig(frame_pose=frame_pose))
+        for t in range(0, 121, 20):
+            heading = 90.0 + max(0, t - 20) * 0.3
+            frame = PerceptionInput(1, (t - 20) / 1000, np.array([[0.0, 1.0]]))
+            d.decide(state(t, heading=heading), frame if t >= 20 else None)
+        obs = policy.observations[-1]
+        return d._memory.known, obs[spec.ring_offset : spec.frame_size].reshape(-1, 3)
+
+    known, slots = run(frame_pose=True)
+    np.testing.assert_allclose(known, [(1.5, -0.5)], atol=1e-9)  # confirmed where it is
+    # Seen, and where it is now: 30 degrees left of the nose after turning 30 degrees right.
+    h = np.radians(30.0)
+    np.testing.assert_allclose(slots[0], [-np.sin(h) / UNIT, np.cos(h) / UNIT, 1.0], atol=1e-6)
+    known, _ = run(frame_pose=False)
+    assert np.linalg.norm(known - (1.5, -0.5), axis=1).min() > 0.4, "placed 30 degrees off"

@@ -192,3 +192,32 @@ def test_the_simulator_fills_the_intake_zone_from_the_robot() -> None:
     assert not core.spec.needs_prior
     assert replace(core.spec, memory_intake_zone=()).needs_prior
     core.close()
+
+
+def test_rings_seen_from_an_older_pose_are_placed_from_it() -> None:
+    # The frame was taken facing +y (heading 0); the robot has turned 30 degrees right since.
+    # The frame shows prior ring A (0, 1) straight ahead. Prior ring C (1.5, 0.2) is now 56
+    # degrees off the nose, out of the cone either way; D (0.9, 1.2) is 37 degrees right of
+    # the old nose (out of the frame's 50-degree cone) but 7 degrees right of the new one.
+    spec = replace(SPEC, prior_rings=((0.0, 1.0), (1.5, 0.2), (0.9, 1.2)))
+    turned = view([(0.0, 1.0)], heading_deg=30.0)
+
+    mem = RingMemory(spec)
+    out = mem.observe(turned, seen_from=(0.0, 0.0, 0.0))
+    assert len(mem.known) == 3, "A confirmed in place, D not looked at by that frame"
+    h = np.radians(30.0)
+    np.testing.assert_allclose(out.rings_robot_xy, [[-np.sin(h), np.cos(h)]], atol=1e-9)
+
+    naive = RingMemory(spec)
+    naive.observe(turned)  # the same frame placed from the newest pose: A's ghost, D lost
+    assert np.any(np.linalg.norm(naive.known - (np.sin(h), np.cos(h)), axis=1) < 1e-9)
+    assert not np.any(np.linalg.norm(naive.known - (0.9, 1.2), axis=1) < 0.1)
+
+
+def test_a_frame_from_the_current_pose_changes_nothing() -> None:
+    a, b = RingMemory(SPEC), RingMemory(SPEC)
+    v = view([(0.05, 1.02), (-0.8, 1.6)], x=0.2, heading_deg=10.0)
+    out_a = a.observe(v)
+    out_b = b.observe(v, seen_from=(0.2, 0.0, 10.0))
+    np.testing.assert_allclose(a.known, b.known)
+    np.testing.assert_allclose(out_a.rings_robot_xy, out_b.rings_robot_xy, atol=1e-12)
