@@ -113,6 +113,14 @@ def _records(path: Path):
         raise ReplayError(f"{path}: cannot be read: {exc}") from exc
 
 
+def recorded_decision(header: dict[str, Any]) -> DecisionConfig:
+    """The decision settings a recording was made with. A recording from before a setting
+    existed gets the behaviour the daemon had then, not today's default."""
+    data = dict(header["decision"])
+    data.setdefault("frame_pose", False)  # rings were placed from the newest pose
+    return replace(DecisionConfig.from_dict(data), decision_hz=float(header["decision_hz"]))
+
+
 def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e-6) -> ReplayReport:
     path = Path(path)
     records = _records(path)
@@ -135,8 +143,7 @@ def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e
             f"{recorded_policy['sha256'][:12]}: differences are expected"
         )
     try:
-        config = DecisionConfig.from_dict(dict(header["decision"]))
-        config = replace(config, decision_hz=float(header["decision_hz"]))
+        config = recorded_decision(header)
     except (KeyError, TypeError, ValueError) as exc:
         raise ReplayError(f"{path}: bad decision settings in the header: {exc}") from exc
     if header.get("observation") and header["observation"] != policy.spec.to_dict():

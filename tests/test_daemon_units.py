@@ -17,6 +17,7 @@ from jetson.decide import Decider, PerceptionInput, PoseHistory
 from jetson.handshake import Handshake, LinkState
 from jetson.log import EventLog, LatencyStats, percentile
 from jetson.policy import OnnxPolicy, PolicyError
+from jetson.replay import recorded_decision
 from jetson.settings import ConfigError, DecisionConfig, Settings
 from jetson.testing import ProbePolicy, write_mlp_policy
 from protocol.messages import (
@@ -617,3 +618,12 @@ def test_a_frame_taken_before_a_turn_is_placed_from_the_pose_it_was_taken_at() -
     np.testing.assert_allclose(slots[0], [-np.sin(h) / UNIT, np.cos(h) / UNIT, 1.0], atol=1e-6)
     known, _ = run(frame_pose=False)
     assert np.linalg.norm(known - (1.5, -0.5), axis=1).min() > 0.4, "placed 30 degrees off"
+
+
+def test_a_recording_from_before_frame_pose_replays_with_the_newest_pose() -> None:
+    now = DecisionConfig(intake_fills=False).to_dict()
+    assert recorded_decision({"decision": now, "decision_hz": 12.0}).frame_pose is True
+    old = {k: v for k, v in now.items() if k != "frame_pose"}
+    config = recorded_decision({"decision": old, "decision_hz": 12.0})
+    assert config.frame_pose is False and config.intake_fills is False
+    assert config.decision_hz == 12.0
