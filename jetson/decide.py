@@ -33,6 +33,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 from numpy.typing import NDArray
@@ -98,7 +99,7 @@ class PoseHistory:
             return None
         if time_ms >= poses[-1][0]:
             return poses[-1][1:]
-        for (t0, x0, y0, h0), (t1, x1, y1, h1) in zip(poses, list(poses)[1:], strict=False):
+        for (t0, x0, y0, h0), (t1, x1, y1, h1) in pairwise(poses):
             if t0 <= time_ms <= t1:
                 f = 0.0 if t1 == t0 else (time_ms - t0) / (t1 - t0)
                 dh = (h1 - h0 + 180.0) % 360.0 - 180.0
