@@ -30,7 +30,6 @@ Pure and deterministic (no I/O, no clock: the caller passes the perception's age
 
 from __future__ import annotations
 
-import math
 from collections import deque
 from dataclasses import dataclass
 from itertools import pairwise
@@ -41,7 +40,7 @@ from numpy.typing import NDArray
 from jetson.policy import Policy
 from jetson.settings import ConfigError, DecisionConfig
 from protocol.messages import Alliance, GpsStatus, MatchPhase, State
-from sim.geometry import field_to_robot, robot_to_field
+from sim.geometry import angle_diff_deg, wrap_heading
 from sim.observation import FrameStack, GoalMemory, RingMemory, RobotView, build_frame
 from sim.skills import SkillDriver
 
@@ -102,8 +101,8 @@ class PoseHistory:
         for (t0, x0, y0, h0), (t1, x1, y1, h1) in pairwise(poses):
             if t0 <= time_ms <= t1:
                 f = 0.0 if t1 == t0 else (time_ms - t0) / (t1 - t0)
-                dh = (h1 - h0 + 180.0) % 360.0 - 180.0
-                return x0 + f * (x1 - x0), y0 + f * (y1 - y0), math.fmod(h0 + f * dh + 360.0, 360.0)
+                heading = float(wrap_heading(h0 + f * angle_diff_deg(h1, h0)))
+                return x0 + f * (x1 - x0), y0 + f * (y1 - y0), heading
         return poses[-1][1:]
 
 
@@ -213,10 +212,6 @@ class Decider:
         fresh: bool = True,
         seen_from: tuple[float, float, float] | None = None,
     ) -> NDArray[np.float32]:
-        if seen_from is not None and len(rings) and not self.spec.ring_memory:
-            # No memory to place them: only move them into the newest pose's robot frame.
-            on_field = robot_to_field(rings, np.asarray(seen_from[:2]), seen_from[2])
-            rings = field_to_robot(on_field, np.array([state.x, state.y]), state.heading)
         t = state.phase_ms / 1000.0
         if state.phase == MatchPhase.DRIVER:
             t += self.config.driver_time_offset_s

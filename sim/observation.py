@@ -517,9 +517,15 @@ class RingMemory:
         in that pose's robot frame, are placed on the field from it, and only rings inside the
         camera's cone *then* can be found missing. Placed from the current pose instead, a
         frame 100 ms old taken while the robot turns at 4 rad/s lands 25 degrees off, matches
-        nothing and wipes the memory of every ring it should have confirmed."""
+        nothing and wipes the memory of every ring it should have confirmed. Without
+        ring_memory the rings are only moved into the view's robot frame."""
         if not self.spec.ring_memory:
-            return view
+            if seen_from is None or not len(view.rings_robot_xy):
+                return view
+            then = robot_to_field(view.rings_robot_xy, seen_from[:2], seen_from[2])
+            return replace(
+                view, rings_robot_xy=field_to_robot(then, (view.x, view.y), view.heading_deg)
+            )
         s = self.spec
         pos, heading = to_alliance_frame((view.x, view.y), view.heading_deg, view.alliance)
         assert heading is not None

@@ -221,3 +221,10 @@ def test_a_frame_from_the_current_pose_changes_nothing() -> None:
     out_b = b.observe(v, seen_from=(0.2, 0.0, 10.0))
     np.testing.assert_allclose(a.known, b.known)
     np.testing.assert_allclose(out_a.rings_robot_xy, out_b.rings_robot_xy, atol=1e-12)
+
+
+def test_without_ring_memory_an_older_frames_rings_are_only_moved_into_the_new_pose() -> None:
+    spec = ObservationSpec(n_stack=0)
+    out = RingMemory(spec).observe(view([(0.0, 1.0)], heading_deg=30.0), seen_from=(0, 0, 0))
+    h = np.radians(30.0)
+    np.testing.assert_allclose(out.rings_robot_xy, [[-np.sin(h), np.cos(h)]], atol=1e-9)
