@@ -206,6 +206,49 @@ def test_the_planner_teacher_labels_every_learner_state_with_its_own_action() ->
     assert taught.stats().rings == driven.stats().rings >= 3
 
 
+def test_the_route_teacher_advises_the_route_skill_from_the_learners_own_observation() -> None:
+    """The route teacher's advice is what sim.skills drives onto the observation's first route
+    slot: a function of the observation alone. A learner that follows it collects rings; a
+    config whose observation has no route slot, or a skill policy, is refused by name."""
+    import numpy as np
+
+    from sim.config import ConfigError
+    from sim.match import make_config
+    from sim.skills import SkillConfig
+    from sim.training.rollout import RolloutConfig, VecMatches, _Slot
+
+    world = {"start_jitter_m": 0.0, "start_jitter_deg": 0.0}
+    obs = {"n_stack": 2, "ring_memory": True, "route_slots": 1}
+    env = make_config({"max_steps": 150, "world": world, "observation": obs})
+    rollout = RolloutConfig(workers=0, envs_per_worker=1)
+    slot = _Slot(env, rollout, seed=3, slot=0, teacher="route")
+    slot.set_kind("none", -1)
+    slot.reset()
+    driver = slot.core.skill_driver(
+        slot.learner, SkillConfig(route_option=True, ring_options=0, goal_options=0, platform=False)
+    )
+    robot = slot.core.world.robots[slot.learner].config
+    for _ in range(150):
+        advice = slot.advice()
+        v, w = driver.command(slot.obs[slot.learner], np.ones(1))
+        expected = np.clip([v / robot.max_linear_mps, w / robot.max_angular_rad_s], -1, 1)
+        np.testing.assert_allclose(advice, expected, atol=1e-6)
+        _, done, _ = slot.step(advice, np.zeros(2))
+        if done:
+            break
+    assert slot.stats().rings >= 10
+
+    no_route = make_config({"world": world, "observation": {"n_stack": 2, "ring_memory": True}})
+    with pytest.raises(ConfigError, match="route_slots"):
+        VecMatches(no_route, rollout, seed=1, teacher="route")
+    skills = make_config({"world": world, "observation": obs, "skills": {"route_option": True}})
+    with pytest.raises(ConfigError, match="drive policy"):
+        VecMatches(skills, rollout, seed=1, teacher="route")
+    data = {**EASY, "imitation": {"teacher": "route", "until_step": 100}}
+    with pytest.raises(ConfigError, match="route_slots"):
+        parse_config(data)
+
+
 def test_imitation_config_is_checked_and_its_weight_falls_to_zero() -> None:
     from sim.config import ConfigError
 

@@ -32,7 +32,7 @@ from typing import Any
 from sim.config import ConfigError, merge
 from sim.match import EnvConfig, make_config
 from sim.ppo import PPOConfig
-from sim.training.rollout import OPPONENT_KINDS, TEACHERS, RolloutConfig
+from sim.training.rollout import OPPONENT_KINDS, TEACHERS, RolloutConfig, check_route_teacher
 from sim.training.selfplay import SelfPlayConfig
 
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
@@ -73,6 +73,11 @@ class ImitationConfig:
     reward to outgrow it. The planner sees rings without the observation's noise and
     knows the field's layout: privileged labels, for training only; the exported policy still
     acts on its observation alone.
+
+    teacher = "route" (drive policies whose observation has a route slot): the label is what
+    sim.skills' route skill drives from the learner's own observation, pure pursuit onto the
+    first route slot. Every label follows from what the policy sees, so it can be copied
+    exactly; the planner's labels also depend on its hidden target and back-off timers.
     """
 
     teacher: str = "none"
@@ -244,7 +249,10 @@ def parse_config(data: dict[str, Any], where: str = "config") -> TrainConfig:
         cfg = merge(TrainConfig(), data, where)
         if opponents is not None:
             cfg = replace(cfg, opponents={str(k): float(v) for k, v in opponents.items()})
-        return replace(cfg, env=env, phases=tuple(phases))
+        cfg = replace(cfg, env=env, phases=tuple(phases))
+        if cfg.imitation.teacher == "route":
+            check_route_teacher(cfg.env_config())
+        return cfg
     except (TypeError, ValueError) as e:
         if isinstance(e, ConfigError):
             raise

@@ -20,6 +20,10 @@ visible rings, the field's layout), in the policy's action units. The trainer's 
 pulls the policy toward it (DAgger: the labels come from the states the learner visits). The
 teacher plays the match's game: it drives onto the platform at the end only where the match's
 reward pays for it, so in an uncapped match paid as ring collection it collects to the bell.
+`teacher="route"` advises what sim.skills' route skill would drive from the learner's own
+observation (pure pursuit onto the first route slot): a teacher whose every action follows from
+what the policy sees, so the policy can copy it exactly, where the planner also acts on its
+hidden target and back-off timers.
 
 A slot's kind and tag (the caller's opponent id) change only when its match ends, so each match
 has exactly one opponent, which is what ELO needs. Finished matches reset on their own; their
@@ -45,12 +49,31 @@ from sim.geometry import field_to_robot, other_alliance
 from sim.match import REWARD_COMPONENTS, EnvConfig, MatchCore
 from sim.planner import Planner, PlannerConfig
 from sim.players import IdlePlayer, Player, RandomPlayer, ScriptedPlayer
-from sim.skills import option_for
+from sim.skills import SkillConfig, SkillDriver, option_for
 from sim.world import DriveCommand
 
 OPPONENT_KINDS = ("policy", "planner", "scripted", "random", "idle", "none")
-TEACHERS = ("none", "planner")
+TEACHERS = ("none", "planner", "route")
 ADVICE_SIZE = 2  # a teacher advises (linear, angular): the drive, not the intake or clamp
+
+
+# The route teacher: sim.skills' controller with the route as its only option, always picked.
+ROUTE_SKILL = SkillConfig(route_option=True, ring_options=0, goal_options=0, platform=False)
+ROUTE_ACTION = np.ones(1)
+
+
+def check_route_teacher(config: EnvConfig) -> None:
+    """The route teacher advises a drive policy and reads the observation's route slot."""
+    if config.skills is not None:
+        raise ConfigError(
+            "imitation.teacher = 'route' teaches a drive policy; a skill policy has the route "
+            "as an option of its own (use teacher = 'planner', or drop [env.skills])"
+        )
+    if not config.observation.route_slots:
+        raise ConfigError(
+            "imitation.teacher = 'route' drives to the observation's first route slot: set "
+            "route_slots = 1 under [env.observation] (it needs ring_memory and version >= 4)"
+        )
 
 
 def advice_size(config: EnvConfig) -> int:
@@ -192,6 +215,8 @@ class _Slot:
         self._teachers: dict[bool, Planner] = {}
         if teacher == "planner":
             self._teachers = {u: teacher_for(config.match_reward(u)) for u in (False, True)}
+        self._route_teacher = teacher == "route"
+        self._router: SkillDriver | None = None
 
     def _core(self, alliance: str, solo: bool) -> MatchCore:
         key = (alliance, solo)
@@ -231,6 +256,8 @@ class _Slot:
         if self._teachers:
             self.teacher = self._teachers[self.core.uncapped]
             self.teacher.reset(self.core, self.learner, rng)
+        if self._route_teacher:
+            self._router = self.core.skill_driver(self.learner, ROUTE_SKILL)
         self.steps = 0
         self.reward = 0.0
         self.fill_time = None
@@ -308,6 +335,12 @@ class _Slot:
         planner keeps a map and a trail of poses, as when it drives). For a skill policy: +1
         for the option that does what the planner intends, -1 for the others."""
         skills = self.config.skills
+        rc = self.core.world.robots[self.learner].config
+        if self._router is not None:
+            v, w = self._router.command(self.obs[self.learner], ROUTE_ACTION)
+            return np.clip(
+                np.array([v / rc.max_linear_mps, w / rc.max_angular_rad_s], np.float32), -1, 1
+            )
         if self.teacher is None:
             return np.full(advice_size(self.config), np.nan, np.float32)
         command = self.teacher.act(self.core, self.learner)
@@ -323,7 +356,6 @@ class _Slot:
             label = np.full(skills.n_options, -1.0, np.float32)
             label[k] = 1.0
             return label
-        rc = self.core.world.robots[self.learner].config
         drive = (command.linear / rc.max_linear_mps, command.angular / rc.max_angular_rad_s)
         return np.clip(np.asarray(drive, np.float32), -1.0, 1.0)
 
@@ -479,6 +511,8 @@ class VecMatches:
     ) -> None:
         if teacher not in TEACHERS:
             raise ConfigError(f"teacher must be one of {TEACHERS}, got {teacher!r}")
+        if teacher == "route":
+            check_route_teacher(config)
         self.config = config
         self.rollout = rollout
         self.n_envs = rollout.n_envs
