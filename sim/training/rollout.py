@@ -44,7 +44,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from sim.config import ConfigError, RewardConfig
+from sim.config import ConfigError, RewardConfig, RobotConfig
 from sim.geometry import field_to_robot, other_alliance
 from sim.match import REWARD_COMPONENTS, EnvConfig, MatchCore
 from sim.planner import Planner, PlannerConfig
@@ -69,11 +69,17 @@ def check_route_teacher(config: EnvConfig) -> None:
             "imitation.teacher = 'route' teaches a drive policy; a skill policy has the route "
             "as an option of its own (use teacher = 'planner', or drop [env.skills])"
         )
-    if not config.observation.route_slots:
+    if config.observation is None or not config.observation.route_slots:
         raise ConfigError(
             "imitation.teacher = 'route' drives to the observation's first route slot: set "
             "route_slots = 1 under [env.observation] (it needs ring_memory and version >= 4)"
         )
+
+
+def _drive_label(linear: float, angular: float, robot: RobotConfig) -> np.ndarray:
+    """(linear m/s, angular rad/s) in a drive policy's action units, clipped to [-1, 1]."""
+    drive = (linear / robot.max_linear_mps, angular / robot.max_angular_rad_s)
+    return np.clip(np.asarray(drive, np.float32), -1.0, 1.0)
 
 
 def advice_size(config: EnvConfig) -> int:
@@ -333,14 +339,12 @@ class _Slot:
     def advice(self) -> np.ndarray:
         """The teacher's action for the learner's current state; call once per state (the
         planner keeps a map and a trail of poses, as when it drives). For a skill policy: +1
-        for the option that does what the planner intends, -1 for the others."""
+        for the option that does what the planner intends, -1 for the others. The route
+        teacher: what the route skill drives from the learner's observation."""
         skills = self.config.skills
         rc = self.core.world.robots[self.learner].config
         if self._router is not None:
-            v, w = self._router.command(self.obs[self.learner], ROUTE_ACTION)
-            return np.clip(
-                np.array([v / rc.max_linear_mps, w / rc.max_angular_rad_s], np.float32), -1, 1
-            )
+            return _drive_label(*self._router.command(self.obs[self.learner], ROUTE_ACTION), rc)
         if self.teacher is None:
             return np.full(advice_size(self.config), np.nan, np.float32)
         command = self.teacher.act(self.core, self.learner)
@@ -356,8 +360,7 @@ class _Slot:
             label = np.full(skills.n_options, -1.0, np.float32)
             label[k] = 1.0
             return label
-        drive = (command.linear / rc.max_linear_mps, command.angular / rc.max_angular_rad_s)
-        return np.clip(np.asarray(drive, np.float32), -1.0, 1.0)
+        return _drive_label(command.linear, command.angular, rc)
 
     def close(self) -> None:
         for core in self._cores.values():
