@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jetson.perception.cnn.augment import AugmentConfig, augment, random_patch
+from jetson.perception.cnn.augment import AugmentConfig, augment, photometric, random_patch
 from jetson.perception.cnn.runtime import (
     CnnDetector,
     decode,
@@ -183,6 +183,28 @@ def test_augmentation_moves_boxes_with_the_image() -> None:
                 assert inner.mean() > 200  # the white block is where its box says
     out, _, _ = augment(rng, img, box, (192, 160), cfg)
     assert out.shape == (160, 192, 3) and out.dtype == np.uint8
+
+
+def test_strongly_coloured_light_reaches_the_casts_of_real_photos() -> None:
+    # A grey scene; the BLRSAI photos include rooms lit so that one channel's mean is under a
+    # fifth of the image's average. The strong cast must produce such images, keep the mean
+    # brightness, and leave the mild-cast images alone when it is off.
+    img = np.full((64, 64, 3), 128, np.uint8)
+    quiet = dict(noise_p=0.0, blur_p=0.0, motion_blur_p=0.0, jpeg_p=0.0, prefilter_p=0.0)
+    quiet.update(brightness=(1.0, 1.0), contrast=(1.0, 1.0), saturation=(1.0, 1.0))
+    strong = replace(AugmentConfig(), strong_cast_p=1.0, **quiet)  # type: ignore[arg-type]
+    rng = np.random.default_rng(0)
+    spreads, means = [], []
+    for _ in range(40):
+        m = photometric(rng, img, strong).reshape(-1, 3).mean(axis=0)
+        spreads.append(m.min() / m.mean())
+        means.append(m.mean())
+    assert min(spreads) < 0.3  # some draws take a channel below a third of the average
+    assert abs(np.median(means) - 128) < 15  # the image's brightness is kept (up to clipping)
+    mild = replace(strong, strong_cast_p=0.0)
+    for _ in range(20):
+        m = photometric(rng, img, mild).reshape(-1, 3).mean(axis=0)
+        assert m.min() / m.mean() > 0.8
 
 
 def test_a_ring_cut_by_the_patch_edge_is_a_ring_or_ignored_never_background() -> None:

@@ -130,6 +130,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         width=args.width,
         blocks=args.blocks,
         giou_weight=args.giou,
+        strong_cast=args.strong_cast,
         input_long_side=args.input_long_side,
         init=args.init,
         lr=args.lr,
@@ -317,6 +318,13 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         default=0.0,
         help="weight of a GIoU loss on the boxes (0: L1 on log sizes only); a match needs "
         "IoU >= 0.5, which L1 on sizes does not aim at",
+    )
+    t.add_argument(
+        "--strong-cast",
+        type=float,
+        default=0.0,
+        help="share of training samples lit by strongly coloured light, one colour channel "
+        "down to a sixth of the others (0); for photos taken under coloured stage or LED light",
     )
     t.add_argument(
         "--input-long-side",

@@ -2,7 +2,9 @@
 
 Everything that changes the image's geometry changes its boxes the same way. Colour shifts stay
 small in hue (rings are purple on every field) but wide in brightness, contrast and saturation;
-a share of samples goes through the pre-filter so the CNN also works on pre-filtered frames.
+optionally a share of samples is lit by strongly coloured light (one channel a fifth of the
+others, as in photos under coloured stage or LED light, where a purple ring turns dark green or
+blue); a share goes through the pre-filter so the CNN also works on pre-filtered frames.
 """
 
 from __future__ import annotations
@@ -30,6 +32,12 @@ class AugmentConfig:
     noise_p: float = 0.5
     jpeg_p: float = 0.25
     prefilter_p: float = 0.2
+    # Strongly coloured light: per-channel gains log-uniform in strong_cast_gain, then scaled to
+    # keep the image's mean. The BLRSAI photos hold scenes whose channel means are 0.17-1.9 of
+    # their average (a purple-lit and a green-lit room); the mild cast above never reaches them.
+    # Off by default (detector train --strong-cast P) until a shipped model is trained with it.
+    strong_cast_p: float = 0.0
+    strong_cast_gain: tuple[float, float] = (0.15, 2.0)
     # A ring cut by the patch's edge stays a ring while this much of its box is left (patch
     # pixels; about the 40 pixels at 640x480 by which the simulator labels a ring cut by the
     # image's edge). A smaller remnant becomes an ignore region: its pixels are still in the
@@ -111,6 +119,14 @@ def photometric(
     f *= rng.uniform(*cfg.brightness)
     # A colour cast: lighting that is not white.
     f *= rng.uniform(0.85, 1.15, 3).astype(np.float32)
+    # Drawn only when enabled, so a config without it keeps the random stream (and the weights)
+    # of the models trained before it.
+    if cfg.strong_cast_p > 0 and rng.random() < cfg.strong_cast_p:
+        lo, hi = np.log(cfg.strong_cast_gain)
+        gain = np.exp(rng.uniform(lo, hi, 3)).astype(np.float32)
+        before = float(f.mean())
+        f *= gain
+        f *= np.float32(before / max(float(f.mean()), 1e-3))
     if rng.random() < cfg.noise_p:
         f += rng.normal(0.0, rng.uniform(2.0, 10.0), f.shape).astype(np.float32)
     img = np.clip(f, 0, 255).astype(np.uint8)

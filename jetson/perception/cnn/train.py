@@ -62,6 +62,7 @@ class TrainConfig:
     width: int = 16
     blocks: int = 1  # 3x3 convolutions after the down-sampling in stages 3 and 4 (RingNet)
     giou_weight: float = 0.0  # weight of a GIoU term on the boxes beside L1 on their log sizes
+    strong_cast: float = 0.0  # share of samples lit by strongly coloured light (AugmentConfig)
     seed: int = 0
     threads: int = 2
     # Start from these weights (a .pt that detector train wrote, e.g. models/ringnet.pt) instead
@@ -317,7 +318,7 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
         return 0.5 * (1 + math.cos(math.pi * (step - warm) / max(1, cfg.steps - warm)))
 
     sched = torch.optim.lr_scheduler.LambdaLR(opt, lr_at)
-    aug = AugmentConfig()
+    aug = AugmentConfig(strong_cast_p=cfg.strong_cast)
     net.train()
     t0 = time.monotonic()
     running: dict[str, float] = {}
