@@ -41,7 +41,14 @@ from jetson.policy import Policy
 from jetson.settings import ConfigError, DecisionConfig
 from protocol.messages import Alliance, GpsStatus, MatchPhase, State
 from sim.geometry import angle_diff_deg, wrap_heading
-from sim.observation import FrameStack, GoalMemory, RingMemory, RobotView, build_frame
+from sim.observation import (
+    FrameStack,
+    GoalMemory,
+    MemoryCamera,
+    RingMemory,
+    RobotView,
+    build_frame,
+)
 from sim.skills import SkillDriver
 
 DEFAULT_DECISION_HZ = 12.0  # sim.config.WorldConfig.control_hz: what policies are trained at
@@ -111,9 +118,17 @@ def stop(reason: str, error: str | None = None) -> Decision:
 
 
 class Decider:
-    def __init__(self, policy: Policy, config: DecisionConfig | None = None) -> None:
+    def __init__(
+        self,
+        policy: Policy,
+        config: DecisionConfig | None = None,
+        camera: MemoryCamera | None = None,
+    ) -> None:
+        # `camera`: the robot's camera, for a policy whose ring memory looks through it
+        # (memory_view "camera"); the daemon builds it from [camera]'s config.
         self.policy = policy
         self.config = config or DecisionConfig()
+        self.camera = camera
         hz = self.config.decision_hz or getattr(policy, "control_hz", None) or DEFAULT_DECISION_HZ
         self.decision_hz = float(hz)
         self.period_ms = 1000.0 / self.decision_hz
@@ -130,7 +145,7 @@ class Decider:
     def reset(self) -> None:
         """Forget the history: a new connection or a new match."""
         self._stack: FrameStack | None = None
-        self._memory = RingMemory(self.spec)
+        self._memory = RingMemory(self.spec, self.camera)
         self._goals = GoalMemory(self.spec)
         self._driver = None if self._skills is None else SkillDriver(self._skills, self.spec)
         self._poses = PoseHistory()

@@ -24,6 +24,7 @@ from jetson.recorder import FORMAT, VERSION, open_recording
 from jetson.settings import DecisionConfig
 from protocol.framing import message_from_dict
 from protocol.messages import State
+from sim.observation import MemoryCamera
 
 
 class ReplayError(RuntimeError):
@@ -148,7 +149,12 @@ def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e
         raise ReplayError(f"{path}: bad decision settings in the header: {exc}") from exc
     if header.get("observation") and header["observation"] != policy.spec.to_dict():
         warnings.append("the policy's observation spec differs from the recorded one")
-    decider = Decider(policy, config)
+    cam = header.get("memory_camera")
+    try:
+        camera = MemoryCamera(**cam) if cam else None
+    except (TypeError, ValueError) as exc:
+        raise ReplayError(f"{path}: bad memory_camera in the header: {exc}") from exc
+    decider = Decider(policy, config, camera)
     report = ReplayReport(path, getattr(policy, "description", type(policy).__name__))
     report.warnings = warnings
     rings: dict[int, tuple[np.ndarray, str | None]] = {}

@@ -15,7 +15,7 @@ import json
 import signal
 import sys
 import threading
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from types import FrameType
 from typing import Any, TextIO
@@ -105,7 +105,7 @@ def build(
     log = EventLog(log_stream, human_stream, clock, settings.log.level)
     if policy is None:
         policy = OnnxPolicy(settings.policy.path)
-    decider = Decider(policy, settings.decision)
+    decider = Decider(policy, settings.decision, memory_camera(settings.camera))
     camera = None
     if perception is None and settings.camera.enabled:
         camera = make_camera(settings, clock, log)
@@ -123,6 +123,8 @@ def build(
             "description": getattr(policy, "description", type(policy).__name__),
         },
         "camera": {"enabled": perception is not None, "source": settings.camera.source},
+        # What the ring memory looked through, so a replay decides as the daemon did.
+        "memory_camera": asdict(decider.camera) if decider.camera is not None else None,
     }
     daemon = Daemon(
         decider,
@@ -160,6 +162,21 @@ def make_pipeline(camera_settings: Any) -> Any:
     return camera, Pipeline(detector, camera, PrefilterConfig(enabled=cs.prefilter))
 
 
+def memory_camera(camera_settings: Any) -> Any:
+    """The camera as the ring memory sees through it (sim.observation.MemoryCamera): [camera]'s
+    config file, or the default mount and intrinsics without one."""
+    from jetson.perception.camera import CameraConfig
+    from sim.observation import MemoryCamera
+
+    cs = camera_settings
+    camera = CameraConfig.load(Path(cs.config)) if cs.config else CameraConfig()
+    k, m = camera.intrinsics, camera.mount
+    return MemoryCamera(
+        fx=k.fx, fy=k.fy, cx=k.cx, cy=k.cy, width=k.width, height=k.height,
+        forward_m=m.forward_m, right_m=m.right_m, height_m=m.height_m, tilt_deg=m.tilt_deg,
+    )  # fmt: skip
+
+
 def make_camera(settings: Settings, clock: Any, log: Any) -> Any:
     """The camera thread over the configured source and pipeline; a camera that is absent or
     fails later is retried by the thread, forever."""
@@ -179,8 +196,6 @@ def make_camera(settings: Settings, clock: Any, log: Any) -> Any:
 
 
 def _settings_dict(settings: Settings) -> dict[str, Any]:
-    from dataclasses import asdict
-
     return asdict(settings)
 
 

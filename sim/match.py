@@ -15,12 +15,13 @@ from typing import Any, Literal
 
 import numpy as np
 
-from sim.config import ConfigError, RewardConfig, RobotConfig, WorldConfig, merge
+from sim.config import CameraConfig, ConfigError, RewardConfig, RobotConfig, WorldConfig, merge
 from sim.field import FieldSpec
 from sim.geometry import Alliance, field_to_robot, heading_vector, to_alliance_frame
 from sim.observation import (
     FrameStack,
     GoalMemory,
+    MemoryCamera,
     ObservationSpec,
     RingMemory,
     RobotView,
@@ -185,6 +186,15 @@ def with_prior(spec: ObservationSpec, world: World) -> ObservationSpec:
     return spec
 
 
+def memory_camera(cam: CameraConfig, ring_z_m: float) -> MemoryCamera:
+    """What the ring memory needs of a simulated robot's camera (memory_view "camera")."""
+    return MemoryCamera(
+        fx=cam.fx, fy=cam.fy, cx=cam.cx, cy=cam.cy, width=cam.width, height=cam.height,
+        forward_m=cam.forward_m, right_m=cam.right_m, height_m=cam.height_m,
+        tilt_deg=cam.tilt_deg, near_m=cam.near_m, ring_z_m=ring_z_m,
+    )  # fmt: skip
+
+
 @dataclass
 class RobotStep:
     """One robot's share of a control step."""
@@ -308,7 +318,10 @@ class MatchCore:
             self.drivers = [
                 self.skill_driver(r.index, self.config.skills) for r in self.world.robots
             ]
-        self.memories = [RingMemory(self.spec) for _ in self.world.robots]
+        z = self.world.field.ring.thickness / 2
+        self.memories = [
+            RingMemory(self.spec, memory_camera(r.config.camera, z)) for r in self.world.robots
+        ]
         self.goal_memories = [GoalMemory(self.spec) for _ in self.world.robots]
         self.totals = [dict.fromkeys(REWARD_COMPONENTS, 0.0) for _ in self.world.robots]
         self.pins = [0 for _ in self.world.robots]

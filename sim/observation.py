@@ -25,6 +25,9 @@ or once the robot stands on it (collected or pushed away; with `memory_forget_in
 is inside the intake's reach: a ring the robot passes beside stays known). ok is 1 for a ring
 in view now and 0.5 for one remembered. This is the knowledge a team's route planner starts a
 match with; a policy that sees only the camera's cone has to learn the layout from its own pose.
+Where "the camera looks" is a cone around the robot's centre (`memory_view` "cone", what the
+policies so far were trained with) or the camera's own picture ("camera": RingMemory is given
+the camera's mount and intrinsics, MemoryCamera), which forgets no ring the camera cannot show.
 
 Version 3 adds an optional goal memory (`goal_memory`): a scalar `clamped` after `held` (1
 while the robot's clamp holds a mobile goal, from the Brain's State.goal_clamped) and `n_goals`
@@ -69,7 +72,14 @@ from dataclasses import asdict, dataclass, field, fields, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sim.geometry import Alliance, field_to_robot, robot_to_field, to_alliance_frame
+from sim.geometry import (
+    Alliance,
+    field_to_robot,
+    project_points,
+    robot_to_camera_rotation,
+    robot_to_field,
+    to_alliance_frame,
+)
 from sim.route import TourConfig, tour
 
 SPEC_VERSION = 5
@@ -102,6 +112,7 @@ _MEMORY_FIELDS = (
 # Added after policies with a ring memory were shipped: at their defaults they stay out of the
 # fingerprint, so those policies keep theirs.
 _INTAKE_FIELDS = ("memory_forget_intake", "memory_intake_zone")
+MEMORY_VIEWS = ("cone", "camera")
 _ROUTE_FIELDS = (
     "route_slots",
     "route_candidates",
@@ -146,6 +157,12 @@ class ObservationSpec:
     # blind spot, ahead of the centre but nearer than memory_near_m.
     memory_forget_intake: bool = False
     memory_intake_zone: tuple[float, ...] = ()
+    # Where the memory looks for rings it knows. "cone": the cone above around the robot's
+    # centre. "camera": the camera's own picture (RingMemory's MemoryCamera: the mount and
+    # intrinsics, given by the simulator or the Jetson's camera config) within memory_far_m of
+    # the lens. The cone reaches past the picture's top edge (the floor shows to ~2.1 m) and
+    # sides (the lens sits ahead of the centre), so it forgets rings the camera could not see.
+    memory_view: str = "cone"
     # Version 3: the goal memory. The clamp offset is the distance from the robot's centre to a
     # clamped goal's centre (half the robot's length + the goal base's radius; the simulator
     # fills it from the robot when 0). Forgetting: the robot's centre cannot come closer than
@@ -185,6 +202,10 @@ class ObservationSpec:
         object.__setattr__(self, "memory_intake_zone", _zone(self.memory_intake_zone))
         if not (self.goal_clamp_offset_m >= 0 and self.goal_forget_m >= 0):
             raise ObservationError("goal_clamp_offset_m and goal_forget_m must be >= 0")
+        if self.memory_view not in MEMORY_VIEWS:
+            raise ObservationError(
+                f"memory_view must be one of {MEMORY_VIEWS}, got {self.memory_view!r}"
+            )
         near, far = self.memory_near_m, self.memory_far_m
         if not (0 < self.memory_fov_deg < 180 and 0 <= near < far and self.memory_merge_m > 0):
             raise ObservationError(
@@ -323,6 +344,8 @@ class ObservationSpec:
             layout = {k: v for k, v in layout.items() if k not in _MEMORY_FIELDS}
         if not self.memory_forget_intake:
             layout = {k: v for k, v in layout.items() if k not in _INTAKE_FIELDS}
+        if self.memory_view == "cone" or not self.ring_memory:
+            layout.pop("memory_view", None)
         if not self.route_slots:
             layout = {k: v for k, v in layout.items() if k not in _ROUTE_FIELDS}
         if not self.goal_memory:
@@ -483,20 +506,74 @@ def build_frame(
     return out
 
 
+@dataclass(frozen=True)
+class MemoryCamera:
+    """The camera as the ring memory needs it (spec.memory_view "camera"): where it sits on the
+    robot (x right, y forward, z up from the centre of turning at floor level; tilt negative
+    looking down) and its pinhole intrinsics, to tell which remembered rings are in its picture.
+    The simulator builds one from the robot's camera, the Jetson from its camera config."""
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    width: int
+    height: int
+    forward_m: float
+    right_m: float
+    height_m: float
+    tilt_deg: float
+    near_m: float = 0.17  # nearer than this along the optical axis the depth camera sees nothing
+    ring_z_m: float = 0.0127  # a ring's centre above the floor (lying flat, 1 inch tube)
+
+    def __post_init__(self) -> None:
+        values = [getattr(self, f.name) for f in fields(self)]
+        if not all(math.isfinite(v) for v in values):
+            raise ObservationError(f"memory camera values must be finite: {self}")
+        if not (self.fx > 0 and self.fy > 0 and self.width > 0 and self.height > 0):
+            raise ObservationError("memory camera: fx, fy, width and height must be positive")
+
+    def locate(
+        self, robot_xy: NDArray[np.float64]
+    ) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+        """For floor rings at robot-frame (x, y): inside the picture, and distance from the lens."""
+        pts = np.asarray(robot_xy, dtype=np.float64).reshape(-1, 2)
+        rel = np.column_stack(
+            [
+                pts[:, 0] - self.right_m,
+                pts[:, 1] - self.forward_m,
+                np.full(len(pts), self.ring_z_m - self.height_m),
+            ]
+        )
+        optical = rel @ robot_to_camera_rotation(self.tilt_deg).T
+        uv, z = project_points(optical, self.fx, self.fy, self.cx, self.cy)
+        with np.errstate(invalid="ignore"):
+            inside = (z > self.near_m) & (uv[:, 0] >= 0) & (uv[:, 0] < self.width)
+            inside &= (uv[:, 1] >= 0) & (uv[:, 1] < self.height)
+        return inside, np.linalg.norm(rel, axis=1)
+
+
 class RingMemory:
     """The rings a robot knows about, in its alliance frame (see the module docstring).
 
     Fed the camera's rings every control step by observe(); both the simulator and the Jetson
     keep one per robot when spec.ring_memory is on, so a policy sees the same memory on both.
+    `camera` is needed when spec.memory_view is "camera".
     """
 
-    def __init__(self, spec: ObservationSpec) -> None:
+    def __init__(self, spec: ObservationSpec, camera: MemoryCamera | None = None) -> None:
         if spec.ring_memory and spec.memory_forget_intake and not spec.memory_intake_zone:
             raise ObservationError(
                 "memory_forget_intake needs memory_intake_zone (the simulator fills it from the "
                 "robot; a saved policy.json carries it)"
             )
+        if spec.ring_memory and spec.memory_view == "camera" and camera is None:
+            raise ObservationError(
+                "this spec's ring memory looks through the camera (memory_view = 'camera'): "
+                "give RingMemory the camera's mount and intrinsics (MemoryCamera)"
+            )
         self.spec = spec
+        self.camera = camera
         self.known = np.zeros((0, 2))
         self.target: NDArray[np.float64] | None = None  # the route's first stop, alliance frame
         self.reset()
@@ -542,10 +619,14 @@ class RingMemory:
         known = self.known
         if len(known):
             cam = field_to_robot(known, cam_pos, cam_heading)
-            cam_dist = np.hypot(cam[:, 0], cam[:, 1])
-            bearing = np.degrees(np.abs(np.arctan2(cam[:, 0], cam[:, 1])))
-            in_view = (bearing <= s.memory_fov_deg / 2) & (cam_dist >= s.memory_near_m)
-            in_view &= cam_dist <= s.memory_far_m
+            if self.camera is not None and s.memory_view == "camera":
+                in_view, lens_dist = self.camera.locate(cam)
+                in_view &= lens_dist <= s.memory_far_m
+            else:
+                cam_dist = np.hypot(cam[:, 0], cam[:, 1])
+                bearing = np.degrees(np.abs(np.arctan2(cam[:, 0], cam[:, 1])))
+                in_view = (bearing <= s.memory_fov_deg / 2) & (cam_dist >= s.memory_near_m)
+                in_view &= cam_dist <= s.memory_far_m
             local = field_to_robot(known, pos, heading)
             dist = np.hypot(local[:, 0], local[:, 1])
             matched = np.zeros(len(known), dtype=bool)

@@ -627,3 +627,32 @@ def test_a_recording_from_before_frame_pose_replays_with_the_newest_pose() -> No
     config = recorded_decision({"decision": old, "decision_hz": 12.0})
     assert config.frame_pose is False and config.intake_fills is False
     assert config.decision_hz == 12.0
+
+
+def test_a_camera_view_memory_policy_forgets_only_what_the_configured_camera_shows() -> None:
+    # memory_view "camera": the daemon looks through [camera]'s mount and intrinsics (here the
+    # defaults, 0.3 m up and tilted 30 deg down: the floor shows to ~2.1 m). Red robot at
+    # (0.5, -0.5) facing +x; prior ring A 1.2 m ahead, C 2.4 m ahead (above the picture), B behind.
+    from jetson.service import memory_camera
+    from jetson.settings import CameraSettings
+    from sim.observation import ObservationError
+
+    prior = ((1.7, -0.5), (2.9, -0.5), (-0.5, -0.5))
+    spec = ObservationSpec(ring_memory=True, prior_rings=prior, n_stack=0, memory_view="camera")
+    policy = ProbePolicy(spec)
+    policy.keep_observations = True
+    with pytest.raises(ObservationError, match="memory_view"):
+        Decider(policy, DecisionConfig())
+    d = Decider(policy, DecisionConfig(perception_max_age_s=0.2), memory_camera(CameraSettings()))
+    d.decide(state(0), rings(0))  # a fresh empty picture: A is gone, C and B are not in it
+
+    def oks() -> list[float]:
+        obs = policy.observations[-1]
+        return sorted(obs[spec.ring_offset + 2 : spec.frame_size : 3].tolist(), reverse=True)
+
+    assert oks()[:3] == [0.5, 0.5, 0.0]
+    cone = ProbePolicy(replace(spec, memory_view="cone"))
+    cone.keep_observations = True
+    Decider(cone, DecisionConfig(perception_max_age_s=0.2)).decide(state(0), rings(0))
+    obs = cone.observations[-1]
+    assert sorted(obs[spec.ring_offset + 2 : spec.frame_size : 3].tolist())[-2:] == [0.0, 0.5]

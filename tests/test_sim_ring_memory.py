@@ -11,6 +11,7 @@ import pytest
 from sim.observation import (
     REMEMBERED,
     SEEN,
+    MemoryCamera,
     ObservationError,
     ObservationSpec,
     RingMemory,
@@ -228,3 +229,58 @@ def test_without_ring_memory_an_older_frames_rings_are_only_moved_into_the_new_p
     out = RingMemory(spec).observe(view([(0.0, 1.0)], heading_deg=30.0), seen_from=(0, 0, 0))
     h = np.radians(30.0)
     np.testing.assert_allclose(out.rings_robot_xy, [[-np.sin(h), np.cos(h)]], atol=1e-9)
+
+
+def _sim_camera() -> tuple[object, MemoryCamera]:
+    from sim.config import CameraConfig
+    from sim.match import memory_camera
+
+    cam = CameraConfig()
+    return cam, memory_camera(cam, 0.0127)
+
+
+def test_the_memory_camera_sees_what_the_simulated_camera_sees() -> None:
+    # The memory's picture test is the Jetson-side copy of sim.visibility's: for floor rings
+    # all around a robot at the origin they must agree (range aside, which the memory sets).
+    from sim.visibility import camera_pose, in_frustum
+
+    cam, mc = _sim_camera()
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(-3.0, 3.0, (4000, 2))
+    pts = np.column_stack([xy, np.full(len(xy), 0.0127)])
+    truth, _, pc = in_frustum(pts, camera_pose((0.0, 0.0), 0.0, cam), cam)
+    near_enough = np.linalg.norm(pc, axis=1) <= cam.max_range_m
+    inside, dist = mc.locate(xy)
+    np.testing.assert_array_equal(inside & near_enough, truth)
+    np.testing.assert_allclose(dist, np.linalg.norm(pc, axis=1), atol=1e-9)
+    assert 100 < truth.sum() < 3000  # the test covers both answers
+
+
+def test_a_camera_view_memory_keeps_rings_the_picture_does_not_show() -> None:
+    # The camera 0.3 m up, tilted 30 deg down, shows the floor to about 2.1 m ahead: a ring
+    # 2.4 m ahead is inside the cone (so the cone memory forgets it, unseen) but above the
+    # picture (so the camera memory keeps it). A ring 1.2 m ahead, unseen, is gone for both.
+    _, mc = _sim_camera()
+    prior = ((0.0, 1.2), (0.0, 2.4))
+    cone = replace(SPEC, prior_rings=prior)
+    camera = replace(cone, memory_view="camera")
+    a, b = RingMemory(cone), RingMemory(camera, mc)
+    a.observe(view())
+    b.observe(view())
+    assert len(a.known) == 0
+    np.testing.assert_allclose(b.known, [(0.0, 2.4)])
+    # Seen, a ring is taken in the same way by both.
+    b.observe(view([(0.3, 1.0)]))
+    assert len(b.known) == 2
+
+
+def test_a_camera_view_memory_needs_the_camera_and_names_the_spec_setting() -> None:
+    camera = replace(SPEC, memory_view="camera")
+    with pytest.raises(ObservationError, match="memory_view"):
+        RingMemory(camera)
+    with pytest.raises(ObservationError, match="memory_view"):
+        replace(SPEC, memory_view="sideways")
+    # Specs saved before the setting existed keep their fingerprint; the camera view has its own.
+    assert replace(SPEC, memory_view="cone").fingerprint() == SPEC.fingerprint()
+    assert camera.fingerprint() != SPEC.fingerprint()
+    assert ObservationSpec.from_dict(camera.to_dict()) == camera
