@@ -61,6 +61,8 @@ def test_errors_are_one_line_not_tracebacks(
         (["detector", "eval", "--images", str(tmp_path / "d"), "--model", str(tmp_path / "m.onnx")],
          "m.onnx does not exist"),
         (["detector", "train", "--out", str(tmp_path / "m.onnx")], "nothing to train on"),
+        (["detector", "train", "--synthetic", "1", "--strong-cast", "1.5", "--out",
+          str(tmp_path / "m.onnx")], "--strong-cast is a share of samples"),
         (["calibrate", "--images", str(tmp_path), "--board", "9by6", "--square-mm", "25"],
          "COLSxROWS"),
         (["detect", "--source", str(tmp_path), "--out", str(tmp_path / "o"),

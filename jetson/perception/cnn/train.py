@@ -280,6 +280,8 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
         raise DatasetError(f"--input-long-side must be 64-1280 pixels, got {cfg.input_long_side}")
     if cfg.width < 1 or not 0 <= cfg.blocks <= 8:
         raise DatasetError(f"--width must be >= 1 and --blocks 0-8, got {cfg.width}, {cfg.blocks}")
+    if not 0.0 <= cfg.strong_cast <= 1.0:
+        raise DatasetError(f"--strong-cast is a share of samples, 0-1, got {cfg.strong_cast}")
     torch.manual_seed(cfg.seed)
     torch.set_num_threads(cfg.threads)
     rng = np.random.default_rng(cfg.seed)
