@@ -105,7 +105,12 @@ def build(
     log = EventLog(log_stream, human_stream, clock, settings.log.level)
     if policy is None:
         policy = OnnxPolicy(settings.policy.path)
-    decider = Decider(policy, settings.decision, memory_camera(settings.camera))
+    # Only a policy whose ring memory looks through the camera reads [camera]'s mount here, so a
+    # cone policy runs as before whatever that file holds.
+    needs_camera = policy.spec.memory_needs_camera
+    decider = Decider(
+        policy, settings.decision, memory_camera(settings.camera) if needs_camera else None
+    )
     camera = None
     if perception is None and settings.camera.enabled:
         camera = make_camera(settings, clock, log)

@@ -331,6 +331,11 @@ class ObservationSpec:
             raise ObservationError("observation spec has no version")
         return cls(**data)  # type: ignore[arg-type]
 
+    @property
+    def memory_needs_camera(self) -> bool:
+        """Whether a RingMemory for this spec must be given the camera (MemoryCamera)."""
+        return self.ring_memory and self.memory_view == "camera"
+
     def fingerprint(self) -> str:
         """Stable short hash of the layout-defining fields (noise levels excluded: they do not
         change what an index means)."""
@@ -567,7 +572,7 @@ class RingMemory:
                 "memory_forget_intake needs memory_intake_zone (the simulator fills it from the "
                 "robot; a saved policy.json carries it)"
             )
-        if spec.ring_memory and spec.memory_view == "camera" and camera is None:
+        if spec.memory_needs_camera and camera is None:
             raise ObservationError(
                 "this spec's ring memory looks through the camera (memory_view = 'camera'): "
                 "give RingMemory the camera's mount and intrinsics (MemoryCamera)"
