@@ -344,6 +344,17 @@ def test_training_can_start_from_saved_weights(tmp_path: Path) -> None:
     c = torch.load(fresh.with_suffix(".pt"), weights_only=True)
     assert not torch.allclose(a[conv], c[conv], atol=1e-3), "the same seed from scratch differs"
     assert meta["training"]["init"] == str(first.with_suffix(".pt"))  # type: ignore[index]
+    # The lineage travels with the weights: a third round lists the first two, oldest first.
+    third = tmp_path / "d.onnx"
+    train(replace(base, init=again.with_suffix(".pt"), steps=1), third, log=lambda _: None)
+    rounds = json.loads(metadata_path(third).read_text())["lineage"]
+    a_pt, b_pt = str(first.with_suffix(".pt")), str(again.with_suffix(".pt"))
+    assert [r["weights"] for r in rounds] == [a_pt, b_pt]
+    assert rounds[0]["training"]["init"] is None and rounds[1]["training"]["lr"] == 1e-12
+    assert "validation" in rounds[0] and "lineage" not in rounds[1]
+    metadata_path(first).unlink()
+    orphan = train(replace(base, init=first.with_suffix(".pt")), third, log=lambda _: None)
+    assert orphan["lineage"] == [{"weights": a_pt, "metadata": "none readable"}]
     with pytest.raises(DatasetError, match="--width 4 --blocks 1"):
         train(replace(base, init=first.with_suffix(".pt"), width=8), again, log=lambda _: None)
     junk = tmp_path / "junk.pt"

@@ -271,6 +271,21 @@ def load_weights(net: RingNet, path: Path) -> None:
     net.load_state_dict(state)
 
 
+def init_lineage(init: Path) -> list[dict[str, object]]:
+    """The rounds of training behind the weights at `init`, oldest first, read from the metadata
+    written beside them, so that a model trained on from another carries how that one was made.
+    Weights with no readable metadata are one round of which only the path is known."""
+    try:
+        earlier = json.loads(metadata_path(init).read_text())
+    except (OSError, ValueError):
+        return [{"weights": str(init), "metadata": "none readable"}]
+    if not isinstance(earlier, dict):
+        return [{"weights": str(init), "metadata": "not a JSON object"}]
+    rounds = earlier.get("lineage", [])
+    this = {k: earlier[k] for k in ("training", "trained_on", "validation") if k in earlier}
+    return [*(rounds if isinstance(rounds, list) else []), {"weights": str(init), **this}]
+
+
 def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> dict[str, object]:
     if not cfg.data and cfg.synthetic <= 0:
         raise DatasetError("nothing to train on: give --data DIR and/or --synthetic N")
@@ -357,6 +372,8 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
     meta["training"]["data"] = [str(p) for p in cfg.data]  # type: ignore[index]
     meta["training"]["val_data"] = [str(p) for p in cfg.val_data]  # type: ignore[index]
     meta["training"]["init"] = str(cfg.init) if cfg.init else None  # type: ignore[index]
+    if cfg.init is not None:
+        meta["lineage"] = init_lineage(cfg.init)
     prints = [fingerprint(RingDataset(p).names) for p in cfg.data]
     meta["data_fingerprints"] = prints
     if cfg.holdout > 0:
