@@ -1,5 +1,5 @@
-"""The perception commands of `pete-jetson`: detect, detector {train,eval,synth}, calibrate,
-record. jetson/cli.py registers them; heavy imports happen inside each command."""
+"""The perception commands of `pete-jetson`: detect, detector {train,quantize,eval,synth},
+calibrate, record. jetson/cli.py registers them; heavy imports happen inside each command."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ DETECTORS = ("classical", "cnn")  # as jetson.perception.pipeline, without impor
 
 HELP = """\
   pete-jetson detect       run the ring pipeline on a source; annotated images + top-down plots
-  pete-jetson detector     train / eval the ring detector, or write a synthetic dataset
+  pete-jetson detector     train / quantize / eval the ring detector, or write a synthetic dataset
   pete-jetson calibrate    checkerboard calibration -> camera config (K, distortion)
   pete-jetson record       record a camera source to disk (our recording format)
 """
@@ -136,6 +136,19 @@ def cmd_train(args: argparse.Namespace) -> int:
         lr=args.lr,
     )
     train(cfg, args.out)
+    return 0
+
+
+def cmd_quantize(args: argparse.Namespace) -> int:
+    from jetson.perception.cnn.quantize import quantize
+
+    report = quantize(args.model, list(args.calib), args.out, args.frames)
+    print(
+        f"wrote {report.out} (int8, calibrated on {report.calibration_images} images): "
+        f"{report.float_ms:.1f} ms a 640x480 frame as float, {report.int8_ms:.1f} ms as int8 "
+        "(one thread); check it with `pete-jetson detector eval --model "
+        f"{report.out} --images DIR`"
+    )
     return 0
 
 
@@ -343,6 +356,20 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--threads", type=int, default=2, help="torch threads (2)")
     t.set_defaults(func=cmd_train)
+    q = dsub.add_parser(
+        "quantize",
+        help="an int8 copy of a trained model: about twice as fast on a CPU",
+        description="Static int8 quantization (onnxruntime, QDQ format): weights int8 per "
+        "channel, activations uint8 with ranges measured on calibration images (never the "
+        "images the model held out). Writes OUT and its .json; needs the onnx package.",
+    )
+    q.add_argument("--model", type=Path, required=True, help="the float .onnx detector train wrote")
+    q.add_argument(
+        "--calib", type=Path, action="append", required=True, help="an image folder (repeatable)"
+    )
+    q.add_argument("--frames", type=int, default=96, help="calibration images in all (96)")
+    q.add_argument("--out", type=Path, required=True, help="the int8 .onnx to write")
+    q.set_defaults(func=cmd_quantize)
     e = dsub.add_parser(
         "eval",
         help="precision, recall and F1 on a dataset folder",

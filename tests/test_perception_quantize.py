@@ -1,0 +1,116 @@
+"""The int8 detector: `detector quantize` keeps the float model's outputs, skips held-out images
+and refuses what it cannot do."""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from jetson.perception.cnn.runtime import CnnDetector, input_size, metadata_path, to_input
+from jetson.perception.dataset import fingerprint, holdout_names, write_sample
+from jetson.perception.errors import DatasetError, ModelError
+from jetson.perception.synthetic import random_frame
+
+torch = pytest.importorskip("torch")
+ort = pytest.importorskip("onnxruntime")
+onnx = pytest.importorskip("onnx")
+
+from jetson.perception.cnn.model import STRIDE, RingNet, export_onnx  # noqa: E402
+from jetson.perception.cnn.quantize import calibration_images, quantize  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def frames(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Eight synthetic frames as a dataset folder."""
+    root = tmp_path_factory.mktemp("calib")
+    rng = np.random.default_rng(5)
+    for k in range(8):
+        f = random_frame(rng, index=k)
+        write_sample(root, f"s{k:02d}", f.frame.color, f.boxes)
+    return root
+
+
+@pytest.fixture(scope="module")
+def float_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    torch.manual_seed(1)
+    net = RingNet(width=8)
+    for m in net.modules():
+        if isinstance(m, torch.nn.BatchNorm2d):
+            m.running_mean.uniform_(-0.5, 0.5)
+            m.running_var.uniform_(0.5, 2.0)
+    net.eval()
+    path = tmp_path_factory.mktemp("float") / "m.onnx"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # the legacy exporter, on purpose
+        export_onnx(net, path, 96, 128)
+    meta = {"format": "pete-ringnet", "version": 1, "stride": STRIDE, "input_long_side": 160,
+            "score_threshold": 0.3, "validation": {"x": {"f1": 0.5}}}  # fmt: skip
+    metadata_path(path).write_text(json.dumps(meta))
+    return path
+
+
+def _outputs(model: Path, bgr: np.ndarray) -> list[np.ndarray]:
+    session = ort.InferenceSession(str(model), providers=["CPUExecutionProvider"])
+    h, w = bgr.shape[:2]
+    return session.run(None, {"rgb": to_input(bgr, input_size(w, h, 160))})
+
+
+def test_int8_model_keeps_the_float_models_outputs(
+    float_model: Path, frames: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "int8.onnx"
+    report = quantize(float_model, [frames], out, frames=6)
+    assert report.calibration_images == 6 and report.int8_ms > 0 and report.float_ms > 0
+    ops = {n.op_type for n in onnx.load(str(out)).graph.node}
+    assert {"QuantizeLinear", "DequantizeLinear"} <= ops, "the convolutions are not quantized"
+    meta = json.loads(metadata_path(out).read_text())
+    q = meta["quantization"]
+    assert q["calibration"] == [{"folder": str(frames), "images": 6}]
+    assert q["float_model"] == "m.onnx" and len(q["float_sha256"]) == 64
+    assert meta["score_threshold"] == 0.3 and meta["input_long_side"] == 160
+    bgr = random_frame(np.random.default_rng(99)).frame.color  # not a calibration image
+    (fp, fb), (qp, qb) = _outputs(float_model, bgr), _outputs(out, bgr)
+    assert fp.shape == qp.shape and fb.shape == qb.shape
+    # Off its 3x3 maxima the heat output is 0, and an untrained network's heat is nearly flat,
+    # so which cell wins a tie may differ: compare the heat where both have a peak.
+    both = (fp > 0) & (qp > 0)
+    assert both.sum() > 10
+    assert np.median(np.abs(fp[both] - qp[both]) / fp[both]) < 0.05
+    assert np.median(np.abs(fb - qb)) < 0.05
+    assert np.abs(fb - qb).max() > 0, "the int8 model computes exactly the float model"
+    # The runtime loads it as any other model.
+    CnnDetector(out, score_threshold=0.0).detect(bgr)
+
+
+def test_calibration_never_uses_held_out_images(frames: Path) -> None:
+    names = sorted(p.stem for p in (frames / "images").iterdir())
+    held = holdout_names(names, 0.5, 3)
+    meta = {"holdout": {"fraction": 0.5, "seed": 3, "fingerprints": [fingerprint(names)]}}
+    picked = [name for _, name, _ in calibration_images([frames], 8, meta)]
+    assert picked and not set(picked) & held
+    assert len(picked) == len(names) - len(held)  # all the others, each once
+    two = [f for f, _, _ in calibration_images([frames, frames], 5, {})]
+    assert len(two) == 5
+
+
+def test_quantize_refuses_what_it_cannot_do(
+    float_model: Path, frames: Path, tmp_path: Path
+) -> None:
+    with pytest.raises(DatasetError, match="at least one --calib"):
+        quantize(float_model, [], tmp_path / "a.onnx")
+    with pytest.raises(ModelError, match="does not exist"):
+        quantize(tmp_path / "none.onnx", [frames], tmp_path / "a.onnx")
+    with pytest.raises(ModelError, match="--out must differ"):
+        quantize(float_model, [frames], float_model)
+    empty = tmp_path / "empty"
+    (empty / "images").mkdir(parents=True)
+    with pytest.raises(DatasetError):
+        quantize(float_model, [empty], tmp_path / "a.onnx")
+    once = tmp_path / "once.onnx"
+    quantize(float_model, [frames], once, frames=2)
+    with pytest.raises(ModelError, match="already quantized"):
+        quantize(once, [frames], tmp_path / "twice.onnx")
