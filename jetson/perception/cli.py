@@ -1,4 +1,4 @@
-"""The perception commands of `pete-jetson`: detect, detector {train,quantize,eval,synth},
+"""The perception commands of `pete-jetson`: detect, detector {train,quantize,tune,eval,synth},
 calibrate, record. jetson/cli.py registers them; heavy imports happen inside each command."""
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ DETECTORS = ("classical", "cnn")  # as jetson.perception.pipeline, without impor
 
 HELP = """\
   pete-jetson detect       run the ring pipeline on a source; annotated images + top-down plots
-  pete-jetson detector     train / quantize / eval the ring detector, or write a synthetic dataset
+  pete-jetson detector     train / quantize / tune / eval the ring detector; synthetic datasets
   pete-jetson calibrate    checkerboard calibration -> camera config (K, distortion)
   pete-jetson record       record a camera source to disk (our recording format)
 """
@@ -149,6 +149,27 @@ def cmd_quantize(args: argparse.Namespace) -> int:
         "(one thread); check it with `pete-jetson detector eval --model "
         f"{report.out} --images DIR`"
     )
+    return 0
+
+
+def cmd_tune(args: argparse.Namespace) -> int:
+    from jetson.perception.cnn.tune import format_table, tune, write_choice
+
+    try:
+        sizes = tuple(int(v) for v in args.sizes.split(","))
+        thresholds = tuple(float(v) for v in args.thresholds.split(","))
+    except ValueError as exc:
+        raise ConfigError(f"--sizes and --thresholds are comma-separated numbers: {exc}") from exc
+    tuning = tune(args.model, list(args.val), sizes, thresholds)
+    print("mean F1 over the folders' held-out images, by input long side and threshold:")
+    print(format_table(tuning))
+    print(
+        f"best: input long side {tuning.input_long_side}, threshold {tuning.score_threshold} "
+        f"(mean F1 {tuning.mean_f1:.3f})"
+    )
+    if args.write:
+        write_choice(args.model, tuning)
+        print(f"written to {args.model.with_suffix('.json')}")
     return 0
 
 
@@ -370,6 +391,22 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     q.add_argument("--frames", type=int, default=96, help="calibration images in all (96)")
     q.add_argument("--out", type=Path, required=True, help="the int8 .onnx to write")
     q.set_defaults(func=cmd_quantize)
+    u = dsub.add_parser(
+        "tune",
+        help="choose the model's input size and threshold on labelled held-out images",
+        description="Score the model at several input sizes and thresholds on each --val "
+        "folder (only the images it held out, when it trained on the folder) and report the "
+        "pair with the best mean F1; --write stores it in the model's .json. A larger input "
+        "finds smaller and more hidden rings and costs frame rate.",
+    )
+    u.add_argument("--model", type=Path, required=True, help="the .onnx to tune")
+    u.add_argument(
+        "--val", type=Path, action="append", required=True, help="a labelled folder (repeatable)"
+    )
+    u.add_argument("--sizes", default="480,512,528,544,560,576,608,640", help="input long sides")
+    u.add_argument("--thresholds", default="0.3,0.35,0.4,0.45,0.5,0.55,0.6", help="scores")
+    u.add_argument("--write", action="store_true", help="store the choice in the model's .json")
+    u.set_defaults(func=cmd_tune)
     e = dsub.add_parser(
         "eval",
         help="precision, recall and F1 on a dataset folder",

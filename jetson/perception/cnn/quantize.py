@@ -133,7 +133,7 @@ def quantize(
         "float_sha256": hashlib.sha256(model.read_bytes()).hexdigest(),
         # `validation` above was measured with the float model.
     }
-    metadata_path(out).write_text(json.dumps(meta, indent=1) + "\n")
+    metadata_path(out).write_text(json.dumps(meta, indent=2) + "\n")
     return QuantizeReport(
         out, len(inputs), frame_ms(model, info.input_long_side), frame_ms(out, info.input_long_side)
     )

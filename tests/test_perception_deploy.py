@@ -1,5 +1,6 @@
-"""The int8 detector: `detector quantize` keeps the float model's outputs, skips held-out images
-and refuses what it cannot do."""
+"""Readying a trained detector for the robot: `detector quantize` (int8) keeps the float model's
+outputs and never calibrates on held-out images; `detector tune` picks the input size and
+threshold with the best held-out F1; both refuse what they cannot do."""
 
 from __future__ import annotations
 
@@ -11,8 +12,9 @@ import numpy as np
 import pytest
 
 from jetson.perception.cnn.runtime import CnnDetector, input_size, metadata_path, to_input
-from jetson.perception.dataset import fingerprint, holdout_names, write_sample
+from jetson.perception.dataset import RingDataset, fingerprint, holdout_names, write_sample
 from jetson.perception.errors import DatasetError, ModelError
+from jetson.perception.evaluate import Counts
 from jetson.perception.synthetic import random_frame
 
 torch = pytest.importorskip("torch")
@@ -21,6 +23,7 @@ onnx = pytest.importorskip("onnx")
 
 from jetson.perception.cnn.model import STRIDE, RingNet, export_onnx  # noqa: E402
 from jetson.perception.cnn.quantize import calibration_images, quantize  # noqa: E402
+from jetson.perception.cnn.tune import format_table, tune, write_choice  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -114,3 +117,61 @@ def test_quantize_refuses_what_it_cannot_do(
     quantize(float_model, [frames], once, frames=2)
     with pytest.raises(ModelError, match="already quantized"):
         quantize(once, [frames], tmp_path / "twice.onnx")
+
+
+def test_tune_picks_the_best_mean_f1_ties_to_the_smaller_input(
+    float_model: Path, frames: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The rule alone, on scores made up per (size, threshold): the best mean over the folders
+    wins, and of two equal sizes the smaller (faster) one."""
+    import jetson.perception.cnn.tune as tune_module
+
+    other = frames.parent / "other"
+    other.mkdir(exist_ok=True)
+    for sub in ("images", "labels"):
+        (other / sub).symlink_to(frames / sub)
+    hits = {(96, 0.5): (8, 8), (128, 0.5): (9, 6), (160, 0.5): (9, 6), (128, 0.3): (5, 9)}
+
+    def made_up(
+        detector: CnnDetector, dataset: RingDataset, thresholds: tuple[float, ...]
+    ) -> dict[float, Counts]:
+        out = {t: Counts() for t in thresholds}
+        for t in thresholds:
+            a, b = hits.get((detector.info.input_long_side, t), (1, 1))
+            out[t].add(10, 10, a if dataset.root == frames else b)
+        return out
+
+    monkeypatch.setattr(tune_module, "score_size", made_up)
+    tuning = tune(float_model, [frames, other], (160, 128, 96), (0.3, 0.5), progress=False)
+    # mean F1 (0.8 + 0.8) / 2 at 96 against (0.9 + 0.6) / 2 at 128 and 160
+    assert (tuning.input_long_side, tuning.score_threshold) == (96, 0.5)
+    assert tuning.mean_f1 == pytest.approx(0.8)
+    hits[(96, 0.5)] = (7, 7)
+    tuning = tune(float_model, [frames, other], (160, 128, 96), (0.3, 0.5), progress=False)
+    assert (tuning.input_long_side, tuning.score_threshold) == (128, 0.5)  # 160 ties, slower
+
+
+def test_tune_scores_real_runs_and_records_the_choice(
+    float_model: Path, frames: Path, tmp_path: Path
+) -> None:
+    model = tmp_path / "t.onnx"
+    model.write_bytes(float_model.read_bytes())
+    metadata_path(model).write_bytes(metadata_path(float_model).read_bytes())
+    tuning = tune(model, [frames], sizes=(96, 160), thresholds=(0.01, 0.99), progress=False)
+    # An untrained network's heat never reaches 0.99: nothing found there, recall 0.
+    assert tuning.table[96][0.99][str(frames)][1] == 0.0
+    assert set(tuning.table) == {96, 160} and set(tuning.table[96]) == {0.01, 0.99}
+    assert "*" in format_table(tuning)
+    write_choice(model, tuning)
+    meta = json.loads(metadata_path(model).read_text())
+    assert meta["input_long_side"] == tuning.input_long_side
+    assert meta["score_threshold"] == tuning.score_threshold
+    assert meta["tuning"]["from"] == {"input_long_side": 160, "score_threshold": 0.3}
+    assert set(meta["tuning"]["f1"]) == {"96", "160"}
+    assert CnnDetector(model).info.input_long_side == tuning.input_long_side
+    with pytest.raises(DatasetError, match="at least one --val"):
+        tune(model, [], progress=False)
+    with pytest.raises(DatasetError, match="at least 16"):
+        tune(model, [frames], sizes=(8,), progress=False)
+    with pytest.raises(DatasetError, match=r"lie in \(0, 1\)"):
+        tune(model, [frames], thresholds=(1.5,), progress=False)
