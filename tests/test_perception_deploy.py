@@ -161,7 +161,8 @@ def test_tune_scores_real_runs_and_records_the_choice(
     # An untrained network's heat never reaches 0.99: nothing found there, recall 0.
     assert tuning.table[96][0.99][str(frames)][1] == 0.0
     assert set(tuning.table) == {96, 160} and set(tuning.table[96]) == {0.01, 0.99}
-    assert "*" in format_table(tuning)
+    assert "*" in format_table(tuning) and set(tuning.network_ms) == {96, 160}
+    assert all(v > 0 for v in tuning.network_ms.values())
     write_choice(model, tuning)
     meta = json.loads(metadata_path(model).read_text())
     assert meta["input_long_side"] == tuning.input_long_side

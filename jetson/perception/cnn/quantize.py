@@ -21,7 +21,6 @@ from __future__ import annotations
 import hashlib
 import json
 import tempfile
-import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,7 +28,13 @@ from typing import Any
 
 import numpy as np
 
-from jetson.perception.cnn.runtime import ModelInfo, input_size, metadata_path, to_input
+from jetson.perception.cnn.runtime import (
+    ModelInfo,
+    input_size,
+    metadata_path,
+    network_ms,
+    to_input,
+)
 from jetson.perception.dataset import RingDataset
 from jetson.perception.errors import DatasetError, ModelError
 from jetson.perception.evaluate import heldout_of
@@ -135,24 +140,8 @@ def quantize(
     }
     metadata_path(out).write_text(json.dumps(meta, indent=2) + "\n")
     return QuantizeReport(
-        out, len(inputs), frame_ms(model, info.input_long_side), frame_ms(out, info.input_long_side)
+        out,
+        len(inputs),
+        network_ms(model, info.input_long_side),
+        network_ms(out, info.input_long_side),
     )
-
-
-def frame_ms(model: Path, long_side: int, repeats: int = 30) -> float:
-    """Median milliseconds of one network run on a 640x480 frame's input, one thread."""
-    import onnxruntime as ort
-
-    opts = ort.SessionOptions()
-    opts.intra_op_num_threads = 1
-    opts.inter_op_num_threads = 1
-    session = ort.InferenceSession(str(model), opts, providers=["CPUExecutionProvider"])
-    w, h = input_size(640, 480, long_side)
-    x = np.random.default_rng(0).random((1, 3, h, w), dtype=np.float32)
-    session.run(None, {"rgb": x})
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        session.run(None, {"rgb": x})
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times) * 1000.0)

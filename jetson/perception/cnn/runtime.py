@@ -166,3 +166,24 @@ class CnnDetector:
         return decode(
             peaks[0], boxes[0], self.info.stride, self.threshold, (w / size[0], h / size[1])
         )
+
+
+def network_ms(model: Path, long_side: int, repeats: int = 30) -> float:
+    """Median milliseconds of one network run on a 640x480 frame's input, on one thread."""
+    import time
+
+    import onnxruntime as ort
+
+    opts = ort.SessionOptions()
+    opts.intra_op_num_threads = 1
+    opts.inter_op_num_threads = 1
+    session = ort.InferenceSession(str(model), opts, providers=["CPUExecutionProvider"])
+    w, h = input_size(640, 480, long_side)
+    x = np.random.default_rng(0).random((1, 3, h, w), dtype=np.float32)
+    session.run(None, {"rgb": x})
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        session.run(None, {"rgb": x})
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times) * 1000.0)

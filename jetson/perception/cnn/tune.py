@@ -9,8 +9,9 @@ floor is taken for rings. Where that balance lies depends on the camera and the 
 measured, not guessed: every (size, threshold) pair is scored on each folder's images (only those
 the model held out of its training, when it trained on the folder), and the pair with the best
 mean F1 over the folders wins, the rule `detector train` uses for the threshold alone. `--write`
-records the choice and the whole table in the model's .json. onnxruntime only: it runs on the
-Jetson too.
+records the choice and the whole table in the model's .json. Beside each size it prints the
+network's time for a 640x480 frame on one thread, the price of that size in frame rate.
+onnxruntime only: it runs on the Jetson too.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from jetson.perception.cnn.runtime import CnnDetector, metadata_path
+from jetson.perception.cnn.runtime import CnnDetector, metadata_path, network_ms
 from jetson.perception.dataset import RingDataset
 from jetson.perception.errors import DatasetError
 from jetson.perception.evaluate import Counts, heldout_of, match
@@ -38,6 +39,8 @@ class Tuning:
     mean_f1: float
     # table[size][threshold][folder] = (precision, recall, F1)
     table: dict[int, dict[float, dict[str, tuple[float, float, float]]]]
+    # network milliseconds for a 640x480 frame at each size, one thread (the frame-rate cost)
+    network_ms: dict[int, float]
 
 
 def score_size(
@@ -79,7 +82,9 @@ def tune(
             raise DatasetError(f"{folder}: no images to tune on")
         datasets[str(folder)] = ds
     table: dict[int, dict[float, dict[str, tuple[float, float, float]]]] = {}
+    ms: dict[int, float] = {}
     for size in _bar(sizes, progress):
+        ms[size] = network_ms(model, size, repeats=10)
         detector.info = replace(base, input_long_side=size)
         per_folder = {name: score_size(detector, ds, thresholds) for name, ds in datasets.items()}
         table[size] = {
@@ -90,7 +95,7 @@ def tune(
         ((s, t) for s in sizes for t in thresholds),
         key=lambda st: (_mean_f1(table[st[0]][st[1]]), -st[0]),  # a tie goes to the faster
     )
-    return Tuning(best[0], best[1], _mean_f1(table[best[0]][best[1]]), table)
+    return Tuning(best[0], best[1], _mean_f1(table[best[0]][best[1]]), table, ms)
 
 
 def write_choice(model: Path, tuning: Tuning) -> None:
@@ -104,6 +109,7 @@ def write_choice(model: Path, tuning: Tuning) -> None:
         },
         "rule": "best mean F1 over the folders (their held-out images), ties to the smaller input",
         "mean_f1": round(tuning.mean_f1, 4),
+        "network_ms_640x480": {str(k): round(v, 2) for k, v in tuning.network_ms.items()},
         "f1": {
             str(s): {str(t): {n: round(v[2], 4) for n, v in row.items()} for t, row in rows.items()}
             for s, rows in tuning.table.items()
@@ -115,16 +121,17 @@ def write_choice(model: Path, tuning: Tuning) -> None:
 
 
 def format_table(tuning: Tuning) -> str:
-    """Mean F1 by input size (rows) and threshold (columns); the choice starred."""
+    """Mean F1 by input size (rows) and threshold (columns), and the network's time for a
+    640x480 frame at each size; the choice starred."""
     sizes = list(tuning.table)
     thresholds = list(tuning.table[sizes[0]])
-    lines = ["size  " + "".join(f"{t:>8.2f}" for t in thresholds)]
+    lines = ["size  " + "".join(f"{t:>8.2f}" for t in thresholds) + "   network ms"]
     for s in sizes:
         cells = []
         for t in thresholds:
             star = "*" if (s, t) == (tuning.input_long_side, tuning.score_threshold) else " "
             cells.append(f"{_mean_f1(tuning.table[s][t]):>7.3f}{star}")
-        lines.append(f"{s:<6d}" + "".join(cells))
+        lines.append(f"{s:<6d}" + "".join(cells) + f"   {tuning.network_ms[s]:>10.1f}")
     return "\n".join(lines)
 
 
