@@ -89,6 +89,26 @@ def test_int8_model_keeps_the_float_models_outputs(
     CnnDetector(out, score_threshold=0.0).detect(bgr)
 
 
+def _int8_convolutions(model: Path) -> list[str]:
+    """The convolutions whose weights come out of a DequantizeLinear: the quantized ones."""
+    graph = onnx.load(str(model)).graph
+    dequantized = {o for n in graph.node if n.op_type == "DequantizeLinear" for o in n.output}
+    return [n.name for n in graph.node if n.op_type == "Conv" and n.input[1] in dequantized]
+
+
+def test_first_and_last_convolutions_stay_float_unless_asked(
+    float_model: Path, frames: Path, tmp_path: Path
+) -> None:
+    convs = [n.name for n in onnx.load(str(float_model)).graph.node if n.op_type == "Conv"]
+    kept = quantize(float_model, [frames], tmp_path / "a.onnx", frames=2)
+    assert sorted(_int8_convolutions(kept.out)) == sorted(convs[1:-1])
+    q = json.loads(metadata_path(kept.out).read_text())["quantization"]
+    assert q["float_nodes"] == [convs[0], convs[-1]]
+    every = quantize(float_model, [frames], tmp_path / "b.onnx", frames=2, all_int8=True)
+    assert sorted(_int8_convolutions(every.out)) == sorted(convs)
+    assert json.loads(metadata_path(every.out).read_text())["quantization"]["float_nodes"] == []
+
+
 def test_calibration_never_uses_held_out_images(frames: Path) -> None:
     names = sorted(p.stem for p in (frames / "images").iterdir())
     held = holdout_names(names, 0.5, 3)

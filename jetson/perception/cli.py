@@ -110,6 +110,16 @@ def cmd_detect(args: argparse.Namespace) -> int:
     return 0
 
 
+def _patch(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError as exc:
+        raise ConfigError(f"--patch is WIDTHxHEIGHT in pixels, e.g. 192x160; got {text!r}") from exc
+    if w < 16 or h < 16 or w % 16 or h % 16:
+        raise ConfigError(f"--patch sides must be multiples of 16, at least 16; got {text!r}")
+    return w, h
+
+
 def cmd_train(args: argparse.Namespace) -> int:
     try:
         from jetson.perception.cnn.train import TrainConfig, train
@@ -132,6 +142,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         giou_weight=args.giou,
         strong_cast=args.strong_cast,
         input_long_side=args.input_long_side,
+        patch=_patch(args.patch),
         init=args.init,
         lr=args.lr,
     )
@@ -142,7 +153,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 def cmd_quantize(args: argparse.Namespace) -> int:
     from jetson.perception.cnn.quantize import quantize
 
-    report = quantize(args.model, list(args.calib), args.out, args.frames)
+    report = quantize(args.model, list(args.calib), args.out, args.frames, args.all_int8)
     print(
         f"wrote {report.out} (int8, calibrated on {report.calibration_images} images): "
         f"{report.float_ms:.1f} ms a 640x480 frame as float, {report.int8_ms:.1f} ms as int8 "
@@ -368,6 +379,12 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         "smaller rings and costs frame rate",
     )
     t.add_argument(
+        "--patch",
+        default="192x160",
+        help="training crop WIDTHxHEIGHT at the input scale (192x160); a model trained at a "
+        "larger --input-long-side needs a larger patch to see as much of the scene around piles",
+    )
+    t.add_argument(
         "--init",
         type=Path,
         help="start from these weights instead of from scratch (a .pt detector train wrote, "
@@ -382,7 +399,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         help="an int8 copy of a trained model: about twice as fast on a CPU",
         description="Static int8 quantization (onnxruntime, QDQ format): weights int8 per "
         "channel, activations uint8 with ranges measured on calibration images (never the "
-        "images the model held out). Writes OUT and its .json; needs the onnx package.",
+        "images the model held out); the first and last convolutions stay float. Writes OUT "
+        "and its .json; needs the onnx package.",
     )
     q.add_argument("--model", type=Path, required=True, help="the float .onnx detector train wrote")
     q.add_argument(
@@ -390,6 +408,12 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     )
     q.add_argument("--frames", type=int, default=96, help="calibration images in all (96)")
     q.add_argument("--out", type=Path, required=True, help="the int8 .onnx to write")
+    q.add_argument(
+        "--all-int8",
+        action="store_true",
+        help="quantize the first and last convolutions too (kept float by default: the image's "
+        "fine colour steps and the output's scores suffer most, for little time)",
+    )
     q.set_defaults(func=cmd_quantize)
     u = dsub.add_parser(
         "tune",

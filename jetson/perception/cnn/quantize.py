@@ -4,8 +4,9 @@
         --out models/ringnet.onnx
 
 Weights become int8 (one scale per output channel) and activations uint8, as QuantizeLinear /
-DequantizeLinear pairs around every convolution (the QDQ format, which onnxruntime's CPU kernels
-and TensorRT both run as integer arithmetic). The activations' ranges come from running the
+DequantizeLinear pairs around every convolution but the first and the last (quantize() says
+why): the QDQ format, which onnxruntime's CPU kernels and TensorRT both run as integer
+arithmetic. The activations' ranges come from running the
 float model over calibration images, preprocessed exactly as the runtime does (cnn/runtime.py),
 drawn evenly from the calibration folders but never from the images the model held out of its
 training: those are what `detector eval` scores it on.
@@ -72,10 +73,28 @@ def calibration_images(
             yield str(folder), ds.names[i], ds.image(i)
 
 
+def edge_convolutions(model: Path) -> list[str]:
+    """The names of the graph's first and last convolutions."""
+    import onnx
+
+    convs = [n.name for n in onnx.load(str(model)).graph.node if n.op_type == "Conv"]
+    return list(dict.fromkeys([convs[0], convs[-1]])) if convs else []
+
+
 def quantize(
-    model: Path, folders: list[Path], out: Path, frames: int = DEFAULT_FRAMES
+    model: Path,
+    folders: list[Path],
+    out: Path,
+    frames: int = DEFAULT_FRAMES,
+    all_int8: bool = False,
 ) -> QuantizeReport:
-    """Write the int8 model `out` (and its metadata beside it) from the float model `model`."""
+    """Write the int8 model `out` (and its metadata beside it) from the float model `model`.
+
+    The first and the last convolution stay float unless `all_int8`: the first reads the
+    image, whose fine colour steps decide ring against floor on real photos, and the last
+    writes the heat and box terms that are thresholded and exponentiated. They are two of
+    twelve convolutions and cheap (3 input channels; 5 output channels); quantized too, they cost
+    a model trained at input 560 0.02 F1 on the held-out photos (jetson/perception/README.md)."""
     try:
         from onnxruntime.quantization import (
             CalibrationDataReader,
@@ -119,6 +138,7 @@ def quantize(
         # Symbolic shape inference cannot follow the dynamic height and width through the
         # top-down path's resizes; ONNX's own inference and the graph optimisation suffice.
         quant_pre_process(str(model), str(prepared), skip_symbolic_shape=True)
+        keep_float = [] if all_int8 else edge_convolutions(prepared)
         quantize_static(
             str(prepared),
             str(out),
@@ -128,11 +148,13 @@ def quantize(
             weight_type=QuantType.QInt8,
             per_channel=True,
             calibrate_method=CalibrationMethod.MinMax,
+            nodes_to_exclude=keep_float,
         )
     meta["quantization"] = {
         "format": "QDQ",
         "weights": "int8, per output channel",
         "activations": "uint8, MinMax ranges",
+        "float_nodes": keep_float,
         "calibration": [{"folder": f, "images": n} for f, n in used.items()],
         "float_model": model.name,
         "float_sha256": hashlib.sha256(model.read_bytes()).hexdigest(),
