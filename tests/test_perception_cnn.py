@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
@@ -23,7 +24,7 @@ from jetson.perception.errors import DatasetError, ModelError
 torch = pytest.importorskip("torch")
 ort = pytest.importorskip("onnxruntime")
 
-from jetson.perception.cnn.model import STRIDE, ExportWrapper, RingNet, export_onnx  # noqa: E402
+from jetson.perception.cnn.model import STRIDE, ExportWrapper, RingNet  # noqa: E402
 from jetson.perception.cnn.train import (  # noqa: E402
     Source,
     TrainConfig,
@@ -37,22 +38,14 @@ from jetson.perception.cnn.train import (  # noqa: E402
 
 
 @pytest.fixture(scope="module")
-def tiny_model(tmp_path_factory: pytest.TempPathFactory) -> tuple[RingNet, Path]:
-    torch.manual_seed(0)
-    net = RingNet(width=4, blocks=2)  # dilations 2 and 4 in the deepest stage
-    # Untrained batch-norm statistics are 0 and 1; give them other values so export must get
-    # them right too.
-    for m in net.modules():
-        if isinstance(m, torch.nn.BatchNorm2d):
-            m.running_mean.uniform_(-0.5, 0.5)
-            m.running_var.uniform_(0.5, 2.0)
-    net.eval()
+def tiny_model(
+    tmp_path_factory: pytest.TempPathFactory, untrained_ringnet: Callable[..., tuple[RingNet, Path]]
+) -> tuple[RingNet, Path]:
     path = tmp_path_factory.mktemp("model") / "tiny.onnx"
-    export_onnx(net, path, 96, 128)
-    meta = {"format": "pete-ringnet", "version": 1, "stride": STRIDE, "input_long_side": 128,
-            "score_threshold": 0.0}  # fmt: skip
-    metadata_path(path).write_text(json.dumps(meta))
-    return net, path
+    # blocks=2: dilations 2 and 4 in the deepest stage, which export must carry too
+    return untrained_ringnet(
+        path, seed=0, width=4, blocks=2, input_long_side=128, score_threshold=0.0
+    )
 
 
 @pytest.mark.filterwarnings("ignore::DeprecationWarning")  # the legacy exporter, on purpose

@@ -5,7 +5,7 @@ threshold with the best held-out F1; both refuse what they cannot do."""
 from __future__ import annotations
 
 import json
-import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +21,7 @@ torch = pytest.importorskip("torch")
 ort = pytest.importorskip("onnxruntime")
 onnx = pytest.importorskip("onnx")
 
-from jetson.perception.cnn.model import STRIDE, RingNet, export_onnx  # noqa: E402
+from jetson.perception.cnn.model import RingNet  # noqa: E402
 from jetson.perception.cnn.quantize import calibration_images, quantize  # noqa: E402
 from jetson.perception.cnn.tune import format_table, tune, write_choice  # noqa: E402
 
@@ -38,22 +38,12 @@ def frames(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def float_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    torch.manual_seed(1)
-    net = RingNet(width=8)
-    for m in net.modules():
-        if isinstance(m, torch.nn.BatchNorm2d):
-            m.running_mean.uniform_(-0.5, 0.5)
-            m.running_var.uniform_(0.5, 2.0)
-    net.eval()
+def float_model(
+    tmp_path_factory: pytest.TempPathFactory, untrained_ringnet: Callable[..., tuple[RingNet, Path]]
+) -> Path:
     path = tmp_path_factory.mktemp("float") / "m.onnx"
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)  # the legacy exporter, on purpose
-        export_onnx(net, path, 96, 128)
-    meta = {"format": "pete-ringnet", "version": 1, "stride": STRIDE, "input_long_side": 160,
-            "score_threshold": 0.3, "validation": {"x": {"f1": 0.5}}}  # fmt: skip
-    metadata_path(path).write_text(json.dumps(meta))
-    return path
+    meta = {"input_long_side": 160, "score_threshold": 0.3, "validation": {"x": {"f1": 0.5}}}
+    return untrained_ringnet(path, seed=1, width=8, **meta)[1]
 
 
 def _outputs(model: Path, bgr: np.ndarray) -> list[np.ndarray]:
