@@ -23,7 +23,7 @@ onnx = pytest.importorskip("onnx")
 
 from jetson.perception.cnn.model import RingNet  # noqa: E402
 from jetson.perception.cnn.quantize import calibration_images, quantize  # noqa: E402
-from jetson.perception.cnn.tune import format_table, tune, write_choice  # noqa: E402
+from jetson.perception.cnn.tune import calibration_note, format_table, tune, write_choice  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -127,6 +127,18 @@ def test_quantize_refuses_what_it_cannot_do(
     quantize(float_model, [frames], once, frames=2)
     with pytest.raises(ModelError, match="already quantized"):
         quantize(once, [frames], tmp_path / "twice.onnx")
+
+
+def test_tune_warns_when_it_moves_an_int8_model_off_its_calibration_size(
+    float_model: Path, frames: Path, tmp_path: Path
+) -> None:
+    int8 = tmp_path / "int8.onnx"
+    quantize(float_model, [frames], int8, frames=2)
+    assert json.loads(metadata_path(int8).read_text())["quantization"]["input_long_side"] == 160
+    assert calibration_note(int8, 160) is None
+    note = calibration_note(int8, 96)
+    assert note is not None and "calibrated at input 160" in note and float_model.name in note
+    assert calibration_note(float_model, 96) is None  # a float model has no calibration
 
 
 def test_tune_picks_the_best_mean_f1_ties_to_the_smaller_input(

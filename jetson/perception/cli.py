@@ -164,7 +164,7 @@ def cmd_quantize(args: argparse.Namespace) -> int:
 
 
 def cmd_tune(args: argparse.Namespace) -> int:
-    from jetson.perception.cnn.tune import format_table, tune, write_choice
+    from jetson.perception.cnn.tune import calibration_note, format_table, tune, write_choice
 
     try:
         sizes = tuple(int(v) for v in args.sizes.split(","))
@@ -178,6 +178,9 @@ def cmd_tune(args: argparse.Namespace) -> int:
         f"best: input long side {tuning.input_long_side}, threshold {tuning.score_threshold} "
         f"(mean F1 {tuning.mean_f1:.3f})"
     )
+    note = calibration_note(args.model, tuning.input_long_side)
+    if note:
+        print(note)
     if args.write:
         write_choice(args.model, tuning)
         print(f"written to {args.model.with_suffix('.json')}")

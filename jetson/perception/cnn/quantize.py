@@ -156,6 +156,9 @@ def quantize(
         "activations": "uint8, MinMax ranges",
         "float_nodes": keep_float,
         "calibration": [{"folder": f, "images": n} for f, n in used.items()],
+        # Activation ranges depend a little on the input scale; `detector tune` warns when it
+        # moves the model away from this size.
+        "input_long_side": info.input_long_side,
         "float_model": model.name,
         "float_sha256": hashlib.sha256(model.read_bytes()).hexdigest(),
         # `validation` above was measured with the float model.

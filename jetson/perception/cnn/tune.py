@@ -120,6 +120,23 @@ def write_choice(model: Path, tuning: Tuning) -> None:
     path.write_text(json.dumps(meta, indent=2) + "\n")
 
 
+def calibration_note(model: Path, input_long_side: int) -> str | None:
+    """A warning when an int8 model is moved to an input size other than the one its activation
+    ranges were measured at: tune the float model, then quantize it."""
+    quant = json.loads(metadata_path(model).read_text()).get("quantization")
+    if not isinstance(quant, dict):
+        return None
+    calibrated = quant.get("input_long_side")
+    if calibrated == input_long_side:
+        return None
+    at = f"at input {calibrated}" if calibrated is not None else "at an unrecorded input size"
+    return (
+        f"note: {model.name} is int8, calibrated {at}; for input {input_long_side} tune the float "
+        f"model ({quant.get('float_model', 'the .onnx it was quantized from')}) and quantize it "
+        "again"
+    )
+
+
 def format_table(tuning: Tuning) -> str:
     """Mean F1 by input size (rows) and threshold (columns), and the network's time for a
     640x480 frame at each size; the choice starred."""
