@@ -202,27 +202,36 @@ def test_strongly_coloured_light_reaches_the_casts_of_real_photos() -> None:
 
 def test_a_ring_cut_by_the_patch_edge_is_a_ring_or_ignored_never_background() -> None:
     # Patches of a 192x160 image at scale 1 are the image itself, shifted by nothing: the
-    # boxes below are cut by the image's edge as a crop would cut them.
+    # boxes below are cut by the image's edge as a crop would cut them. A cut ring's box is the
+    # part of its ellipse inside the patch, as the datasets label rings the frame cuts.
     img = np.zeros((160, 192, 3), np.uint8)
     boxes = np.array(
         [
-            [-30.0, 50.0, 10.0, 70.0],  # a quarter left, 10x20 = 200 px: still a ring
-            [186.0, 50.0, 226.0, 70.0],  # 6x20 = 120 px of 800 left: still a ring
-            [50.0, -18.0, 90.0, 2.0],  # 40x2 = 80 px but 2 px high: ignored
-            [100.0, 156.0, 116.0, 170.0],  # 16x4 = 64 px left... of 224: a ring
-            [140.0, 157.0, 150.0, 167.0],  # 10x3 = 30 px left: ignored
+            [-30.0, 50.0, 10.0, 70.0],  # a quarter left, 10 wide: still a ring
+            [186.0, 50.0, 226.0, 70.0],  # 6 px of the ellipse's side left: still a ring
+            [50.0, -18.0, 90.0, 2.0],  # 2 px high: ignored
+            [100.0, 156.0, 116.0, 170.0],  # 4 px of its top left, 14.5 wide: a ring
+            [140.0, 157.0, 150.0, 167.0],  # 3x9 px left: ignored
             [60.0, 60.0, 64.0, 64.0],  # whole, 4x4 = 16 px: the dataset labelled it, kept
         ]
     )
     cfg = replace(AugmentConfig(), scale_range=(1.0, 1.0), aspect_jitter=0.0, flip=False)
     _, b, ignore = random_patch(np.random.default_rng(0), img, boxes, (192, 160), cfg)
-    assert b.tolist() == [
-        [0.0, 50.0, 10.0, 70.0],
-        [186.0, 50.0, 192.0, 70.0],
-        [100.0, 156.0, 116.0, 160.0],
-        [60.0, 60.0, 64.0, 64.0],
-    ]
-    assert ignore.tolist() == [[50.0, 0.0, 90.0, 2.0], [140.0, 157.0, 150.0, 160.0]]
+    # Centre 10 px outside: the chord at the edge is 2 * 10 * sqrt(1 - 0.5^2) high.
+    h1 = 10 * np.sqrt(0.75)
+    h2 = 10 * np.sqrt(1 - 0.7**2)  # centre 14 px past the right edge, half-width 20
+    w4 = 8 * np.sqrt(1 - (3 / 7) ** 2)  # centre 3 px below the bottom, half-height 7
+    w5 = 5 * np.sqrt(1 - 0.4**2)
+    assert np.allclose(
+        b,
+        [
+            [0.0, 60 - h1, 10.0, 60 + h1],
+            [186.0, 60 - h2, 192.0, 60 + h2],
+            [108 - w4, 156.0, 108 + w4, 160.0],
+            [60.0, 60.0, 64.0, 64.0],
+        ],
+    )
+    assert np.allclose(ignore, [[58.0, 0.0, 82.0, 2.0], [145 - w5, 157.0, 145 + w5, 160.0]])
     # Flipped, the ignore boxes move with the image.
     cfg = replace(cfg, flip=True)
     rng = np.random.default_rng(0)
@@ -230,7 +239,7 @@ def test_a_ring_cut_by_the_patch_edge_is_a_ring_or_ignored_never_background() ->
         _, b, ignore = random_patch(rng, img, boxes, (192, 160), cfg)
         if b[0][0] > 100:  # this draw flipped
             break
-    assert ignore.tolist() == [[102.0, 0.0, 142.0, 2.0], [42.0, 157.0, 52.0, 160.0]]
+    assert np.allclose(ignore, [[110.0, 0.0, 134.0, 2.0], [47 - w5, 157.0, 47 + w5, 160.0]])
 
 
 def test_ignore_regions_cost_nothing_and_the_rest_of_the_background_does() -> None:

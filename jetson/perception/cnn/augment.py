@@ -47,14 +47,43 @@ class AugmentConfig:
 
 
 def _clip_boxes(
-    b: NDArray[np.float64], size: tuple[int, int]
+    b: NDArray[np.float64], size: tuple[int, int], rings: bool = True
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Boxes clipped to a (width, height) patch, the area left and the area they had."""
+    """Boxes cut by a (width, height) patch, the area left and the area they had.
+
+    A ring is an ellipse in its box, and the datasets label a ring the image's edge cuts by the
+    part that shows (the renderer by its visible pixels, people by eye): a sliver at the edge
+    is shorter than the ring. A crop must label its cuts the same way, or the network learns
+    full-height boxes for slivers and misses the IoU of every ring the frame's edge cuts. So a
+    cut box shrinks to the bounds of its ellipse inside the patch. Other regions (rings=False)
+    are clipped as rectangles.
+    """
     pw, ph = size
     clipped = np.clip(b, 0, [pw, ph, pw, ph])
+    if not rings:
+        left = (clipped[:, 2] - clipped[:, 0]) * (clipped[:, 3] - clipped[:, 1])
+        return clipped, left, (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    cx, cy = (b[:, 0] + b[:, 2]) / 2, (b[:, 1] + b[:, 3]) / 2
+    ax = np.maximum((b[:, 2] - b[:, 0]) / 2, 1e-9)
+    ay = np.maximum((b[:, 3] - b[:, 1]) / 2, 1e-9)
+    # The ellipse's half-height at the patch column nearest its centre, and likewise across.
+    tx = (np.clip(cx, 0, pw) - cx) / ax
+    ty = (np.clip(cy, 0, ph) - cy) / ay
+    half_h = ay * np.sqrt(np.clip(1 - tx**2, 0, None))
+    half_w = ax * np.sqrt(np.clip(1 - ty**2, 0, None))
+    tight = np.stack(
+        [
+            np.maximum(clipped[:, 0], cx - half_w),
+            np.maximum(clipped[:, 1], cy - half_h),
+            np.minimum(clipped[:, 2], cx + half_w),
+            np.minimum(clipped[:, 3], cy + half_h),
+        ],
+        axis=1,
+    )
+    tight[:, 2:] = np.maximum(tight[:, 2:], tight[:, :2])  # a corner past the ellipse: empty
     area = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
-    left = (clipped[:, 2] - clipped[:, 0]) * (clipped[:, 3] - clipped[:, 1])
-    return clipped, left, area
+    left = (tight[:, 2] - tight[:, 0]) * (tight[:, 3] - tight[:, 1])
+    return tight, left, area
 
 
 def random_patch(
@@ -96,7 +125,7 @@ def random_patch(
     keep = big_enough & ((left >= cfg.min_cut_area_px) | (left >= area - 1e-6))
     b = clipped[keep]
     ign_all = np.zeros((0, 4)) if ignore is None else ignore.reshape(-1, 4)
-    ign, ign_left, _ = _clip_boxes(ign_all * scale - shift, size)
+    ign, ign_left, _ = _clip_boxes(ign_all * scale - shift, size, rings=False)
     ig = np.concatenate([ign[ign_left > 0], clipped[~keep & (left > 0)]])
     if cfg.flip and rng.random() < 0.5:
         out = out[:, ::-1].copy()
