@@ -46,23 +46,33 @@ class AugmentConfig:
     min_box_px: float = 3.0
 
 
+def _area(b: NDArray[np.float64]) -> NDArray[np.float64]:
+    return (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+
+
 def _clip_boxes(
-    b: NDArray[np.float64], size: tuple[int, int], rings: bool = True
+    b: NDArray[np.float64], size: tuple[int, int]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Boxes cut by a (width, height) patch, the area left and the area they had.
+    """Regions clipped to a (width, height) patch as rectangles, the area left and the area
+    they had."""
+    pw, ph = size
+    clipped = np.clip(b, 0, [pw, ph, pw, ph])
+    return clipped, _area(clipped), _area(b)
+
+
+def _cut_rings(
+    b: NDArray[np.float64], size: tuple[int, int]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Ring boxes cut by a (width, height) patch, the area left and the area they had.
 
     A ring is an ellipse in its box, and the datasets label a ring the image's edge cuts by the
     part that shows (the renderer by its visible pixels, people by eye): a sliver at the edge
     is shorter than the ring. A crop must label its cuts the same way, or the network learns
     full-height boxes for slivers and misses the IoU of every ring the frame's edge cuts. So a
-    cut box shrinks to the bounds of its ellipse inside the patch. Other regions (rings=False)
-    are clipped as rectangles.
+    cut box shrinks to the bounds of its ellipse inside the patch.
     """
     pw, ph = size
-    clipped = np.clip(b, 0, [pw, ph, pw, ph])
-    if not rings:
-        left = (clipped[:, 2] - clipped[:, 0]) * (clipped[:, 3] - clipped[:, 1])
-        return clipped, left, (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    clipped, _, area = _clip_boxes(b, size)
     cx, cy = (b[:, 0] + b[:, 2]) / 2, (b[:, 1] + b[:, 3]) / 2
     ax = np.maximum((b[:, 2] - b[:, 0]) / 2, 1e-9)
     ay = np.maximum((b[:, 3] - b[:, 1]) / 2, 1e-9)
@@ -81,9 +91,7 @@ def _clip_boxes(
         axis=1,
     )
     tight[:, 2:] = np.maximum(tight[:, 2:], tight[:, :2])  # a corner past the ellipse: empty
-    area = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
-    left = (tight[:, 2] - tight[:, 0]) * (tight[:, 3] - tight[:, 1])
-    return tight, left, area
+    return tight, _area(tight), area
 
 
 def random_patch(
@@ -117,7 +125,7 @@ def random_patch(
         bgr, m, (pw, ph), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=fill
     )
     scale, shift = np.array([sx, sy, sx, sy]), np.array([ox, oy, ox, oy])
-    clipped, left, area = _clip_boxes(boxes.reshape(-1, 4) * scale - shift, size)
+    clipped, left, area = _cut_rings(boxes.reshape(-1, 4) * scale - shift, size)
     big_enough = (clipped[:, 2] - clipped[:, 0] >= cfg.min_box_px) & (
         clipped[:, 3] - clipped[:, 1] >= cfg.min_box_px
     )
@@ -125,7 +133,7 @@ def random_patch(
     keep = big_enough & ((left >= cfg.min_cut_area_px) | (left >= area - 1e-6))
     b = clipped[keep]
     ign_all = np.zeros((0, 4)) if ignore is None else ignore.reshape(-1, 4)
-    ign, ign_left, _ = _clip_boxes(ign_all * scale - shift, size, rings=False)
+    ign, ign_left, _ = _clip_boxes(ign_all * scale - shift, size)
     ig = np.concatenate([ign[ign_left > 0], clipped[~keep & (left > 0)]])
     if cfg.flip and rng.random() < 0.5:
         out = out[:, ::-1].copy()
