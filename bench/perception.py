@@ -1,6 +1,6 @@
 """Benchmark of ring perception: detection quality, localisation error, pipeline speed.
 
-    python -m bench.perception [--sim-data DIR | --synthetic] [--frames N] [--real DIR]
+    python -m bench.perception [--sim-data DIR | --synthetic] [--frames N] [--real DIR ...]
                                [--model PATH] [--strict]
 
 1. A test set with ground truth, for each detector (pre-filter off): precision, recall and F1 at
@@ -15,9 +15,11 @@
    is in both. --sim-data scores another such folder. --synthetic (or no
    PyBullet) uses N frames of jetson.perception's own numpy renderer instead ("synthetic_"
    metrics), from seeds 2,000,000 up, which no training run uses.
-2. Real labelled images (a YOLO folder; the shared BLRSAI set when it is present): precision,
-   recall and F1 for each detector, with and without the pre-filter. Skipped, with a message,
-   when the folder is missing.
+2. Real labelled images (YOLO folders; by default the shared BLRSAI set when it is present):
+   precision, recall and F1 for each detector, with and without the pre-filter. --real is
+   repeatable: each folder is scored alone (real1_, real2_, ...) and all of them pooled
+   (real_: their counts summed, what the target reads). A folder the CNN trained on part of is
+   scored on the part it held out. Skipped, with a message, when a folder is missing.
 3. Frames per second of the whole pipeline (pre-filter + detector + localisation) on a 640x480
    frame with depth, one thread for OpenCV and onnxruntime: one core.
 
@@ -114,36 +116,55 @@ def folder_scores(
 def real_images(
     dets: dict[str, Detector],
     camera: CameraConfig,
-    folder: Path,
+    folders: list[Path],
     meta: dict[str, object] | None,
     result: Result,
 ) -> None:
-    """Every detector with and without the pre-filter on real photos. When the CNN trained on
-    part of this folder, everything is scored on the part it held out (and the classical
-    detector, which never trains, on the whole folder as well)."""
-    held = heldout_of(meta, folder)
-    if held is not None:
-        print(f"== real images {folder}: the {len(held)} images the CNN held out of training")
-    else:
-        print(f"== real images {folder}")
-        if trained_on(meta, folder):
-            print("   warning: the CNN trained on these images; its score here flatters it")
-    result.add("real_images", len(held) if held is not None else len(RingDataset(folder)))
-    # Photos from unknown cameras and mounts: no floor-size prior for the classical detector.
-    real_dets = dict(dets, classical=ClassicalDetector())
-    for pre in (False, True):
-        for name, score in folder_scores(real_dets, camera, folder, pre, held).items():
-            tag = f"real_{name}{'_prefilter' if pre else ''}"
-            print(f"  {tag}: {score.counts.summary()}")
-            add_detection(result, tag, score)
-    if held is not None:
-        score = folder_scores({"classical": ClassicalDetector()}, camera, folder, False)
-        print(f"  real_all_classical (all images): {score['classical'].counts.summary()}")
-        add_detection(result, "real_all_classical", score["classical"])
+    """Every detector with and without the pre-filter on real photos, per folder and pooled
+    (`real_*`: the counts of all folders summed, the figure the target reads). Where the CNN
+    trained on part of a folder, that folder is scored on the part it held out (and the
+    classical detector, which never trains, on the whole folder as well)."""
+    pooled: dict[str, Counts] = {}
+    images = 0
+    for k, folder in enumerate(folders, start=1):
+        held = heldout_of(meta, folder)
+        tag = f"real{k}" if len(folders) > 1 else "real"
+        if held is not None:
+            print(f"== real images {folder}: the {len(held)} images the CNN held out of training")
+        else:
+            print(f"== real images {folder}")
+            if trained_on(meta, folder):
+                print("   warning: the CNN trained on these images; its score here flatters it")
+        ds = RingDataset(folder, held)
+        if ds.skipped_note():
+            print(f"   {ds.skipped_note()}")
+        images += len(ds)
+        if len(folders) > 1:
+            result.add(f"{tag}_images", len(ds))
+        # Photos from unknown cameras and mounts: no floor-size prior for the classical detector.
+        real_dets = dict(dets, classical=ClassicalDetector())
+        for pre in (False, True):
+            for name, score in folder_scores(real_dets, camera, folder, pre, held).items():
+                key = f"{name}{'_prefilter' if pre else ''}"
+                print(f"  {tag}_{key}: {score.counts.summary()}")
+                if len(folders) > 1:
+                    add_detection(result, f"{tag}_{key}", score.counts)
+                c, t = score.counts, pooled.get(key, Counts())
+                pooled[key] = Counts(t.tp + c.tp, t.fp + c.fp, t.fn + c.fn)
+        if held is not None:
+            score = folder_scores({"classical": ClassicalDetector()}, camera, folder, False)
+            print(f"  {tag}_all_classical (all images): {score['classical'].counts.summary()}")
+            add_detection(result, f"{tag}_all_classical", score["classical"].counts)
+    result.add("real_images", images)
+    if len(folders) > 1:
+        print(f"== real images, the {len(folders)} folders pooled ({images} images)")
+    for key, counts in pooled.items():
+        if len(folders) > 1:
+            print(f"  real_{key}: {counts.summary()}")
+        add_detection(result, f"real_{key}", counts)
 
 
-def add_detection(result: Result, prefix: str, score: DatasetScore) -> None:
-    c = score.counts
+def add_detection(result: Result, prefix: str, c: Counts) -> None:
     result.add(f"{prefix}_precision", round(c.precision, 4))
     result.add(f"{prefix}_recall", round(c.recall, 4))
     result.add(f"{prefix}_f1", round(c.f1, 4))
@@ -229,7 +250,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sim-data", type=Path, help="a `pete-sim dataset` folder")
     parser.add_argument("--synthetic", action="store_true", help="the numpy renderer's frames")
     parser.add_argument("--frames", type=int, default=500, help="generated test frames (500)")
-    parser.add_argument("--real", type=Path, default=SHARED_REAL, help="a YOLO folder")
+    parser.add_argument(
+        "--real",
+        type=Path,
+        action="append",
+        help="a YOLO folder of real labelled images (repeatable: scored per folder and pooled; "
+        "default the shared BLRSAI set)",
+    )
     parser.add_argument("--model", type=Path, help="CNN model (default models/ringnet.onnx)")
     parser.add_argument("--strict", action="store_true", help="exit 1 if a target is missed")
     args = parser.parse_args(argv)
@@ -260,15 +287,16 @@ def main(argv: list[str] | None = None) -> int:
         for lo, hi, n, med, p90 in score.localisation_bands(BANDS):
             print(f"    {lo:.0f}-{hi:.0f} m: {n} rings, median {med * 100:.1f} cm, "
                   f"p90 {p90 * 100:.1f} cm")  # fmt: skip
-        add_detection(result, f"{prefix}_{name}", score)
+        add_detection(result, f"{prefix}_{name}", score.counts)
         add_localisation(result, f"{prefix}_{name}", score)
         add_visibility(result, f"{prefix}_{name}", score)
     result.add(f"{prefix}_frames", scores[next(iter(scores))].frames)
 
-    if args.real.is_dir():
-        real_images(dets, camera, args.real, meta, result)
-    else:
-        print(f"== real images: {args.real} is not there; skipped (pass --real DIR)")
+    real = [p for p in (args.real or [SHARED_REAL]) if p.is_dir()]
+    for p in sorted(set(args.real or [SHARED_REAL]) - set(real)):
+        print(f"== real images: {p} is not there; skipped (pass --real DIR)")
+    if real:
+        real_images(dets, camera, real, meta, result)
 
     print("== speed")
     pipeline_fps(dets, camera, result)
@@ -276,7 +304,7 @@ def main(argv: list[str] | None = None) -> int:
     default = "cnn" if "cnn" in dets else "classical"
     result.target(f"{prefix}_{default}_f1", 0.95, ">=")
     result.target(f"{prefix}_{default}_loc_within_2m_median_m", 0.03, "<=")
-    if args.real.is_dir():
+    if real:
         result.target(f"real_{default}_f1", 0.85, ">=")
     result.target(f"fps_{default}", 60.0, ">=")
     print()

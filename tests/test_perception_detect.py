@@ -150,9 +150,21 @@ def test_labels_parse_and_malformed_labels_are_named() -> None:
     with pytest.raises(DatasetError, match=r"b\.txt:1: not numbers"):
         parse_labels("0 half 0.5 0.2 0.1\n", "b.txt")
     with pytest.raises(DatasetError, match="outside the image or empty"):
-        parse_labels("0 0.5 0.5 0 0.1\n", "c.txt")
+        parse_labels("0 0.5 0.5 -0.1 0.1\n", "c.txt")
     with pytest.raises(DatasetError, match="outside the image"):
         parse_labels("0 1.5 0.5 0.1 0.1\n", "d.txt")
+    with pytest.raises(DatasetError, match="outside the image"):
+        parse_labels("0 1.5 0.5 0 0\n", "e.txt")  # a point, but off the image
+
+
+def test_zero_size_boxes_are_left_out_and_named() -> None:
+    # A stray click in a labelling tool exports as a box of no size (the public BLRSAI export
+    # has one); it marks no pixels, so it is left out rather than failing the whole folder.
+    skipped: list[str] = []
+    text = "0 0.5 0.5 0.2 0.1\n0 0.23 0.04 0 0\n0 0.7 0.7 0.1 0\n0 0.25 0.75 0.1 0.1\n"
+    boxes = parse_labels(text, "f.txt", skipped)
+    assert boxes.tolist() == [[0.5, 0.5, 0.2, 0.1], [0.25, 0.75, 0.1, 0.1]]
+    assert skipped == ["f.txt:2: 0 0.23 0.04 0 0", "f.txt:3: 0 0.7 0.7 0.1 0"]
 
 
 def test_dataset_folder_errors(tmp_path: Path) -> None:
@@ -168,9 +180,14 @@ def test_dataset_folder_errors(tmp_path: Path) -> None:
     cv2.imwrite(str(tmp_path / "train" / "images" / "a.png"), np.zeros((8, 8, 3), np.uint8))
     (tmp_path / "train" / "labels").mkdir()
     (tmp_path / "train" / "labels" / "a.txt").write_text("0 0.5 0.5 0.5\n")
-    ds = RingDataset(tmp_path / "train")
+    # Labels are read when the folder is opened: the error comes before any work starts.
     with pytest.raises(DatasetError, match=r"a\.txt:1"):
-        ds.boxes(0, 8, 8)
+        RingDataset(tmp_path / "train")
+    (tmp_path / "train" / "labels" / "a.txt").write_text("0 0.5 0.5 0.5 0.5\n0 0.1 0.1 0 0\n")
+    ds = RingDataset(tmp_path / "train")
+    assert ds.boxes(0, 8, 8).tolist() == [[2.0, 2.0, 6.0, 6.0]]
+    note = ds.skipped_note()
+    assert note is not None and "left out 1 empty label box" in note and "a.txt:2" in note
 
 
 def test_dataset_round_trip_with_depth_and_truth(tmp_path: Path) -> None:

@@ -14,7 +14,10 @@ The layout, shared by real labelled images, `pete-jetson detector synth` and the
                                 "intrinsics": {...}, "mount": {...}, ...} for the camera that took
                                 the images (needed to localise from depth)
 
-Only class 0 (ring) is read; lines of other classes are skipped.
+Only class 0 (ring) is read; lines of other classes are skipped. A box of zero width or height
+(a labelling tool's stray click: the public BLRSAI export holds one) marks no ring pixels; it is
+skipped and named in `RingDataset.skipped_labels`, so that one such line does not make a whole
+folder unusable. Every other malformed line is an error naming its file and line.
 
 Held-out splits (holdout_names) keep every augmented copy of a source image on one side: a
 Roboflow export names copies "SOURCE_jpg.rf.HASH", so copies share the part before ".rf.", and
@@ -52,8 +55,9 @@ class Sample:
     truth: Path | None
 
 
-def parse_labels(text: str, where: str) -> NDArray[np.float64]:
-    """Ring boxes (N, 4) as normalised (cx, cy, w, h) from YOLO label text."""
+def parse_labels(text: str, where: str, skipped: list[str] | None = None) -> NDArray[np.float64]:
+    """Ring boxes (N, 4) as normalised (cx, cy, w, h) from YOLO label text; zero-size boxes
+    are left out and, when `skipped` is given, listed there as "where:line: text"."""
     rows = []
     for n, line in enumerate(text.splitlines(), start=1):
         parts = line.split()
@@ -72,6 +76,10 @@ def parse_labels(text: str, where: str) -> NDArray[np.float64]:
             raise DatasetError(f"{where}:{n}: values must be finite: {line!r}")
         eps = 1e-3
         inside = -eps <= cx <= 1 + eps and -eps <= cy <= 1 + eps
+        if inside and 0 <= w <= 1 + eps and 0 <= h <= 1 + eps and (w == 0 or h == 0):
+            if skipped is not None:
+                skipped.append(f"{where}:{n}: {line.strip()}")
+            continue
         if not (inside and 0 < w <= 1 + eps and 0 < h <= 1 + eps):
             raise DatasetError(
                 f"{where}:{n}: box outside the image or empty (values are normalised to "
@@ -154,6 +162,27 @@ class RingDataset:
             if not self.samples:
                 raise DatasetError(f"{self.root}: none of its images are in the selection")
         self.meta = self._meta()
+        # Labels are read up front: a malformed file is an error before any work starts, and
+        # the empty boxes left out are known (skipped_labels) before anything is scored.
+        self.skipped_labels: list[str] = []
+        self._boxes = [self._read_labels(s.label) for s in self.samples]
+
+    def _read_labels(self, label: Path | None) -> NDArray[np.float64]:
+        if label is None:
+            return np.zeros((0, 4))
+        try:
+            text = label.read_text()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise DatasetError(f"{label} cannot be read: {exc}") from exc
+        return parse_labels(text, str(label), self.skipped_labels)
+
+    def skipped_note(self) -> str | None:
+        """One line naming the empty boxes left out, for the user; None when there are none."""
+        n = len(self.skipped_labels)
+        if not n:
+            return None
+        more = f" (and {n - 1} more)" if n > 1 else ""
+        return f"{self.root}: left out {n} empty label box(es): {self.skipped_labels[0]}{more}"
 
     @property
     def names(self) -> list[str]:
@@ -191,10 +220,7 @@ class RingDataset:
         return img
 
     def boxes_normalised(self, i: int) -> NDArray[np.float64]:
-        label = self.samples[i].label
-        if label is None:
-            return np.zeros((0, 4))
-        return parse_labels(label.read_text(), str(label))
+        return self._boxes[i].copy()
 
     def boxes(self, i: int, width: int, height: int) -> NDArray[np.float64]:
         """Ring boxes in pixels (x0, y0, x1, y1) for an image of the given size."""

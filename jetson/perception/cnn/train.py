@@ -303,6 +303,10 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
     t0 = time.monotonic()
     sources, val = [], []
     max_side = max(cfg.max_side, cfg.input_long_side)
+    for p in cfg.data + cfg.val_data:
+        note = RingDataset(p).skipped_note()
+        if note:
+            log(note)
     for p in cfg.data:
         if cfg.holdout > 0:
             names = RingDataset(p).names
