@@ -136,8 +136,8 @@ def real_images(
             if trained_on(meta, folder):
                 print("   warning: the CNN trained on these images; its score here flatters it")
         ds = RingDataset(folder, held)
-        if ds.skipped_note():
-            print(f"   {ds.skipped_note()}")
+        if note := ds.skipped_note():
+            print(f"   {note}")
         images += len(ds)
         if len(folders) > 1:
             result.add(f"{tag}_images", len(ds))

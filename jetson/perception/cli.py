@@ -196,8 +196,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
     camera = _camera(args)
     dataset = RingDataset(args.images)
-    if dataset.skipped_note():
-        print(dataset.skipped_note())
+    if note := dataset.skipped_note():
+        print(note)
     known_camera = args.camera is not None
     if dataset.meta is not None and "mount" in dataset.meta and not args.camera:
         camera = CameraConfig(camera.intrinsics, CameraMount.from_dict(dataset.meta["mount"]))
