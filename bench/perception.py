@@ -100,15 +100,10 @@ def synthetic_scores(
 
 
 def folder_scores(
-    dets: dict[str, Detector],
-    camera: CameraConfig,
-    folder: Path,
-    prefilter: bool,
-    keep: set[str] | None = None,
+    dets: dict[str, Detector], camera: CameraConfig, ds: RingDataset, prefilter: bool
 ) -> dict[str, DatasetScore]:
     from jetson.perception.evaluate import score_dataset
 
-    ds = RingDataset(folder, keep)
     cfg = PrefilterConfig(enabled=prefilter)
     return {name: score_dataset(Pipeline(d, camera, cfg), ds) for name, d in dets.items()}
 
@@ -144,7 +139,7 @@ def real_images(
         # Photos from unknown cameras and mounts: no floor-size prior for the classical detector.
         real_dets = dict(dets, classical=ClassicalDetector())
         for pre in (False, True):
-            for name, score in folder_scores(real_dets, camera, folder, pre, held).items():
+            for name, score in folder_scores(real_dets, camera, ds, pre).items():
                 key = f"{name}{'_prefilter' if pre else ''}"
                 print(f"  {tag}_{key}: {score.counts.summary()}")
                 if len(folders) > 1:
@@ -152,7 +147,8 @@ def real_images(
                 c, t = score.counts, pooled.get(key, Counts())
                 pooled[key] = Counts(t.tp + c.tp, t.fp + c.fp, t.fn + c.fn)
         if held is not None:
-            score = folder_scores({"classical": ClassicalDetector()}, camera, folder, False)
+            whole = RingDataset(folder)
+            score = folder_scores({"classical": ClassicalDetector()}, camera, whole, False)
             print(f"  {tag}_all_classical (all images): {score['classical'].counts.summary()}")
             add_detection(result, f"{tag}_all_classical", score["classical"].counts)
     result.add("real_images", images)
@@ -277,7 +273,7 @@ def main(argv: list[str] | None = None) -> int:
         ds = RingDataset(args.sim_data)
         if ds.meta is not None and "intrinsics" in ds.meta:
             camera = CameraConfig(Intrinsics.from_dict(ds.meta["intrinsics"]), camera.mount)
-        scores = folder_scores(dets, camera, args.sim_data, prefilter=False)
+        scores = folder_scores(dets, camera, ds, prefilter=False)
     else:
         print(f"== synthetic test set: {args.frames} frames (numpy renderer, not the simulator)")
         prefix = "synthetic"

@@ -329,6 +329,25 @@ def test_training_runs_end_to_end_and_writes_a_usable_model(tmp_path: Path) -> N
         train(TrainConfig(), out)
 
 
+def test_training_names_an_empty_label_box_once(tmp_path: Path) -> None:
+    import cv2
+
+    folder = tmp_path / "photos"
+    (folder / "images").mkdir(parents=True)
+    (folder / "labels").mkdir()
+    for k in range(3):
+        cv2.imwrite(str(folder / "images" / f"p{k}.png"), np.zeros((48, 64, 3), np.uint8))
+        (folder / "labels" / f"p{k}.txt").write_text("0 0.5 0.5 0.25 0.25\n")
+    (folder / "labels" / "p1.txt").write_text("0 0.5 0.5 0.25 0.25\n0 0.1 0.1 0 0\n")
+    lines: list[str] = []
+    cfg = TrainConfig(
+        data=[folder, folder], synthetic=0, synthetic_val=1, steps=1, batch=2, width=4, threads=1
+    )
+    train(cfg, tmp_path / "m.onnx", log=lines.append)
+    notes = [line for line in lines if "empty label box" in line]
+    assert len(notes) == 1 and "p1.txt:2" in notes[0]
+
+
 def test_training_can_start_from_saved_weights(tmp_path: Path) -> None:
     """--init: zero steps from saved weights leave them as they were (the start is the file,
     not a fresh network); weights of another shape are an error naming the shape."""

@@ -15,6 +15,7 @@ from jetson.perception.dataset import (
     RingDataset,
     fingerprint,
     holdout_names,
+    image_names,
     parse_labels,
     source_group,
     write_meta,
@@ -188,6 +189,32 @@ def test_dataset_folder_errors(tmp_path: Path) -> None:
     assert ds.boxes(0, 8, 8).tolist() == [[2.0, 2.0, 6.0, 6.0]]
     note = ds.skipped_note()
     assert note is not None and "left out 1 empty label box" in note and "a.txt:2" in note
+
+
+def test_dataset_names_and_subset_without_reading_again(tmp_path: Path) -> None:
+    images, labels = tmp_path / "images", tmp_path / "labels"
+    images.mkdir()
+    labels.mkdir()
+    for name, text in (("a", "0 0.5 0.5 0 0\n"), ("b", "0 0.5 0.5 0.5 0.5\n"), ("c", "")):
+        cv2.imwrite(str(images / f"{name}.png"), np.zeros((8, 8, 3), np.uint8))
+        (labels / f"{name}.txt").write_text(text)
+    # Names (to recognise or split a folder) come without opening a single label file.
+    (labels / "c.txt").write_text("not a label line\n")
+    assert image_names(tmp_path) == ["a", "b", "c"]
+    with pytest.raises(DatasetError, match=r"c\.txt:1"):
+        RingDataset(tmp_path)
+    (labels / "c.txt").write_text("0 0.25 0.25 0.5 0.5\n")
+    ds = RingDataset(tmp_path)
+    assert ds.skipped_labels and ds.skipped_labels[0].endswith("a.txt:1: 0 0.5 0.5 0 0")
+    # The subset keeps its own samples' boxes and notes, from what the folder already read.
+    (labels / "c.txt").write_text("not a label line\n")
+    part = ds.subset({"b", "c"})
+    assert part.names == ["b", "c"] and ds.names == ["a", "b", "c"]
+    assert part.boxes(1, 8, 8).tolist() == [[0.0, 0.0, 4.0, 4.0]]
+    assert part.skipped_labels == [] and part.skipped_note() is None
+    assert ds.subset({"a"}).skipped_note() is not None
+    with pytest.raises(DatasetError, match="none of its images"):
+        ds.subset({"z"})
 
 
 def test_dataset_round_trip_with_depth_and_truth(tmp_path: Path) -> None:

@@ -217,7 +217,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         meta = pipeline.detector.info.extra
         held = heldout_of(meta, args.images)
         if held is not None and not args.all_images:
-            dataset = RingDataset(args.images, held)
+            dataset = dataset.subset(held)
             print(
                 f"the model trained on this folder: scoring the {len(dataset)} images it held out"
             )

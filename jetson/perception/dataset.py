@@ -26,6 +26,7 @@ a model validated on a blurred copy of a training image would be measured on wha
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import json
 import zlib
@@ -133,30 +134,40 @@ def fingerprint(names: list[str]) -> str:
     return hashlib.sha1("\n".join(sorted(names)).encode()).hexdigest()[:16]
 
 
+def image_files(root: Path) -> list[Path]:
+    """A dataset folder's images, sorted; an error naming the problem when there are none."""
+    images = root / "images"
+    if not root.is_dir():
+        raise DatasetError(f"dataset folder {root} does not exist")
+    if not images.is_dir():
+        hint = ""
+        subs = sorted(p.name for p in root.iterdir() if (p / "images").is_dir())
+        if subs:
+            hint = f"; it has split folders {subs}: point at one of them"
+        raise DatasetError(
+            f"{root} has no images/ folder (a YOLO dataset needs images/ and labels/){hint}"
+        )
+    files = sorted(p for p in images.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+    if not files:
+        raise DatasetError(f"{images} holds no images ({', '.join(IMAGE_SUFFIXES)})")
+    return files
+
+
+def image_names(root: Path | str) -> list[str]:
+    """The sample names of a dataset folder without reading its labels: enough to recognise a
+    folder (fingerprint) or split it (holdout_names) before opening it."""
+    return [p.stem for p in image_files(Path(root))]
+
+
 class RingDataset:
-    """A dataset folder (see the module's doc), read lazily.
+    """A dataset folder (see the module's doc): labels read when it opens, images when asked.
 
     `keep`, when given, restricts the dataset to the samples whose names it holds.
     """
 
     def __init__(self, root: Path | str, keep: set[str] | None = None) -> None:
         self.root = Path(root)
-        images = self.root / "images"
-        if not self.root.is_dir():
-            raise DatasetError(f"dataset folder {self.root} does not exist")
-        if not images.is_dir():
-            hint = ""
-            subs = sorted(p.name for p in self.root.iterdir() if (p / "images").is_dir())
-            if subs:
-                hint = f"; it has split folders {subs}: point at one of them"
-            raise DatasetError(
-                f"{self.root} has no images/ folder (a YOLO dataset needs images/ and labels/)"
-                f"{hint}"
-            )
-        files = sorted(p for p in images.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
-        if not files:
-            raise DatasetError(f"{images} holds no images ({', '.join(IMAGE_SUFFIXES)})")
-        self.samples = [self._sample(p) for p in files]
+        self.samples = [self._sample(p) for p in image_files(self.root)]
         if keep is not None:
             self.samples = [s for s in self.samples if s.name in keep]
             if not self.samples:
@@ -187,6 +198,18 @@ class RingDataset:
     @property
     def names(self) -> list[str]:
         return [s.name for s in self.samples]
+
+    def subset(self, keep: set[str]) -> RingDataset:
+        """The samples whose names `keep` holds, without reading the folder again."""
+        picked = [i for i, s in enumerate(self.samples) if s.name in keep]
+        if not picked:
+            raise DatasetError(f"{self.root}: none of its images are in the selection")
+        out = copy.copy(self)
+        out.samples = [self.samples[i] for i in picked]
+        out._boxes = [self._boxes[i] for i in picked]
+        labels = tuple(f"{s.label}:" for s in out.samples if s.label is not None)
+        out.skipped_labels = [x for x in self.skipped_labels if x.startswith(labels)]
+        return out
 
     def _sample(self, image: Path) -> Sample:
         def opt(folder: str, suffix: str) -> Path | None:

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from jetson.perception.camera import CameraConfig, CameraMount
-from jetson.perception.dataset import RingDataset, fingerprint, holdout_names
+from jetson.perception.dataset import RingDataset, fingerprint, holdout_names, image_names
 from jetson.perception.detection import RING_MINOR_M, RING_OUTER_M, Detection, iou_matrix
 from jetson.perception.errors import DatasetError
 from jetson.perception.frame import Frame, Intrinsics
@@ -262,7 +262,7 @@ def heldout_of(model_meta: dict[str, object] | None, folder: Path) -> set[str] |
         return None
     h = model_meta["holdout"]
     assert isinstance(h, dict)
-    names = RingDataset(folder).names
+    names = image_names(folder)
     if fingerprint(names) not in h.get("fingerprints", []):
         return None
     return holdout_names(names, float(h["fraction"]), int(h["seed"]))
@@ -270,4 +270,4 @@ def heldout_of(model_meta: dict[str, object] | None, folder: Path) -> set[str] |
 
 def trained_on(model_meta: dict[str, object] | None, folder: Path) -> bool:
     prints = (model_meta or {}).get("data_fingerprints", [])
-    return isinstance(prints, list) and fingerprint(RingDataset(folder).names) in prints
+    return isinstance(prints, list) and fingerprint(image_names(folder)) in prints

@@ -32,7 +32,7 @@ from jetson.perception.camera import CameraMount
 from jetson.perception.cnn.augment import AugmentConfig, augment
 from jetson.perception.cnn.model import STRIDE, RingNet, export_onnx
 from jetson.perception.cnn.runtime import MODEL_FORMAT, MODEL_VERSION, CnnDetector, metadata_path
-from jetson.perception.dataset import RingDataset, fingerprint, holdout_names
+from jetson.perception.dataset import RingDataset, fingerprint, holdout_names, image_names
 from jetson.perception.errors import DatasetError
 from jetson.perception.evaluate import Counts, match
 from jetson.perception.frame import Intrinsics
@@ -81,6 +81,7 @@ class Source:
     boxes: list[Boxes]
     # Per image, regions that are neither ring nor background (YOLO folders have none).
     ignore: list[Boxes] | None = None
+    note: str | None = None  # the empty label boxes the folder left out (RingDataset)
 
     def ignore_of(self, i: int) -> Boxes:
         return np.zeros((0, 4)) if self.ignore is None else self.ignore[i]
@@ -99,7 +100,7 @@ def load_folder(path: Path, max_side: int, keep: set[str] | None = None, tag: st
             b = b * s
         images.append(img)
         boxes.append(b)
-    return Source(f"{path}{tag}", images, boxes)
+    return Source(f"{path}{tag}", images, boxes, note=ds.skipped_note())
 
 
 def synthetic_source(n: int, seed: int, size: tuple[int, int] = (320, 240)) -> Source:
@@ -303,13 +304,9 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
     t0 = time.monotonic()
     sources, val = [], []
     max_side = max(cfg.max_side, cfg.input_long_side)
-    for p in cfg.data + cfg.val_data:
-        note = RingDataset(p).skipped_note()
-        if note:
-            log(note)
     for p in cfg.data:
         if cfg.holdout > 0:
-            names = RingDataset(p).names
+            names = image_names(p)
             held = holdout_names(names, cfg.holdout, cfg.holdout_seed)
             sources.append(load_folder(p, max_side, set(names) - held, " (minus held out)"))
             val.append(load_folder(p, max_side, held, " (held out)"))
@@ -321,6 +318,9 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
         n_boxes = sum(len(b) for b in s.boxes)
         log(f"source {s.name}: {len(s.images)} images, {n_boxes} rings")
     val += [load_folder(p, max_side) for p in cfg.val_data]
+    # A folder given twice reports its empty boxes once; its two halves each their own.
+    for note in dict.fromkeys(s.note for s in sources + val if s.note):
+        log(note)
     if cfg.synthetic_val > 0 and (cfg.synthetic > 0 or not val):
         # Seeds below the training ones: validation scenes are never training scenes.
         val.append(synthetic_source(cfg.synthetic_val, cfg.synthetic_seed - 10_000))
@@ -378,7 +378,7 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
     meta["training"]["init"] = str(cfg.init) if cfg.init else None  # type: ignore[index]
     if cfg.init is not None:
         meta["lineage"] = init_lineage(cfg.init)
-    prints = [fingerprint(RingDataset(p).names) for p in cfg.data]
+    prints = [fingerprint(image_names(p)) for p in cfg.data]
     meta["data_fingerprints"] = prints
     if cfg.holdout > 0:
         meta["holdout"] = {
