@@ -218,6 +218,14 @@ def _add_dataset(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--height", type=int, default=480)
     p.add_argument("--robots", default="15in,24in", help="observing robots, comma-separated (both)")
     p.add_argument("--no-augment", action="store_true", help="no blur or noise on the images")
+    p.add_argument(
+        "--viewpoint",
+        choices=("robot", "spectator"),
+        default="robot",
+        help="robot: each robot's own camera (default); spectator: photos of the field from "
+        "0.8-1.9 m up outside its walls, where far rings are a few pixels wide (training data "
+        "for a detector that must also work on people's photos)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_dataset)
 
@@ -236,6 +244,7 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
             height=args.height,
             robots=robots,
             augment=not args.no_augment,
+            viewpoint=args.viewpoint,
         )
         labels = write_dataset(cfg, args.out, progress=not args.no_progress)
     except (ConfigError, OSError, DatasetError) as e:

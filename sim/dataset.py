@@ -8,6 +8,10 @@ number), so frame k is the same whatever N is and any frame can be regenerated a
 * mobile goals nudged, the other robots (both sizes) placed at random or left out of view;
 * the observing robot (15 in or 24 in, so both camera mounts) at a random free spot, usually
   facing a ring 0.3-3 m away, otherwise any way;
+* with `viewpoint = "spectator"`, the camera is not on the robot but where a person photographs
+  the field from: 0.1-1.2 m outside a wall, 0.8-1.9 m up, looking down at a point 1-3 m into
+  the field, so far rings are a few pixels wide, as in photos of a field (the
+  robot's own camera, 0.3 m up, sees few rings that small);
 * what the renderer lets us vary: light direction and ambient/diffuse balance, per-ring colour
   jitter inside the perception HSV window, floor and wall tints; after rendering, Gaussian or
   motion blur and sensor noise on the saved image (depth stays exact: it is ground truth).
@@ -27,7 +31,7 @@ import colorsys
 import json
 import math
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +57,7 @@ _REFERENCE_AREA = 640 * 480
 # rendered by older code is recognised (dataset.json's "scenes_version") and rendered again.
 # 2: no ring inside a goal's base.
 SCENES_VERSION = 2
+VIEWPOINTS = ("robot", "spectator")
 
 
 @dataclass(frozen=True)
@@ -65,6 +70,7 @@ class DatasetConfig:
     # Rings with fewer visible pixels (at 640x480; scaled with the image area) get no label.
     min_ring_pixels: int = 40
     augment: bool = True  # blur and noise on the saved image
+    viewpoint: str = "robot"  # robot: the observing robot's camera | spectator: see the module doc
 
     def __post_init__(self) -> None:
         if self.frames < 1:
@@ -78,6 +84,8 @@ class DatasetConfig:
             raise ConfigError(f"unknown robots {unknown} (known: {sorted(ROBOTS)})")
         if self.min_ring_pixels < 1:
             raise ConfigError(f"min_ring_pixels must be >= 1, got {self.min_ring_pixels}")
+        if self.viewpoint not in VIEWPOINTS:
+            raise ConfigError(f"viewpoint must be one of {VIEWPOINTS}, got {self.viewpoint!r}")
 
     @property
     def min_pixels_here(self) -> int:
@@ -323,6 +331,11 @@ def render_sample(world: World, cfg: DatasetConfig, k: int) -> SimSample:
         for tx, ty, tr in solid:
             clear &= np.hypot(rings[:, 0] - tx, rings[:, 1] - ty) > tr + f.ring.radius
         rings = rings[clear]
+    if cfg.viewpoint == "spectator":
+        # Drawn after the scene, so a spectator frame k shows the scene robot frame k shows.
+        cam, (x, y, heading) = _spectator(world, rng, cam)
+        me.config = replace(me.config, camera=cam)
+        placed[0] = (obs, x, y, heading)
     world.set_floor_rings(rings)
     for g, (gx, gy) in zip(world.goals, goal_xy, strict=True):
         world.place_goal(g.index, gx, gy)
@@ -341,6 +354,7 @@ def render_sample(world: World, cfg: DatasetConfig, k: int) -> SimSample:
         bgr, degrade = _degrade(bgr, rng)
     info = {
         "robot": robot,
+        "viewpoint": cfg.viewpoint,
         "pose": [round(me.x, 5), round(me.y, 5), round(me.heading, 4)],
         "mount": mount_of(cam),
         "light": {
@@ -353,6 +367,34 @@ def render_sample(world: World, cfg: DatasetConfig, k: int) -> SimSample:
     return SimSample(
         f"sim_{cfg.seed}_{k:06d}", bgr, frame.depth, boxes, xy, frame.ring_ids, ids, info
     )
+
+
+def _spectator(
+    world: World, rng: np.random.Generator, cam: CameraConfig
+) -> tuple[CameraConfig, tuple[float, float, float]]:
+    """A photographer's camera (the observing robot carries it, out of the field and out of
+    the picture) and the robot's pose: outside a random wall, aimed at a point of the field."""
+    half = world.field.half
+    side = int(rng.integers(4))
+    along = float(rng.uniform(-half, half))
+    out = half + float(rng.uniform(0.1, 1.2))
+    x, y = [(out, along), (-out, along), (along, out), (along, -out)][side]
+    # Aimed 1-3 m into the field, up to 35 deg off square to its wall, and looking down at
+    # that point give or take: photos of a field show mostly field.
+    inward = math.degrees(math.atan2(-x if side < 2 else 0.0, -y if side >= 2 else 0.0))
+    heading = (inward + float(rng.uniform(-35.0, 35.0))) % 360.0
+    reach = float(rng.uniform(1.0, 3.0)) + (out - half)
+    height = float(rng.uniform(0.8, 1.9))
+    down = math.degrees(math.atan2(height, reach))
+    spec = replace(
+        cam,
+        forward_m=0.35,  # ahead of the robot's body, which stays out of the picture
+        right_m=0.0,
+        height_m=height,
+        tilt_deg=float(np.clip(-down + rng.normal(0.0, 6.0), -75.0, -10.0)),
+        max_range_m=cam.far_m,
+    )
+    return spec, (x, y, heading)
 
 
 def mount_of(cam: CameraConfig) -> dict[str, float]:
@@ -400,12 +442,15 @@ def dataset_meta(cfg: DatasetConfig) -> dict[str, Any]:
         "min_ring_pixels": cfg.min_pixels_here,
         "scenes_version": SCENES_VERSION,
         "hsv_window": HSV_WINDOW,
+        "viewpoint": cfg.viewpoint,
     }
-    mounts = {name: mount_of(c) for name, c in cams.items()}
-    if len({json.dumps(m, sort_keys=True) for m in mounts.values()}) == 1:
-        meta["mount"] = next(iter(mounts.values()))
-    else:
-        meta["mounts"] = mounts
+    # Spectator frames each have their own mount (frames.jsonl), so no folder-wide one.
+    if cfg.viewpoint == "robot":
+        mounts = {name: mount_of(c) for name, c in cams.items()}
+        if len({json.dumps(m, sort_keys=True) for m in mounts.values()}) == 1:
+            meta["mount"] = next(iter(mounts.values()))
+        else:
+            meta["mounts"] = mounts
     return meta
 
 

@@ -177,3 +177,38 @@ def test_evaluation_places_each_frame_with_its_own_robots_camera(tmp_path: Path)
     assert errors, "no ring was matched and placed"
     # With one mount for every frame the 24 in robot's rings land ~10 cm off; per frame, ~1 cm.
     assert float(np.median(errors)) < 0.04
+
+
+def test_spectator_frames_photograph_the_same_scenes_from_outside_the_field(
+    tmp_path: Path,
+) -> None:
+    from sim.field import load_field
+    from sim.geometry import robot_to_field
+
+    half = load_field().half
+    robot_cfg = DatasetConfig(frames=4, seed=3, width=320, height=240)
+    spec_cfg = DatasetConfig(frames=4, seed=3, width=320, height=240, viewpoint="spectator")
+    common = 0
+    robot_sizes, spec_sizes = [], []
+    for r, s in zip(iter_samples(robot_cfg), iter_samples(spec_cfg), strict=True):
+        x, y, heading = s.info["pose"]
+        assert max(abs(x), abs(y)) > half + 0.05  # outside a wall
+        assert 0.8 <= s.info["mount"]["height_m"] <= 1.9 and s.info["viewpoint"] == "spectator"
+        # The scene is robot frame k's: each ring both frames label sits where it did.
+        rx, ry, rh = r.info["pose"]
+        in_r = dict(zip(r.ring_index, robot_to_field(r.rings_robot_xy, (rx, ry), rh), strict=True))
+        in_s = robot_to_field(s.rings_robot_xy, (x, y), heading)
+        for i, xy in zip(s.ring_index, in_s, strict=True):
+            if i in in_r:
+                assert np.allclose(xy, in_r[i], atol=1e-3)  # poses are saved rounded
+                common += 1
+        robot_sizes += list(np.sqrt(np.prod(r.boxes_px[:, 2:] - r.boxes_px[:, :2], axis=1)))
+        spec_sizes += list(np.sqrt(np.prod(s.boxes_px[:, 2:] - s.boxes_px[:, :2], axis=1)))
+    assert common > 0
+    # Seen from further away, rings are smaller: the small rings of photos of a field.
+    assert np.median(spec_sizes) < 0.75 * np.median(robot_sizes)
+    write_dataset(DatasetConfig(frames=1, seed=3, viewpoint="spectator"), tmp_path)
+    meta = json.loads((tmp_path / "dataset.json").read_text())
+    assert meta["viewpoint"] == "spectator" and "mount" not in meta and "mounts" not in meta
+    with pytest.raises(ConfigError, match="viewpoint"):
+        DatasetConfig(frames=1, viewpoint="drone")
