@@ -36,7 +36,7 @@ import numpy as np
 from sim.geometry import field_to_robot, robot_to_field
 from sim.match import MatchCore
 from sim.route import TourConfig, leg_costs, tour
-from sim.skills import Trail, arc_through, back_onto, turn_first
+from sim.skills import Trail, arc_through, back_onto, pursuit_point, turn_first
 from sim.visibility import camera_pose, in_frustum
 from sim.world import DriveCommand, World
 
@@ -345,24 +345,3 @@ class Planner:
             self._trail.clear()
         return DriveCommand(v, w)
 
-
-def pursuit_point(path_robot: np.ndarray, lookahead: float) -> tuple[float, float]:
-    """The pure-pursuit goal point: where the polyline origin -> path[0] -> path[1] ... first
-    leaves the circle of radius `lookahead` about the robot (robot frame). When the whole path
-    lies inside the circle, its end."""
-    prev = np.zeros(2)
-    for q in np.asarray(path_robot, dtype=np.float64).reshape(-1, 2):
-        if np.hypot(*q) >= lookahead:
-            d = q - prev
-            a = float(d @ d)
-            b = 2.0 * float(prev @ d)
-            cc = float(prev @ prev) - lookahead * lookahead
-            disc = b * b - 4 * a * cc
-            if a > 1e-12 and disc >= 0:
-                t = (-b + math.sqrt(disc)) / (2 * a)
-                t = min(max(t, 0.0), 1.0)
-                p = prev + t * d
-                return float(p[0]), float(p[1])
-            return float(q[0]), float(q[1])
-        prev = q
-    return float(prev[0]), float(prev[1])

@@ -32,6 +32,9 @@ from sim.observation import ObservationSpec
 @dataclass(frozen=True)
 class SkillConfig:
     route_option: bool = False  # the route's first stop (needs the observation's route slots)
+    # Pure pursuit along first stop -> second stop, as the planner drives its tour (needs two
+    # route slots): the robot arrives at a ring already turning for the next one.
+    route_through_next: bool = False
     ring_options: int = 4  # the nearest ring slots the policy can pick from
     goal_options: int = 2
     platform: bool = True
@@ -80,6 +83,8 @@ class SkillConfig:
     def check(self, spec: ObservationSpec) -> None:
         if self.route_option and not spec.route_slots:
             raise ValueError("skills: the route option needs the observation's route slots")
+        if self.route_through_next and (not self.route_option or spec.route_slots < 2):
+            raise ValueError("skills: route_through_next needs the route option and 2 route slots")
         if self.n_options < 1:
             raise ValueError("skills: no options")
         if self.ring_options > spec.n_rings:
@@ -144,6 +149,28 @@ def arc_through(
     if abs(curvature) * v > max_angular_rad_s:
         v = max_angular_rad_s / abs(curvature)
     return v, v * curvature
+
+
+def pursuit_point(path_robot: NDArray[np.floating], lookahead: float) -> tuple[float, float]:
+    """The pure-pursuit goal point: where the polyline origin -> path[0] -> path[1] ... first
+    leaves the circle of radius `lookahead` about the robot (robot frame). When the whole path
+    lies inside the circle, its end."""
+    prev = np.zeros(2)
+    for q in np.asarray(path_robot, dtype=np.float64).reshape(-1, 2):
+        if np.hypot(*q) >= lookahead:
+            d = q - prev
+            a = float(d @ d)
+            b = 2.0 * float(prev @ d)
+            cc = float(prev @ prev) - lookahead * lookahead
+            disc = b * b - 4 * a * cc
+            if a > 1e-12 and disc >= 0:
+                t = (-b + math.sqrt(disc)) / (2 * a)
+                t = min(max(t, 0.0), 1.0)
+                p = prev + t * d
+                return float(p[0]), float(p[1])
+            return float(q[0]), float(q[1])
+        prev = q
+    return float(prev[0]), float(prev[1])
 
 
 def back_onto(
@@ -240,7 +267,10 @@ class SkillDriver:
                 slot = f[s.route_offset : s.route_offset + 3]
                 if slot[2] <= 0:
                     return 0.0, 0.3 * self.w_max
-                return self._pursue(slot[:2] * unit, now)
+                after = None
+                if c.route_through_next and f[s.route_offset + 5] > 0:
+                    after = f[s.route_offset + 3 : s.route_offset + 5] * unit
+                return self._pursue(slot[:2] * unit, now, after)
             k -= 1
         if k < c.ring_options:
             slot = f[s.ring_offset + 3 * k : s.ring_offset + 3 * k + 3]
@@ -260,7 +290,9 @@ class SkillDriver:
 
     # --- the skills -------------------------------------------------------------------------
 
-    def _pursue(self, target: NDArray[np.float64], now: float) -> tuple[float, float]:
+    def _pursue(
+        self, target: NDArray[np.float64], now: float, after: NDArray[np.float64] | None = None
+    ) -> tuple[float, float]:
         c = self.config
         tx, ty = float(target[0]), float(target[1])
         turn = turn_first(
@@ -268,10 +300,13 @@ class SkillDriver:
         )
         if turn is not None:
             return turn
-        d = math.hypot(tx, ty)
-        px, py = (
-            (tx, ty) if d <= c.lookahead_m else (tx * c.lookahead_m / d, ty * c.lookahead_m / d)
-        )
+        if after is None:
+            d = math.hypot(tx, ty)
+            px, py = (
+                (tx, ty) if d <= c.lookahead_m else (tx * c.lookahead_m / d, ty * c.lookahead_m / d)
+            )
+        else:
+            px, py = pursuit_point(np.array([target, after]), c.lookahead_m)
         v, w = arc_through(px, py, self.v_max, self.w_max)
         if self._trail.stuck(now, v):
             self._backoff_until = now + c.backoff_s

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from sim.match import MatchCore, make_config
-from sim.planner import Planner, PlannerConfig, pursuit_point
+from sim.planner import Planner, PlannerConfig
 from sim.route import two_opt
+from sim.skills import pursuit_point
 from sim.world import RING_FLOOR
 
 

@@ -220,6 +220,25 @@ def test_the_route_option_drives_to_the_routes_first_stop_and_the_teacher_names_
         SkillDriver(skills, ObservationSpec(n_stack=0))
 
 
+def test_the_route_can_be_driven_through_its_next_stop_as_the_planner_drives() -> None:
+    spec = ObservationSpec(n_stack=0, ring_memory=True, route_slots=2)
+    plain = SkillConfig(route_option=True, ring_options=0, goal_options=0, platform=False)
+    through = replace(plain, route_through_next=True)
+    go = np.array([1.0])
+    # The first stop just ahead, the next one to the right: onto the first stop alone the robot
+    # drives straight; through it, it is already curving right for the next.
+    f = frame(route=[(0.0, 0.2), (1.0, 0.2)], spec=spec)
+    v_plain, w_plain = SkillDriver(plain, spec).command(f, go)
+    v_through, w_through = SkillDriver(through, spec).command(f, go)
+    assert w_plain == pytest.approx(0.0) and v_plain > 0.9
+    assert w_through > 2.0 and v_through > 0.5
+    # Without a second stop it drives as it did.
+    g = frame(route=[(0.3, 1.0)], spec=spec)
+    assert SkillDriver(through, spec).command(g, go) == SkillDriver(plain, spec).command(g, go)
+    with pytest.raises(ValueError, match="2 route slots"):
+        SkillDriver(through, ObservationSpec(n_stack=0, ring_memory=True, route_slots=1))
+
+
 # With the intake flag (spec 5) the clamp is no longer the last scalar.
 @pytest.mark.parametrize("spec", [SPEC, replace(SPEC, version=5, intake_flag=True)])
 def test_a_committed_goal_manoeuvre_ignores_the_policy_until_the_clamp_closes(
