@@ -344,4 +344,3 @@ class Planner:
             self._target = None
             self._trail.clear()
         return DriveCommand(v, w)
-
