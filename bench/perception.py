@@ -130,7 +130,8 @@ def real_images(
             print(f"== real images {folder}")
             if trained_on(meta, folder):
                 print("   warning: the CNN trained on these images; its score here flatters it")
-        ds = RingDataset(folder, held)
+        whole = RingDataset(folder)
+        ds = whole.subset(held) if held is not None else whole
         if note := ds.skipped_note():
             print(f"   {note}")
         images += len(ds)
@@ -147,7 +148,6 @@ def real_images(
                 c, t = score.counts, pooled.get(key, Counts())
                 pooled[key] = Counts(t.tp + c.tp, t.fp + c.fp, t.fn + c.fn)
         if held is not None:
-            whole = RingDataset(folder)
             score = folder_scores({"classical": ClassicalDetector()}, camera, whole, False)
             print(f"  {tag}_all_classical (all images): {score['classical'].counts.summary()}")
             add_detection(result, f"{tag}_all_classical", score["classical"].counts)
