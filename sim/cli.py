@@ -220,7 +220,6 @@ def _add_dataset(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-augment", action="store_true", help="no blur or noise on the images")
     p.add_argument(
         "--viewpoint",
-        choices=("robot", "spectator"),
         default="robot",
         help="robot: each robot's own camera (default); spectator: photos of the field from "
         "0.8-1.9 m up outside its walls, where far rings are a few pixels wide (training data "

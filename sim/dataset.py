@@ -378,10 +378,16 @@ def _spectator(
     side = int(rng.integers(4))
     along = float(rng.uniform(-half, half))
     out = half + float(rng.uniform(0.1, 1.2))
-    x, y = [(out, along), (-out, along), (along, out), (along, -out)][side]
+    # Where the photographer stands and the heading that looks square into the field (0 deg
+    # is +y, 90 deg is +x): one row per wall.
+    x, y, inward = [
+        (out, along, 270.0),
+        (-out, along, 90.0),
+        (along, out, 180.0),
+        (along, -out, 0.0),
+    ][side]
     # Aimed 1-3 m into the field, up to 35 deg off square to its wall, and looking down at
     # that point give or take: photos of a field show mostly field.
-    inward = math.degrees(math.atan2(-x if side < 2 else 0.0, -y if side >= 2 else 0.0))
     heading = (inward + float(rng.uniform(-35.0, 35.0))) % 360.0
     reach = float(rng.uniform(1.0, 3.0)) + (out - half)
     height = float(rng.uniform(0.8, 1.9))

@@ -157,6 +157,8 @@ def test_bad_arguments_are_clear_errors(tmp_path: Path, folder: Path, capsys) ->
     assert "frames must be at least 1" in capsys.readouterr().err
     assert main(["dataset", "--frames", "1", "--out", str(folder), "--no-progress"]) == 2
     assert "already holds a dataset" in capsys.readouterr().err
+    assert main(["dataset", "--frames", "1", "--viewpoint", "drone", "--out", str(tmp_path)]) == 2
+    assert "viewpoint must be one of ('robot', 'spectator')" in capsys.readouterr().err
 
 
 def test_evaluation_places_each_frame_with_its_own_robots_camera(tmp_path: Path) -> None:
@@ -183,7 +185,7 @@ def test_spectator_frames_photograph_the_same_scenes_from_outside_the_field(
     tmp_path: Path,
 ) -> None:
     from sim.field import load_field
-    from sim.geometry import robot_to_field
+    from sim.geometry import heading_vector, robot_to_field
 
     half = load_field().half
     robot_cfg = DatasetConfig(frames=4, seed=3, width=320, height=240)
@@ -193,6 +195,9 @@ def test_spectator_frames_photograph_the_same_scenes_from_outside_the_field(
     for r, s in zip(iter_samples(robot_cfg), iter_samples(spec_cfg), strict=True):
         x, y, heading = s.info["pose"]
         assert max(abs(x), abs(y)) > half + 0.05  # outside a wall
+        # ... looking in across it: within 35 deg of square to that wall.
+        wall = np.array([np.sign(x), 0.0] if abs(x) > abs(y) else [0.0, np.sign(y)])
+        assert float(-wall @ heading_vector(heading)) >= np.cos(np.radians(35.01))
         assert 0.8 <= s.info["mount"]["height_m"] <= 1.9 and s.info["viewpoint"] == "spectator"
         # The scene is robot frame k's: each ring both frames label sits where it did.
         rx, ry, rh = r.info["pose"]
