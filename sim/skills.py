@@ -268,8 +268,9 @@ class SkillDriver:
                 if slot[2] <= 0:
                     return 0.0, 0.3 * self.w_max
                 after = None
-                if c.route_through_next and f[s.route_offset + 5] > 0:
-                    after = f[s.route_offset + 3 : s.route_offset + 5] * unit
+                nxt = f[s.route_offset + 3 : s.route_offset + 6]  # the second stop's slot
+                if c.route_through_next and nxt[2] > 0:
+                    after = nxt[:2] * unit
                 return self._pursue(slot[:2] * unit, now, after)
             k -= 1
         if k < c.ring_options:
