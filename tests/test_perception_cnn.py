@@ -13,6 +13,7 @@ import pytest
 from jetson.perception.cnn.augment import AugmentConfig, augment, photometric, random_patch
 from jetson.perception.cnn.runtime import (
     CnnDetector,
+    ModelInfo,
     decode,
     input_size,
     metadata_path,
@@ -146,6 +147,18 @@ def test_missing_or_broken_models_are_clear_errors(tmp_path: Path) -> None:
                                               "score_threshold": 0.4}))  # fmt: skip
     with pytest.raises(ModelError, match="not a loadable ONNX model"):
         CnnDetector(bad)
+    meta = json.loads(metadata_path(bad).read_text())
+    metadata_path(bad).write_text(json.dumps(meta | {"max_upscale": 0.5}))
+    with pytest.raises(ModelError, match="max_upscale must be >= 1"):
+        CnnDetector(bad)
+
+
+def test_small_frames_are_blown_up_at_most_max_upscale_times() -> None:
+    info = ModelInfo(input_long_side=704, max_upscale=2.25)
+    assert info.input_size(640, 480) == (704, 528)  # the camera: the input size as tuned
+    assert info.input_size(416, 416) == (704, 704)  # photos: 1.7 times
+    assert info.input_size(240, 180) == (544, 400)  # the full-stack match's frames: 2.25, not 2.9
+    assert ModelInfo(input_long_side=704, max_upscale=4.0).input_size(240, 180) == (704, 528)
 
 
 def test_targets_put_each_ring_at_its_centre_cell() -> None:

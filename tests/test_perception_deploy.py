@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -192,6 +193,13 @@ def test_tune_scores_real_runs_and_records_the_choice(
     assert meta["tuning"]["from"] == {"input_long_side": 160, "score_threshold": 0.3}
     assert set(meta["tuning"]["f1"]) == {"96", "160"}
     assert CnnDetector(model).info.input_long_side == tuning.input_long_side
+    assert "tuning_history" not in meta
+    # Tuned again (as an int8 model's threshold is): the earlier table is kept, not lost.
+    write_choice(model, replace(tuning, score_threshold=0.99))
+    meta = json.loads(metadata_path(model).read_text())
+    assert meta["tuning_history"][0]["from"] == {"input_long_side": 160, "score_threshold": 0.3}
+    assert meta["tuning"]["from"]["input_long_side"] == tuning.input_long_side
+    assert meta["score_threshold"] == 0.99
     with pytest.raises(DatasetError, match="at least one --val"):
         tune(model, [], progress=False)
     with pytest.raises(DatasetError, match="at least 16"):

@@ -157,7 +157,9 @@ def cmd_quantize(args: argparse.Namespace) -> int:
     print(
         f"wrote {report.out} (int8, calibrated on {report.calibration_images} images): "
         f"{report.float_ms:.1f} ms a 640x480 frame as float, {report.int8_ms:.1f} ms as int8 "
-        "(one thread); check it with `pete-jetson detector eval --model "
+        "(one thread). int8 moves the scores a little: choose its threshold again at its "
+        f"size (`pete-jetson detector tune --model {report.out} --val DIR --sizes N --write`, "
+        "N its input long side) and check it with `pete-jetson detector eval --model "
         f"{report.out} --images DIR`"
     )
     return 0

@@ -31,7 +31,6 @@ import numpy as np
 
 from jetson.perception.cnn.runtime import (
     ModelInfo,
-    input_size,
     metadata_path,
     network_ms,
     to_input,
@@ -121,7 +120,7 @@ def quantize(
     used: dict[str, int] = {}
     for folder, _, bgr in calibration_images(folders, frames, meta):
         h, w = bgr.shape[:2]
-        inputs.append(to_input(bgr, input_size(w, h, info.input_long_side)))
+        inputs.append(to_input(bgr, info.input_size(w, h)))
         used[folder] = used.get(folder, 0) + 1
 
     class Reader(CalibrationDataReader):  # type: ignore[misc]

@@ -7,7 +7,9 @@ A model is two files side by side: NAME.onnx (cnn/model.py's export) and NAME.js
 
 The image is resized so its long side is input_long_side and both sides are multiples of 16
 (640x480 -> 320x240; a 416x416 image -> 320x320), converted to RGB in [0, 1], and run once;
-boxes are read off the heatmap's peaks and scaled back to the image.
+boxes are read off the heatmap's peaks and scaled back to the image. A small image is blown up
+at most `max_upscale` times (metadata, default 2.25): a network run on a low-resolution frame
+blown up far past what it trained on takes its blur and resampling for rings.
 """
 
 from __future__ import annotations
@@ -28,6 +30,9 @@ MODEL_FORMAT = "pete-ringnet"
 MODEL_VERSION = 1
 MULTIPLE = 16
 REPO_ROOT = Path(__file__).resolve().parents[3]
+# Measured (jetson/perception/README.md, "Low-resolution frames"): the 240x180 renders the
+# full-stack match feeds the detector score as well at 2.27 times as at 2.5, and worse at 2.9.
+DEFAULT_MAX_UPSCALE = 2.25
 DEFAULT_MODEL = REPO_ROOT / "models" / "ringnet.onnx"
 
 
@@ -36,6 +41,7 @@ class ModelInfo:
     stride: int = 4
     input_long_side: int = 320
     score_threshold: float = 0.4
+    max_upscale: float = DEFAULT_MAX_UPSCALE
     extra: dict[str, Any] | None = None
 
     @classmethod
@@ -50,14 +56,24 @@ class ModelInfo:
         if data.get("format") != MODEL_FORMAT or data.get("version") != MODEL_VERSION:
             raise ModelError(f"{path} is not {MODEL_FORMAT} version {MODEL_VERSION} metadata")
         try:
-            return cls(
+            info = cls(
                 stride=int(data["stride"]),
                 input_long_side=int(data["input_long_side"]),
                 score_threshold=float(data["score_threshold"]),
+                max_upscale=float(data.get("max_upscale", DEFAULT_MAX_UPSCALE)),
                 extra=data,
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise ModelError(f"{path}: bad metadata: {exc}") from exc
+        if not info.max_upscale >= 1.0:
+            raise ModelError(f"{path}: max_upscale must be >= 1, got {info.max_upscale}")
+        return info
+
+    def input_size(self, width: int, height: int) -> tuple[int, int]:
+        """The network input for a width x height image: input_long_side, or less where that
+        would blow the image up more than max_upscale times."""
+        long_side = min(self.input_long_side, round(self.max_upscale * max(width, height)))
+        return input_size(width, height, long_side)
 
 
 def metadata_path(model: Path) -> Path:
@@ -161,7 +177,7 @@ class CnnDetector:
         colour_mask: NDArray[np.uint8] | None = None,
     ) -> list[Detection]:
         h, w = bgr.shape[:2]
-        size = input_size(w, h, self.info.input_long_side)
+        size = self.info.input_size(w, h)
         peaks, boxes = self.session.run(None, {"rgb": to_input(bgr, size)})
         return decode(
             peaks[0], boxes[0], self.info.stride, self.threshold, (w / size[0], h / size[1])

@@ -31,7 +31,13 @@ from torch.nn import functional
 from jetson.perception.camera import CameraMount
 from jetson.perception.cnn.augment import AugmentConfig, augment
 from jetson.perception.cnn.model import STRIDE, RingNet, export_onnx
-from jetson.perception.cnn.runtime import MODEL_FORMAT, MODEL_VERSION, CnnDetector, metadata_path
+from jetson.perception.cnn.runtime import (
+    DEFAULT_MAX_UPSCALE,
+    MODEL_FORMAT,
+    MODEL_VERSION,
+    CnnDetector,
+    metadata_path,
+)
 from jetson.perception.dataset import RingDataset, fingerprint, holdout_names, image_names
 from jetson.perception.errors import DatasetError
 from jetson.perception.evaluate import Counts, match
@@ -367,6 +373,7 @@ def train(cfg: TrainConfig, out: Path, log: Callable[[str], None] = print) -> di
         "stride": STRIDE,
         "input_long_side": cfg.input_long_side,
         "score_threshold": 0.4,
+        "max_upscale": DEFAULT_MAX_UPSCALE,
         "width": cfg.width,
         "blocks": cfg.blocks,
         "trained_on": [s.name for s in sources],

@@ -102,6 +102,10 @@ def write_choice(model: Path, tuning: Tuning) -> None:
     """Record the chosen size and threshold, and the table behind them, in the model's .json."""
     path = metadata_path(model)
     meta = json.loads(path.read_text())
+    if "tuning" in meta:
+        # An int8 model is tuned twice (the float model's size, then its own threshold): keep
+        # the earlier table, which chose the size.
+        meta.setdefault("tuning_history", []).append(meta["tuning"])
     meta["tuning"] = {
         "from": {
             "input_long_side": meta["input_long_side"],
