@@ -259,6 +259,10 @@ class WorldConfig:
     start_jitter_deg: float = 0.0
     ring_jitter_m: float = 0.0  # uniform +- on ring start positions
     occlude_with_rings: bool = False  # rings also hide rings (high fidelity rays always do)
+    # Training fidelity: a floor ring a robot's body drives over is pushed out to the body's
+    # edge, as a ring body is in high fidelity, instead of lying under the robot where no
+    # intake can reach it (a chaser that knows it is there turns over it for seconds).
+    push_rings: bool = False
 
     def __post_init__(self) -> None:
         if self.fidelity not in FIDELITIES:

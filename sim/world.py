@@ -39,6 +39,7 @@ from sim.geometry import (
     heading_to_yaw,
     heading_vector,
     quaternion_yaw,
+    robot_to_field,
     wrap_heading,
     yaw_quaternion,
     yaw_to_heading,
@@ -203,6 +204,7 @@ class World:
         self.ring_bodies: list[int] = []
         self._ring_visuals: list[int] | None = None
         self._ring_visual_state: np.ndarray | None = None
+        self._ring_visual_xy: np.ndarray | None = None
         self.time_s = 0.0
         self.steps = 0
         self.over = False
@@ -603,6 +605,8 @@ class World:
             self._clamp(r, cmd, events)
         self._carry_goals()
         self._intake(events)
+        if self.training and self.config.push_rings:
+            self._push_rings()
         self._transfer(events)
         self._pins(events, dt)
         for r in self.robots:
@@ -793,6 +797,31 @@ class World:
             front - rad,
             front + rc.intake_depth_m + rad,
         )
+
+    def _push_rings(self) -> None:
+        """Training fidelity: floor rings inside a robot's footprint (grown by a ring radius)
+        move out across the nearer side, to where the body would have shoved them; called
+        after the intake, which takes the rings the front face reaches first."""
+        rad = self.field.ring.radius
+        half = self.field.half - rad
+        for r in self.robots:
+            floor = np.flatnonzero(self.ring_state == RING_FLOOR)
+            if len(floor) == 0:
+                return
+            hx = r.config.width_m / 2 + rad
+            hy = r.config.length_m / 2 + rad
+            local = field_to_robot(self.ring_xy[floor], (r.x, r.y), r.heading)
+            inside = (np.abs(local[:, 0]) < hx) & (np.abs(local[:, 1]) < hy)
+            if not inside.any():
+                continue
+            idx, loc = floor[inside], local[inside]
+            # Out across the side the ring is nearest to (the least movement).
+            sideways = hx - np.abs(loc[:, 0]) <= hy - np.abs(loc[:, 1])
+            sign = np.where(loc >= 0.0, 1.0, -1.0)
+            loc[sideways, 0] = sign[sideways, 0] * hx
+            loc[~sideways, 1] = sign[~sideways, 1] * hy
+            xy = robot_to_field(loc, (r.x, r.y), r.heading)
+            self.ring_xy[idx] = np.clip(xy, -half, half)
 
     def _intake(self, events: StepEvents) -> None:
         if not self.training:
@@ -1088,9 +1117,12 @@ class World:
         if self._ring_visuals is None:
             self._ring_visuals = self._make_ring_bodies(dynamic=False)
             self._ring_visual_state = np.full(len(self.ring_xy), -1, dtype=np.int8)
-        assert self._ring_visual_state is not None
+            self._ring_visual_xy = self.ring_xy.copy()
+        assert self._ring_visual_state is not None and self._ring_visual_xy is not None
         cid = self.client
         changed = self._ring_visual_state != self.ring_state
+        # A floor ring a robot pushed (push_rings) moves without changing its state.
+        changed |= np.any(self._ring_visual_xy != self.ring_xy, axis=1)
         for i in np.flatnonzero(changed):
             if self.ring_state[i] == RING_FLOOR:
                 pos = (self.ring_xy[i, 0], self.ring_xy[i, 1], self.ring_z[i])
@@ -1100,6 +1132,7 @@ class World:
                 self._ring_visuals[i], pos, (0, 0, 0, 1), physicsClientId=cid
             )
         self._ring_visual_state = self.ring_state.copy()
+        self._ring_visual_xy = self.ring_xy.copy()
         return self._ring_visuals
 
     def body_kinds(self) -> dict[int, tuple[str, int]]:

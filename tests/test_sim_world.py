@@ -170,6 +170,40 @@ def test_collects_only_through_the_intake(solo: World) -> None:
     assert np.all(solo.ring_state == RING_HELD)
 
 
+def test_push_rings_moves_rings_out_from_under_the_body() -> None:
+    """Training fidelity with push_rings: a ring the body drives over ends at its edge (and is
+    still taken when the intake meets it); without, it stays where it was, under the robot."""
+    for push in (False, True):
+        with World(WorldConfig(blue=(), push_rings=push)) as w:
+            w.reset(np.random.default_rng(0))
+            clear_field(w)
+            r = w.robots[0]
+            w.place_robot(0, 0.0, 0.0, 90.0)  # facing +x
+            # Beside the intake (outside its width) and behind the robot, on its path back.
+            w.set_floor_rings(np.array([[0.35, 0.16], [-0.4, -0.02]]))
+            start = w.ring_xy.copy()
+            run(w, DriveCommand(0.5, 0.0, intake=False), 12)  # forward past the side ring
+            run(w, DriveCommand(-0.5, 0.0), 30)  # then back over the ring behind
+            assert r.collected == 0
+            local = field_to_robot(w.ring_xy, r.xy, r.heading)
+            hx = r.config.width_m / 2 + w.field.ring.radius
+            hy = r.config.length_m / 2 + w.field.ring.radius
+            inside = (np.abs(local[:, 0]) < hx - 1e-9) & (np.abs(local[:, 1]) < hy - 1e-9)
+            if not push:
+                assert np.array_equal(w.ring_xy, start)
+                continue
+            assert not inside.any()
+            ahead, back = w.ring_xy
+            # Met by the front corner, outside the intake's width: bulldozed ahead, not aside.
+            assert ahead[1] == pytest.approx(0.16) and ahead[0] > 0.35 + 0.05
+            assert back[1] == pytest.approx(-0.02) and back[0] < -0.4 - 0.05
+            assert back[0] == pytest.approx(r.x - hy, abs=1e-6)  # at the robot's back face
+            # A ring ahead is still taken through the intake.
+            w.set_floor_rings(np.array([[r.x + 0.4, r.y]]))
+            run(w, DriveCommand(0.5, 0.0), 18)
+            assert r.collected == 1
+
+
 def test_collects_up_to_capacity(solo: World) -> None:
     r = solo.robots[0]
     cap = r.config.ring_capacity
