@@ -179,10 +179,10 @@ def test_push_rings_moves_rings_out_from_under_the_body() -> None:
             clear_field(w)
             r = w.robots[0]
             w.place_robot(0, 0.0, 0.0, 90.0)  # facing +x
-            # Beside the intake (outside its width) and behind the robot, on its path back.
+            # Ahead but outside the intake's width (the front corner meets it), and behind.
             w.set_floor_rings(np.array([[0.35, 0.16], [-0.4, -0.02]]))
             start = w.ring_xy.copy()
-            run(w, DriveCommand(0.5, 0.0, intake=False), 12)  # forward past the side ring
+            run(w, DriveCommand(0.5, 0.0, intake=False), 12)  # forward into the first ring
             run(w, DriveCommand(-0.5, 0.0), 30)  # then back over the ring behind
             assert r.collected == 0
             local = field_to_robot(w.ring_xy, r.xy, r.heading)
