@@ -174,6 +174,7 @@ def with_prior(spec: ObservationSpec, world: World) -> ObservationSpec:
         spec = replace(spec, prior_goals=pairs(np.asarray(goals, dtype=np.float64)))
     needs_robot = spec.goal_memory and spec.goal_clamp_offset_m <= 0
     needs_robot |= spec.ring_memory and spec.memory_forget_intake and not spec.memory_intake_zone
+    needs_robot |= spec.ring_memory and spec.memory_push and not spec.memory_body
     if needs_robot and not world.robots:  # robots exist only after a reset
         world.reset(np.random.default_rng(0))
     if spec.goal_memory and spec.goal_clamp_offset_m <= 0:
@@ -183,6 +184,10 @@ def with_prior(spec: ObservationSpec, world: World) -> ObservationSpec:
     if spec.ring_memory and spec.memory_forget_intake and not spec.memory_intake_zone:
         (x0, x1), (y0, y1) = world.intake_rect(world.robots[0])
         spec = replace(spec, memory_intake_zone=tuple(round(v, 4) for v in (x0, x1, y0, y1)))
+    if spec.ring_memory and spec.memory_push and not spec.memory_body:
+        rc, rad = world.robots[0].config, world.field.ring.radius
+        body = (rc.width_m / 2 + rad, rc.length_m / 2 + rad)
+        spec = replace(spec, memory_body=tuple(round(v, 4) for v in body))
     return spec
 
 

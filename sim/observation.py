@@ -22,7 +22,9 @@ rings the robot KNOWS about, not only those in view. The memory (RingMemory) sta
 field's starting layout (`prior_rings`, alliance frame, metres), takes every ring the camera
 reports, and forgets a remembered ring once the camera looks at its place and does not see it,
 or once the robot stands on it (collected or pushed away; with `memory_forget_intake`, once it
-is inside the intake's reach: a ring the robot passes beside stays known). ok is 1 for a ring
+is inside the intake's reach: a ring the robot passes beside stays known; with `memory_push` as
+well, a known ring the rest of the body drives over is moved out to the body's edge, where a
+bumper shoves a real ring). ok is 1 for a ring
 in view now and 0.5 for one remembered. This is the knowledge a team's route planner starts a
 match with; a policy that sees only the camera's cone has to learn the layout from its own pose.
 Where "the camera looks" is a cone around the robot's centre (`memory_view` "cone", what the
@@ -108,10 +110,13 @@ _MEMORY_FIELDS = (
     "memory_forget_m",
     "memory_forget_intake",
     "memory_intake_zone",
+    "memory_push",
+    "memory_body",
 )
 # Added after policies with a ring memory were shipped: at their defaults they stay out of the
 # fingerprint, so those policies keep theirs.
 _INTAKE_FIELDS = ("memory_forget_intake", "memory_intake_zone")
+_PUSH_FIELDS = ("memory_push", "memory_body")
 MEMORY_VIEWS = ("cone", "camera")
 _ROUTE_FIELDS = (
     "route_slots",
@@ -157,6 +162,13 @@ class ObservationSpec:
     # blind spot, ahead of the centre but nearer than memory_near_m.
     memory_forget_intake: bool = False
     memory_intake_zone: tuple[float, ...] = ()
+    # With the intake rule: a known ring under the rest of the body (memory_body: the half
+    # width and half length of the robot grown by a ring's radius, metres; the simulator fills
+    # it when empty) is moved out across the nearer side, as a bumper shoves a ring, instead of
+    # staying where the robot now stands. The shoved ring lies beside the robot, below the
+    # camera's picture: forgotten, it is lost to the robot until it turns that way.
+    memory_push: bool = False
+    memory_body: tuple[float, ...] = ()
     # Where the memory looks for rings it knows. "cone": the cone above around the robot's
     # centre. "camera": the camera's own picture (RingMemory's MemoryCamera: the mount and
     # intrinsics, given by the simulator or the Jetson's camera config) within memory_far_m of
@@ -200,6 +212,12 @@ class ObservationSpec:
         for name in ("prior_rings", "prior_goals"):
             object.__setattr__(self, name, _points(getattr(self, name), name))
         object.__setattr__(self, "memory_intake_zone", _zone(self.memory_intake_zone))
+        object.__setattr__(self, "memory_body", _body(self.memory_body))
+        if self.memory_push and not self.memory_forget_intake:
+            raise ObservationError(
+                "memory_push needs memory_forget_intake: which known ring the intake took and "
+                "which the body shoved is told by the intake's zone"
+            )
         if not (self.goal_clamp_offset_m >= 0 and self.goal_forget_m >= 0):
             raise ObservationError("goal_clamp_offset_m and goal_forget_m must be >= 0")
         if self.memory_view not in MEMORY_VIEWS:
@@ -239,6 +257,7 @@ class ObservationSpec:
         yet to fill."""
         rings = self.ring_memory and not self.prior_rings
         rings |= self.ring_memory and self.memory_forget_intake and not self.memory_intake_zone
+        rings |= self.ring_memory and self.memory_push and not self.memory_body
         goals = self.goal_memory and not (self.prior_goals and self.goal_clamp_offset_m > 0)
         return rings or goals
 
@@ -319,6 +338,7 @@ class ObservationSpec:
         out["prior_rings"] = [list(xy) for xy in self.prior_rings]
         out["prior_goals"] = [list(xy) for xy in self.prior_goals]
         out["memory_intake_zone"] = list(self.memory_intake_zone)
+        out["memory_body"] = list(self.memory_body)
         return out
 
     @classmethod
@@ -349,6 +369,8 @@ class ObservationSpec:
             layout = {k: v for k, v in layout.items() if k not in _MEMORY_FIELDS}
         if not self.memory_forget_intake:
             layout = {k: v for k, v in layout.items() if k not in _INTAKE_FIELDS}
+        if not self.memory_push:
+            layout = {k: v for k, v in layout.items() if k not in _PUSH_FIELDS}
         if self.memory_view == "cone" or not self.ring_memory:
             layout.pop("memory_view", None)
         if not self.route_slots:
@@ -383,6 +405,18 @@ def _zone(value: object) -> tuple[float, ...]:
     if not all(math.isfinite(v) for v in zone):
         raise ObservationError("memory_intake_zone must be finite")
     return zone
+
+
+def _body(value: object) -> tuple[float, ...]:
+    try:
+        body = tuple(float(v) for v in value)  # type: ignore[attr-defined]
+    except (TypeError, ValueError) as e:
+        raise ObservationError(f"memory_body must be 2 numbers: {e}") from e
+    if body and not (len(body) == 2 and all(math.isfinite(v) and v > 0 for v in body)):
+        raise ObservationError(
+            f"memory_body must be (half_width, half_length), both positive metres, got {body}"
+        )
+    return body
 
 
 def _meaning(name: str) -> str:
@@ -572,6 +606,11 @@ class RingMemory:
                 "memory_forget_intake needs memory_intake_zone (the simulator fills it from the "
                 "robot; a saved policy.json carries it)"
             )
+        if spec.ring_memory and spec.memory_push and not spec.memory_body:
+            raise ObservationError(
+                "memory_push needs memory_body (the simulator fills it from the robot; a saved "
+                "policy.json carries it)"
+            )
         if spec.memory_needs_camera and camera is None:
             raise ObservationError(
                 "this spec's ring memory looks through the camera (memory_view = 'camera'): "
@@ -623,6 +662,17 @@ class RingMemory:
         )
         known = self.known
         if len(known):
+            local = field_to_robot(known, pos, heading)
+            if s.memory_forget_intake:
+                x0, x1, y0, y1 = s.memory_intake_zone
+                taken = (local[:, 0] >= x0) & (local[:, 0] <= x1)
+                taken &= (local[:, 1] >= y0) & (local[:, 1] <= y1)
+                if s.memory_push:
+                    # Before the view test: a shoved ring is looked for where it now lies.
+                    known = _shove(known, local, ~taken, s.memory_body, pos, heading)
+            else:
+                # Under the robot: collected, or pushed somewhere the camera will show.
+                taken = np.hypot(local[:, 0], local[:, 1]) <= s.memory_forget_m
             cam = field_to_robot(known, cam_pos, cam_heading)
             if self.camera is not None and s.memory_view == "camera":
                 in_view, lens_dist = self.camera.locate(cam)
@@ -632,19 +682,10 @@ class RingMemory:
                 bearing = np.degrees(np.abs(np.arctan2(cam[:, 0], cam[:, 1])))
                 in_view = (bearing <= s.memory_fov_deg / 2) & (cam_dist >= s.memory_near_m)
                 in_view &= cam_dist <= s.memory_far_m
-            local = field_to_robot(known, pos, heading)
-            dist = np.hypot(local[:, 0], local[:, 1])
             matched = np.zeros(len(known), dtype=bool)
             if len(seen):
                 d = np.linalg.norm(known[:, None, :] - seen[None, :, :], axis=2)
                 matched = d.min(axis=1) <= s.memory_merge_m
-            if s.memory_forget_intake:
-                x0, x1, y0, y1 = s.memory_intake_zone
-                taken = (local[:, 0] >= x0) & (local[:, 0] <= x1)
-                taken &= (local[:, 1] >= y0) & (local[:, 1] <= y1)
-            else:
-                # Under the robot: collected, or pushed somewhere the camera will show.
-                taken = dist <= s.memory_forget_m
             gone = (in_view & ~matched) | taken
             known = known[~gone]
         if len(seen):
@@ -693,6 +734,31 @@ class RingMemory:
     ) -> RobotView:
         remembered = field_to_robot(rings, pos, heading) if len(rings) else np.zeros((0, 2))
         return replace(view, rings_remembered_xy=remembered)
+
+
+def _shove(
+    known: NDArray[np.float64],
+    local: NDArray[np.float64],
+    movable: NDArray[np.bool_],
+    body: tuple[float, ...],
+    pos: NDArray[np.float64],
+    heading: float,
+) -> NDArray[np.float64]:
+    """`known` with each movable ring inside the body's box (robot frame `local`) moved out
+    across the box's nearer side: the least movement that clears the body, the rule the
+    simulator's push_rings applies to the rings themselves."""
+    hx, hy = body
+    inside = movable & (np.abs(local[:, 0]) < hx) & (np.abs(local[:, 1]) < hy)
+    if not inside.any():
+        return known
+    loc = local[inside]
+    sideways = hx - np.abs(loc[:, 0]) <= hy - np.abs(loc[:, 1])
+    sign = np.where(loc >= 0.0, 1.0, -1.0)
+    loc[sideways, 0] = sign[sideways, 0] * hx
+    loc[~sideways, 1] = sign[~sideways, 1] * hy
+    out = known.copy()
+    out[inside] = robot_to_field(loc, pos, heading)
+    return out
 
 
 class GoalMemory:

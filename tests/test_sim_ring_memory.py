@@ -284,3 +284,63 @@ def test_a_camera_view_memory_needs_the_camera_and_names_the_spec_setting() -> N
     assert replace(SPEC, memory_view="cone").fingerprint() == SPEC.fingerprint()
     assert camera.fingerprint() != SPEC.fingerprint()
     assert ObservationSpec.from_dict(camera.to_dict()) == camera
+
+
+# A 15-inch robot's body grown by a ring's radius (half width, half length), as the simulator
+# fills it.
+BODY = (0.2413, 0.2413)
+
+
+def test_a_ring_the_body_drives_over_is_shoved_to_its_side_and_one_the_intake_reaches_is_gone():
+    # A ring under the robot's left flank, one in the intake's reach, one far behind.
+    prior = ((-0.15, 0.05), (0.0, 0.25), (0.0, -1.0))
+    spec = ObservationSpec(
+        ring_memory=True, prior_rings=prior, n_stack=0, memory_forget_intake=True,
+        memory_intake_zone=ZONE, memory_push=True, memory_body=BODY,
+    )  # fmt: skip
+    mem = RingMemory(spec)
+    mem.observe(view())
+    # Out across the nearer side (the left, 0.09 m away, not the front, 0.19 m): the ring
+    # keeps its y and lies against the body's left edge.
+    np.testing.assert_allclose(mem.known, [(-0.2413, 0.05), (0.0, -1.0)], atol=1e-9)
+    # Without the push the same ring stays under the robot, where nothing will find it.
+    still = RingMemory(replace(spec, memory_push=False, memory_body=()))
+    still.observe(view())
+    np.testing.assert_allclose(still.known, [(-0.15, 0.05), (0.0, -1.0)], atol=1e-9)
+    # The robot slides 0.1 m further left: the ring is under its flank again and goes out
+    # ahead of it, 0.1 m further.
+    mem.observe(view(x=-0.1))
+    np.testing.assert_allclose(mem.known, [(-0.3413, 0.05), (0.0, -1.0)], atol=1e-9)
+
+
+def test_the_push_rule_needs_the_intake_rule_and_its_body_and_keeps_older_fingerprints() -> None:
+    intake = replace(SPEC, memory_forget_intake=True, memory_intake_zone=ZONE)
+    with pytest.raises(ObservationError, match="memory_forget_intake"):
+        replace(SPEC, memory_push=True, memory_body=BODY)
+    with pytest.raises(ObservationError, match="memory_body"):
+        replace(intake, memory_push=True, memory_body=(0.2, -0.1))
+    with pytest.raises(ObservationError, match="memory_body"):
+        RingMemory(replace(intake, memory_push=True))
+    assert replace(intake, memory_push=True).needs_prior
+    spec = replace(intake, memory_push=True, memory_body=BODY)
+    again = ObservationSpec.from_dict(json.loads(json.dumps(spec.to_dict())))
+    assert again == spec and again.fingerprint() == spec.fingerprint()
+    assert spec.fingerprint() != intake.fingerprint(), "the rule changes what a slot means"
+    old = {k: v for k, v in intake.to_dict().items() if k not in ("memory_push", "memory_body")}
+    assert ObservationSpec.from_dict(old).fingerprint() == intake.fingerprint()
+
+
+def test_the_simulator_fills_the_body_from_the_robot() -> None:
+    pytest.importorskip("pybullet")
+    from sim.match import MatchCore, make_config
+
+    observation = {"ring_memory": True, "memory_forget_intake": True, "memory_push": True}
+    cfg = make_config(world={"blue": []}, observation=observation, obs_noise=False)
+    core = MatchCore(cfg)
+    core.reset(np.random.default_rng(0))
+    rc, rad = core.world.robots[0].config, core.world.field.ring.radius
+    np.testing.assert_allclose(
+        core.spec.memory_body, (rc.width_m / 2 + rad, rc.length_m / 2 + rad), atol=1e-4
+    )
+    assert not core.spec.needs_prior
+    core.close()
