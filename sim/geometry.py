@@ -210,3 +210,18 @@ def project_points(
         u = fx * p[..., 0] / z + cx
         v = fy * p[..., 1] / z + cy
     return np.stack([u, v], axis=-1), z
+
+
+def push_out_of_box(local_xy: ArrayLike, half_x: float, half_y: float) -> FloatArray:
+    """Points in a robot frame moved out of the box |x| < half_x, |y| < half_y across its nearer
+    side (the least movement that clears it); points outside stay. What a bumper does to a ring
+    it drives over: the training simulator's push_rings and the ring memory's memory_push."""
+    out = np.array(local_xy, dtype=np.float64).reshape(-1, 2)
+    inside = (np.abs(out[:, 0]) < half_x) & (np.abs(out[:, 1]) < half_y)
+    loc = out[inside]
+    sideways = half_x - np.abs(loc[:, 0]) <= half_y - np.abs(loc[:, 1])
+    sign = np.where(loc >= 0.0, 1.0, -1.0)
+    loc[sideways, 0] = sign[sideways, 0] * half_x
+    loc[~sideways, 1] = sign[~sideways, 1] * half_y
+    out[inside] = loc
+    return out

@@ -78,6 +78,7 @@ from sim.geometry import (
     Alliance,
     field_to_robot,
     project_points,
+    push_out_of_box,
     robot_to_camera_rotation,
     robot_to_field,
     to_alliance_frame,
@@ -669,7 +670,12 @@ class RingMemory:
                 taken &= (local[:, 1] >= y0) & (local[:, 1] <= y1)
                 if s.memory_push:
                     # Before the view test: a shoved ring is looked for where it now lies.
-                    known = _shove(known, local, ~taken, s.memory_body, pos, heading)
+                    hx, hy = s.memory_body
+                    under = ~taken & (np.abs(local[:, 0]) < hx) & (np.abs(local[:, 1]) < hy)
+                    if under.any():
+                        known = known.copy()
+                        out = push_out_of_box(local[under], hx, hy)
+                        known[under] = robot_to_field(out, pos, heading)
             else:
                 # Under the robot: collected, or pushed somewhere the camera will show.
                 taken = np.hypot(local[:, 0], local[:, 1]) <= s.memory_forget_m
@@ -734,31 +740,6 @@ class RingMemory:
     ) -> RobotView:
         remembered = field_to_robot(rings, pos, heading) if len(rings) else np.zeros((0, 2))
         return replace(view, rings_remembered_xy=remembered)
-
-
-def _shove(
-    known: NDArray[np.float64],
-    local: NDArray[np.float64],
-    movable: NDArray[np.bool_],
-    body: tuple[float, ...],
-    pos: NDArray[np.float64],
-    heading: float,
-) -> NDArray[np.float64]:
-    """`known` with each movable ring inside the body's box (robot frame `local`) moved out
-    across the box's nearer side: the least movement that clears the body, the rule the
-    simulator's push_rings applies to the rings themselves."""
-    hx, hy = body
-    inside = movable & (np.abs(local[:, 0]) < hx) & (np.abs(local[:, 1]) < hy)
-    if not inside.any():
-        return known
-    loc = local[inside]
-    sideways = hx - np.abs(loc[:, 0]) <= hy - np.abs(loc[:, 1])
-    sign = np.where(loc >= 0.0, 1.0, -1.0)
-    loc[sideways, 0] = sign[sideways, 0] * hx
-    loc[~sideways, 1] = sign[~sideways, 1] * hy
-    out = known.copy()
-    out[inside] = robot_to_field(loc, pos, heading)
-    return out
 
 
 class GoalMemory:

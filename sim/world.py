@@ -38,6 +38,7 @@ from sim.geometry import (
     field_to_robot,
     heading_to_yaw,
     heading_vector,
+    push_out_of_box,
     quaternion_yaw,
     robot_to_field,
     wrap_heading,
@@ -814,14 +815,9 @@ class World:
             inside = (np.abs(local[:, 0]) < hx) & (np.abs(local[:, 1]) < hy)
             if not inside.any():
                 continue
-            idx, loc = floor[inside], local[inside]
-            # Out across the side the ring is nearest to (the least movement).
-            sideways = hx - np.abs(loc[:, 0]) <= hy - np.abs(loc[:, 1])
-            sign = np.where(loc >= 0.0, 1.0, -1.0)
-            loc[sideways, 0] = sign[sideways, 0] * hx
-            loc[~sideways, 1] = sign[~sideways, 1] * hy
+            loc = push_out_of_box(local[inside], hx, hy)
             xy = robot_to_field(loc, (r.x, r.y), r.heading)
-            self.ring_xy[idx] = np.clip(xy, -half, half)
+            self.ring_xy[floor[inside]] = np.clip(xy, -half, half)
 
     def _intake(self, events: StepEvents) -> None:
         if not self.training:
