@@ -212,10 +212,13 @@ def project_points(
     return np.stack([u, v], axis=-1), z
 
 
-def push_out_of_box(local_xy: ArrayLike, half_x: float, half_y: float) -> FloatArray:
+def push_out_of_box(
+    local_xy: ArrayLike, half_x: float, half_y: float
+) -> tuple[FloatArray, NDArray[np.bool_]]:
     """Points in a robot frame moved out of the box |x| < half_x, |y| < half_y across its nearer
-    side (the least movement that clears it); points outside stay. What a bumper does to a ring
-    it drives over: the training simulator's push_rings and the ring memory's memory_push."""
+    side (the least movement that clears it), and which of them moved; points outside stay.
+    What a bumper does to a ring it drives over: the training simulator's push_rings and the
+    ring memory's memory_push."""
     out = np.array(local_xy, dtype=np.float64).reshape(-1, 2)
     inside = (np.abs(out[:, 0]) < half_x) & (np.abs(out[:, 1]) < half_y)
     loc = out[inside]
@@ -224,4 +227,4 @@ def push_out_of_box(local_xy: ArrayLike, half_x: float, half_y: float) -> FloatA
     loc[sideways, 0] = sign[sideways, 0] * half_x
     loc[~sideways, 1] = sign[~sideways, 1] * half_y
     out[inside] = loc
-    return out
+    return out, inside

@@ -167,7 +167,8 @@ class ObservationSpec:
     # width and half length of the robot grown by a ring's radius, metres; the simulator fills
     # it when empty) is moved out across the nearer side, as a bumper shoves a ring, instead of
     # staying where the robot now stands. The shoved ring lies beside the robot, below the
-    # camera's picture: forgotten, it is lost to the robot until it turns that way.
+    # camera's picture: forgotten, it is lost to the robot until it turns that way. Off: it
+    # gains rings in training fidelity's pushing and loses them in high fidelity's (TRAINING.md).
     memory_push: bool = False
     memory_body: tuple[float, ...] = ()
     # Where the memory looks for rings it knows. "cone": the cone above around the robot's
@@ -670,12 +671,11 @@ class RingMemory:
                 taken &= (local[:, 1] >= y0) & (local[:, 1] <= y1)
                 if s.memory_push:
                     # Before the view test: a shoved ring is looked for where it now lies.
-                    hx, hy = s.memory_body
-                    under = ~taken & (np.abs(local[:, 0]) < hx) & (np.abs(local[:, 1]) < hy)
-                    if under.any():
+                    out, moved = push_out_of_box(local, *s.memory_body)
+                    moved &= ~taken
+                    if moved.any():
                         known = known.copy()
-                        out = push_out_of_box(local[under], hx, hy)
-                        known[under] = robot_to_field(out, pos, heading)
+                        known[moved] = robot_to_field(out[moved], pos, heading)
             else:
                 # Under the robot: collected, or pushed somewhere the camera will show.
                 taken = np.hypot(local[:, 0], local[:, 1]) <= s.memory_forget_m

@@ -812,12 +812,10 @@ class World:
             hx = r.config.width_m / 2 + rad
             hy = r.config.length_m / 2 + rad
             local = field_to_robot(self.ring_xy[floor], (r.x, r.y), r.heading)
-            inside = (np.abs(local[:, 0]) < hx) & (np.abs(local[:, 1]) < hy)
-            if not inside.any():
-                continue
-            loc = push_out_of_box(local[inside], hx, hy)
-            xy = robot_to_field(loc, (r.x, r.y), r.heading)
-            self.ring_xy[floor[inside]] = np.clip(xy, -half, half)
+            out, moved = push_out_of_box(local, hx, hy)
+            if moved.any():
+                xy = robot_to_field(out[moved], (r.x, r.y), r.heading)
+                self.ring_xy[floor[moved]] = np.clip(xy, -half, half)
 
     def _intake(self, events: StepEvents) -> None:
         if not self.training:
