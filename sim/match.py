@@ -28,7 +28,7 @@ from sim.observation import (
     build_frame,
 )
 from sim.skills import SkillConfig, SkillDriver
-from sim.world import RING_FLOOR, RING_HELD, DriveCommand, StepEvents, World
+from sim.world import RING_FLOOR, RING_HELD, DriveCommand, GpsReading, StepEvents, World
 
 REWARD_COMPONENTS = (
     "rings",
@@ -246,7 +246,9 @@ class MatchCore:
         self._shaping = self._shapings()
         self.totals: list[dict[str, float]] = []
         self.pins: list[int] = []
-        self.rng = np.random.default_rng(0)
+        self._gps_rngs: list[np.random.Generator] = []
+        self._obs_rngs: list[np.random.Generator] = []
+        self._gps_now: dict[int, GpsReading] = {}
         self.ended_by_pin = False
         self.drivers: list[SkillDriver] = []
 
@@ -301,8 +303,15 @@ class MatchCore:
     # --- episode ----------------------------------------------------------------------------
 
     def reset(self, rng: np.random.Generator) -> list[np.ndarray]:
-        self.rng = rng
         self.world.reset(rng)
+        # Each robot's GPS and observation noise has streams of its own, spawned from the
+        # match's seed rather than drawn from `rng`: how many numbers one robot's observation
+        # takes then changes nobody else's noise, so two players compared on the same seeds
+        # meet the same field, the same opponent and the same noise.
+        n = len(self.world.robots)
+        streams = rng.spawn(2 * n)
+        self._gps_rngs, self._obs_rngs = streams[:n], streams[n:]
+        self._gps_now = {}
         uncapped = self.config.uncapped_share > 0 and rng.random() < self.config.uncapped_share
         if uncapped:
             for r in self.world.robots:
@@ -381,7 +390,7 @@ class MatchCore:
         w = self.world
         r = w.robots[index]
         if self.config.gps_noise:
-            g = w.gps(index, self.rng)
+            g = self.gps(index)
             x, y, h = g.x, g.y, g.heading_deg
         else:
             x, y, h = r.x, r.y, r.heading
@@ -404,10 +413,19 @@ class MatchCore:
             intake_fills=r.config.ring_capacity is not None,
         )
 
+    def gps(self, index: int) -> GpsReading:
+        """Robot `index`'s noisy GPS reading now. Read twice in one step (the frame, then a
+        player that asks for the view), it is the same reading, as a real sensor's would be."""
+        g = self._gps_now.get(index)
+        if g is None or g.time_s != self.world.time_s:
+            g = self.world.gps(index, self._gps_rngs[index])
+            self._gps_now[index] = g
+        return g
+
     def frame(self, index: int) -> np.ndarray:
         """The robot's observation frame now; call once per control step (it feeds the ring
         memory)."""
-        rng = self.rng if self.config.obs_noise else None
+        rng = self._obs_rngs[index] if self.config.obs_noise else None
         view = self.memories[index].observe(self.view(index))
         view = self.goal_memories[index].observe(view)
         return build_frame(self.spec, view, rng)

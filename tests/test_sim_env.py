@@ -70,6 +70,27 @@ def test_deterministic_for_a_seed_across_instances_and_resets() -> None:
     b.close()
 
 
+def test_each_robots_noise_is_its_own_so_the_observation_spec_does_not_move_the_match() -> None:
+    """Two matches on one seed whose observations differ in size (so their noise takes a
+    different count of numbers) still give every robot the same GPS readings: players compared
+    on the same seeds meet the same noise. A second read in one step is the same reading."""
+
+    def readings(n_rings: int) -> list[tuple[float, float, float]]:
+        core = MatchCore(make_config({"observation": {"n_rings": n_rings}}))
+        core.reset(np.random.default_rng(11))
+        out = []
+        for _ in range(30):
+            for i in range(core.n_robots):
+                g = core.gps(i)
+                assert core.view(i).x == g.x, "read twice in a step, the GPS must agree"
+                out.append((g.x, g.y, g.heading_deg))
+            core.step([DriveCommand(0.6, 0.5)] * core.n_robots)
+        core.close()
+        return out
+
+    assert readings(4) == readings(12)
+
+
 def test_random_alliance_plays_both_sides() -> None:
     env = sim.env.TippingPointEnv(agent_alliance="random", world=SHORT)
     sides = set()
