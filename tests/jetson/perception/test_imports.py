@@ -7,7 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-PERCEPTION = Path(__file__).resolve().parent.parent / "jetson" / "perception"
+PERCEPTION = Path(__file__).resolve().parents[3] / "jetson" / "perception"
 TORCH_ALLOWED = {"cnn/model.py", "cnn/train.py"}
 
 

@@ -38,7 +38,7 @@ from jetson.settings import LinkConfig, Settings
 from jetson.testing import ProbePolicy, write_mlp_policy
 from protocol.messages import FINGERPRINT, Alliance, GpsStatus, MatchPhase, State
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 BRAIN_HOST = ROOT / "build" / "host" / "bin" / "brain_host"
 TIMEOUT_S = 10.0
 X, Y, HEADING = 0.5, -0.5, 90.0

@@ -37,7 +37,7 @@ from protocol.messages import (
     State,
 )
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 BRAIN_HOST = ROOT / "build" / "host" / "bin" / "brain_host"
 TIMEOUT_S = 10.0
 PERIOD_MS = 10

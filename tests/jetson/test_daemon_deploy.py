@@ -11,7 +11,7 @@ from pathlib import Path
 from jetson import cli
 from jetson.settings import Settings
 
-DEPLOY = Path(__file__).resolve().parent.parent / "jetson" / "deploy"
+DEPLOY = Path(__file__).resolve().parents[2] / "jetson" / "deploy"
 
 
 def unit_settings() -> dict[str, list[str]]:

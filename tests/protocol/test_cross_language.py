@@ -30,7 +30,7 @@ from protocol.messages import (
     State,
 )
 
-TOOL = Path(__file__).resolve().parent.parent / "build" / "host" / "bin" / "pete_codec_tool"
+TOOL = Path(__file__).resolve().parents[2] / "build" / "host" / "bin" / "pete_codec_tool"
 TIMEOUT_S = 120
 
 pytestmark = pytest.mark.skipif(

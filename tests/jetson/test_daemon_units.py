@@ -309,7 +309,7 @@ def test_settings_file_round_trip_and_errors_name_the_key(tmp_path: Path) -> Non
 
 
 def test_the_shipped_example_config_loads() -> None:
-    example = Path(__file__).resolve().parent.parent / "jetson" / "deploy" / "pete-jetson.toml"
+    example = Path(__file__).resolve().parents[2] / "jetson" / "deploy" / "pete-jetson.toml"
     s = Settings.load(example)
     assert s.link.port == "/dev/pete-brain" and s.record.dir
 

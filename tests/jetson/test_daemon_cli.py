@@ -15,7 +15,7 @@ import pytest
 from jetson import cli
 from jetson.testing import FakeBrain, write_mlp_policy
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def wait_for(cond, timeout_s: float = 30.0) -> bool:

@@ -8,7 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-JETSON = Path(__file__).resolve().parent.parent / "jetson"
+JETSON = Path(__file__).resolve().parents[2] / "jetson"
 HEAVY = ("torch", "pybullet", "gymnasium", "pettingzoo", "matplotlib")
 
 

@@ -25,8 +25,8 @@ from protocol.gen_cpp import generate_cpp
 from protocol.gen_python import generate_python
 from protocol.schema import PRIMITIVES, FieldDef, MessageDef, Schema, load_schema
 
-ROOT = Path(__file__).resolve().parent.parent
-SCHEMA_PATH = Path(__file__).with_name("data") / "all_types.toml"
+ROOT = Path(__file__).resolve().parents[2]
+SCHEMA_PATH = Path(__file__).resolve().parents[1] / "data" / "all_types.toml"
 WIRE_HPP = ROOT / "brain" / "include" / "pete" / "wire.hpp"
 CXX = shutil.which("g++")
 CXXFLAGS = [
