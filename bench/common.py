@@ -6,11 +6,15 @@ benchmark:
     {"benchmark": NAME,
      "metrics": {KEY: number},
      "targets": {KEY: {"target": number, "op": ">=" or "<=", "met": bool}},
-     "machine": "CPU model, N cores, Python X.Y.Z, OS"}
+     "machine": "CPU model, N cores, Python X.Y.Z, OS",
+     "date": "YYYY-MM-DD"}
+
+`python -m bench.report` turns every such file into RESULTS.md.
 """
 
 from __future__ import annotations
 
+import datetime
 import json
 import math
 import os
@@ -127,6 +131,7 @@ class Result:
                 for key, (goal, op) in self.targets.items()
             },
             "machine": machine_description(),
+            "date": datetime.date.today().isoformat(),
         }
 
     def table(self) -> str:
