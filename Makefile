@@ -20,7 +20,7 @@ ARM_CHECKS := /usr/bin/arm-none-eabi-g++:gcc-arm-none-eabi \
               /usr/lib/arm-none-eabi/newlib/libc.a:libnewlib-arm-none-eabi \
               /usr/lib/arm-none-eabi/include/c++:libstdc++-arm-none-eabi-newlib
 
-.PHONY: help venv system-deps build test test-python test-cpp lint format generate check demo bench clean
+.PHONY: help venv system-deps build test test-python test-cpp lint format generate check demo bench results clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | sed 's/:.*## /\t/' | expand -t 16
@@ -61,10 +61,11 @@ build: system-deps  ## configure and build the C++ host tree (tests run under AS
 generate: venv  ## rewrite the generated codecs from protocol/schema.toml
 	$(BIN)/pete-protocol generate
 
-check: venv  ## lint, format check and generated-file check
+check: venv  ## lint, format check and generated-file check (codecs, RESULTS.md)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/pete-protocol check
+	$(BIN)/python -m bench.report --check
 
 lint: check
 
@@ -82,8 +83,11 @@ demo: venv build  ## one full-stack match: Brain core + wire + Jetson daemon on 
 bench: venv build  ## run every benchmark; results land in bench/results/
 	@for b in bench/*.py; do \
 	  name=$$(basename $$b .py); [ "$$name" = "__init__" ] && continue; \
-	  [ "$$name" = "common" ] && continue; \
+	  [ "$$name" = "common" ] && continue; [ "$$name" = "report" ] && continue; \
 	  echo "== bench.$$name"; $(BIN)/python -m bench.$$name || exit 1; done
+
+results: venv  ## regenerate RESULTS.md and README's headline table from bench/results/*.json
+	$(BIN)/python -m bench.report
 
 clean:  ## remove build outputs (keeps .venv)
 	rm -rf build .pytest_cache .ruff_cache
