@@ -250,7 +250,7 @@ def test_generate_writes_every_file_once(capsys: pytest.CaptureFixture[str], tre
         str(tree / "protocol" / "messages.py"),
         str(tree / "brain" / "include" / "pete" / "messages.hpp"),
         str(tree / "brain" / "include" / "pete" / "wire.hpp"),
-        str(tree / "tests" / "cpp" / "golden_vectors.inc"),
+        str(tree / "tests" / "cpp" / "protocol" / "golden_vectors.inc"),
     }
     # what it wrote is what the real tree holds (that tree is current: test_codec_golden)
     generated = (tree / "protocol" / "messages.py").read_text()

@@ -1,6 +1,6 @@
 """The codec against protocol/golden_vectors.json: bytes written down once, by hand-checked cases,
 so that a change to the codec or the schema that moves a byte fails here (and in the C++ twin,
-tests/cpp/golden_vectors.inc)."""
+tests/cpp/protocol/golden_vectors.inc)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,8 @@
 """The Python codec and the generated C++ codec agree byte for byte.
 
-The C++ side runs as build/host/bin/pete_codec_tool (tests/cpp/codec_tool.cpp), which `make build`
-compiles under ASan and UBSan, so every input here also exercises the C++ decoder for memory errors.
+The C++ side runs as build/host/bin/pete_codec_tool (tests/cpp/protocol/codec_tool.cpp), which
+`make build` compiles under ASan and UBSan, so every input here also exercises the C++ decoder for
+memory errors.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-// pete_codec_tool: the C++ codec behind a pipe, so tests/test_cross_language.py can hold it to the
-// Python codec byte for byte.
+// pete_codec_tool: the C++ codec behind a pipe, so tests/protocol/test_cross_language.py can hold it
+// to the Python codec byte for byte.
 //
 //   pete_codec_tool roundtrip      packet hex lines in; each decoded and re-encoded, or `error <kind>`
 //   pete_codec_tool random N SEED  N random valid packets (hex lines), every message type
