@@ -160,14 +160,9 @@ HEADLINES: tuple[Headline, ...] = (
         "{rings_full_over_sim}, {score_full_over_sim}",
     ),
     Headline(
-        "Ring detector F1: real photos (pooled), simulator frames",
+        "Ring detector: F1 on real photos (pooled), on simulator frames; speed on one core",
         "perception",
-        "{real_cnn_f1} ({real_images} photos), {sim_cnn_f1}",
-    ),
-    Headline(
-        "Perception pipeline on one core",
-        "perception",
-        "{fps_cnn} frames/s",
+        "{real_cnn_f1} ({real_images} photos), {sim_cnn_f1}; {fps_cnn} frames/s",
     ),
     Headline(
         "State -> Command p99: the daemon, the round trip over a pty",
@@ -178,16 +173,6 @@ HEADLINES: tuple[Headline, ...] = (
         "Python State encode + decode on one core",
         "protocol",
         "{state_roundtrips_per_s} round trips/s",
-    ),
-    Headline(
-        "Brain loop step p99 under a flood of garbage (host)",
-        "brain_loop",
-        "{flood_p99_us} us",
-    ),
-    Headline(
-        "Simulator, training fidelity, one core",
-        "sim",
-        "{training_env_steps_per_s} env steps/s",
     ),
 )
 

@@ -94,7 +94,6 @@ def test_generates_every_benchmark_with_targets_machine_date_and_command(
     assert readme.endswith("<!-- results:end -->\n\nAfter.\n")
     assert "old" not in readme
     assert f"| 494,541 round trips/s | [protocol](RESULTS.md#protocol), {today} |" in readme
-    assert "2,371 env steps/s" in readme
     # Headlines of benchmarks absent from the folder are left out.
     assert "[train]" not in readme
 
@@ -122,9 +121,10 @@ def test_check_passes_when_fresh_and_names_each_stale_file(
     assert _run(tree, "--check") == 0
     results_md, readme = tree["out"].read_text(), tree["readme"].read_text()
 
-    path = tree["results"] / "sim.json"
+    # A metric the headline reads: both files are stale.
+    path = tree["results"] / "protocol.json"
     data = json.loads(path.read_text())
-    data["metrics"]["training_env_steps_per_s"] = 2000.0
+    data["metrics"]["state_roundtrips_per_s"] = 400_000
     path.write_text(json.dumps(data, indent=2) + "\n")
     capsys.readouterr()
     assert _run(tree, "--check") == 1
@@ -135,7 +135,9 @@ def test_check_passes_when_fresh_and_names_each_stale_file(
 
     # Only RESULTS.md stale (a metric the headline does not read): only it is named.
     assert _run(tree) == 0
-    data["metrics"]["match_steps"] = 1000
+    path = tree["results"] / "sim.json"
+    data = json.loads(path.read_text())
+    data["metrics"]["training_env_steps_per_s"] = 2000.0
     path.write_text(json.dumps(data, indent=2) + "\n")
     capsys.readouterr()
     assert _run(tree, "--check") == 1
@@ -229,12 +231,12 @@ def test_readme_without_markers_is_an_error(
 def test_a_headline_metric_missing_from_its_benchmark_names_the_file(
     tree: dict[str, Path], capsys: pytest.CaptureFixture[str]
 ) -> None:
-    r = Result("sim")
-    r.add("match_steps", 1260)
+    r = Result("protocol")
+    r.add("state_packet_decode_ns", 321.44)
     path = r.save(tree["results"])
     assert _run(tree) == 2
     err = capsys.readouterr().err
-    assert f"{path}: no metric 'training_env_steps_per_s', which README's headline reads" in err
+    assert f"{path}: no metric 'state_roundtrips_per_s', which README's headline reads" in err
 
 
 @pytest.mark.parametrize(
