@@ -40,14 +40,14 @@ import cv2
 import numpy as np
 
 from bench.common import Result, median_ns, per_second
+from jetson.autonomy.camera import Intrinsics
+from jetson.errors import PerceptionError
 from jetson.perception.camera import CameraConfig
 from jetson.perception.classical import ClassicalDetector
 from jetson.perception.cnn.runtime import DEFAULT_MODEL, CnnDetector, metadata_path
 from jetson.perception.dataset import RingDataset
 from jetson.perception.detection import Detector
-from jetson.perception.errors import PerceptionError
 from jetson.perception.evaluate import Counts, DatasetScore, heldout_of, match, trained_on
-from jetson.perception.frame import Intrinsics
 from jetson.perception.localise import Localiser
 from jetson.perception.pipeline import Pipeline
 from jetson.perception.prefilter import PrefilterConfig

@@ -4,10 +4,10 @@ Pure and deterministic (no I/O, no clock: the caller passes the perception's age
 `pete-jetson replay` can re-run a recorded session through exactly this code.
 
 - Phase gating: the policy drives only in `drive_phases`; otherwise the answer is a stop.
-- The observation is sim.observation's, built as in training: own pose in the alliance frame,
+- The observation is jetson.autonomy.spec's, built as in training: own pose in the alliance frame,
   rings in the robot frame, no noise; the ring and goal memories when the policy's spec has them
   (the goal memory follows State.goal_clamped; a Brain without a clamp sensor reads as open).
-- A skill policy (its policy.json names skills) scores options; sim.skills' controller drives
+- A skill policy (its policy.json names skills) scores options; jetson.autonomy.skills' controller drives
   the best one from the same observation, as it did in training.
   A perception result older than `perception_max_age_s`, or none, gives no rings: empty slots,
   as the policy saw rings it could not see.
@@ -37,19 +37,16 @@ from itertools import pairwise
 import numpy as np
 from numpy.typing import NDArray
 
-from jetson.policy import Policy
-from jetson.settings import ConfigError, DecisionConfig
+from jetson.autonomy.camera import MemoryCamera
+from jetson.autonomy.geometry import angle_diff_deg, wrap_heading
+from jetson.autonomy.goal_memory import GoalMemory
+from jetson.autonomy.observation import FrameStack, RobotView, build_frame
+from jetson.autonomy.policy import Policy
+from jetson.autonomy.ring_memory import RingMemory
+from jetson.autonomy.skills import SkillDriver
+from jetson.errors import SettingsError
+from jetson.settings import DecisionConfig
 from protocol.messages import Alliance, GpsStatus, MatchPhase, State
-from sim.geometry import angle_diff_deg, wrap_heading
-from sim.observation import (
-    FrameStack,
-    GoalMemory,
-    MemoryCamera,
-    RingMemory,
-    RobotView,
-    build_frame,
-)
-from sim.skills import SkillDriver
 
 DEFAULT_DECISION_HZ = 12.0  # sim.config.WorldConfig.control_hz: what policies are trained at
 RINGS_UNKNOWN = 255  # State.rings_held when the Brain has no ring counter
@@ -136,7 +133,7 @@ class Decider:
         names = tuple(policy.action_names)
         self._skills = getattr(policy, "skills", None)
         if self._skills is None and names[:2] != ("linear", "angular"):
-            raise ConfigError(f"the policy's actions must start with linear, angular: {names}")
+            raise SettingsError(f"the policy's actions must start with linear, angular: {names}")
         self._scale = np.asarray(policy.action_scale[:2], dtype=np.float64)
         self._intake_index = names.index("intake") if "intake" in names else None
         self._drive_phases = {MatchPhase[p.upper()] for p in self.config.drive_phases}

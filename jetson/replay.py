@@ -17,18 +17,15 @@ from typing import Any
 
 import numpy as np
 
+from jetson.autonomy.camera import MemoryCamera
+from jetson.autonomy.policy import OnnxPolicy, Policy
 from jetson.decide import Decider, PerceptionInput
+from jetson.errors import ReplayError
 from jetson.log import LatencyStats
-from jetson.policy import OnnxPolicy, Policy
 from jetson.recorder import FORMAT, VERSION, open_recording
 from jetson.settings import DecisionConfig
 from protocol.framing import message_from_dict
 from protocol.messages import State
-from sim.observation import MemoryCamera
-
-
-class ReplayError(RuntimeError):
-    """A recording that cannot be replayed, named."""
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,7 @@
     Service.run()       serves until SIGTERM/SIGINT (or stop()), then sends a stop and exits
     add_commands(sub)   registers `run` and `replay` with pete-jetson's argument parser
 
-The heavy imports (numpy, onnxruntime, OpenCV, sim.observation) happen inside these functions,
+The heavy imports (numpy, onnxruntime, OpenCV, jetson.autonomy.spec) happen inside these functions,
 so that `pete-jetson --help` and the other commands stay light.
 """
 
@@ -20,7 +20,8 @@ from pathlib import Path
 from types import FrameType
 from typing import Any, TextIO
 
-from jetson.settings import ConfigError, Settings
+from jetson.errors import SettingsError
+from jetson.settings import Settings
 
 # Python hands the interpreter between threads every 5 ms by default: a State arriving while the
 # camera thread runs Python code could wait that long. 1 ms bounds the wait at a small cost to
@@ -82,12 +83,12 @@ def build(
     """Everything `pete-jetson run` runs, from settings. Pass clock / policy / perception to
     replace the real ones (a lockstep simulator, tests); fingerprint plays a Jetson built from
     another schema (tests of the refusal)."""
+    from jetson.autonomy.policy import OnnxPolicy
     from jetson.clock import MonotonicClock
     from jetson.decide import Decider
     from jetson.link import PortLocator
     from jetson.log import EventLog
     from jetson.loop import Daemon
-    from jetson.policy import OnnxPolicy
     from jetson.recorder import RecordingDir
 
     clock = clock or MonotonicClock()
@@ -168,10 +169,10 @@ def make_pipeline(camera_settings: Any) -> Any:
 
 
 def memory_camera(camera_settings: Any) -> Any:
-    """The camera as the ring memory sees through it (sim.observation.MemoryCamera): [camera]'s
+    """The camera as the ring memory sees through it (jetson.autonomy.spec.MemoryCamera): [camera]'s
     config file, or the default mount and intrinsics without one."""
+    from jetson.autonomy.camera import MemoryCamera
     from jetson.perception.camera import CameraConfig
-    from sim.observation import MemoryCamera
 
     cs = camera_settings
     camera = CameraConfig.load(Path(cs.config)) if cs.config else CameraConfig()
@@ -291,14 +292,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         settings = settings_from_args(args)
         service = build(settings)
-    except (ConfigError, ValueError) as exc:
+    except (SettingsError, ValueError) as exc:
         raise RuntimeError(str(exc)) from exc
     service.install_signal_handlers()
     return service.run()
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from jetson.policy import OnnxPolicy
+    from jetson.autonomy.policy import OnnxPolicy
     from jetson.replay import replay
 
     policy = OnnxPolicy(args.policy) if args.policy else None

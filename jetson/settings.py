@@ -13,25 +13,23 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
+from jetson.errors import SettingsError
+
 PHASES = ("disabled", "autonomous", "driver")
 DEFAULT_POLICY = Path(__file__).resolve().parent.parent / "models" / "policy" / "policy.onnx"
 
 
-class ConfigError(ValueError):
-    """A setting that cannot be used, named."""
-
-
 def _from_dict(cls: type, data: dict[str, Any], where: str) -> Any:
     if not isinstance(data, dict):
-        raise ConfigError(f"[{where}] must be a table")
+        raise SettingsError(f"[{where}] must be a table")
     known = {f.name for f in fields(cls)}
     unknown = sorted(set(data) - known)
     if unknown:
-        raise ConfigError(f"[{where}] has no setting {unknown[0]!r} (settings: {sorted(known)})")
+        raise SettingsError(f"[{where}] has no setting {unknown[0]!r} (settings: {sorted(known)})")
     try:
         return cls(**data)
     except TypeError as exc:
-        raise ConfigError(f"[{where}]: {exc}") from exc
+        raise SettingsError(f"[{where}]: {exc}") from exc
 
 
 @dataclass(frozen=True)
@@ -47,9 +45,9 @@ class LinkConfig:
     def __post_init__(self) -> None:
         for name in ("hello_period_s", "mismatch_hello_period_s", "silence_timeout_s"):
             if not getattr(self, name) > 0:
-                raise ConfigError(f"link {name} must be positive")
+                raise SettingsError(f"link {name} must be positive")
         if not 0 < self.reconnect_poll_s <= 0.5:
-            raise ConfigError("link reconnect_poll_s must be in (0, 0.5] s: reconnect within 1 s")
+            raise SettingsError("link reconnect_poll_s must be in (0, 0.5] s: reconnect within 1 s")
 
 
 @dataclass(frozen=True)
@@ -69,25 +67,27 @@ class DecisionConfig:
         object.__setattr__(self, "drive_phases", tuple(self.drive_phases))
         for p in self.drive_phases:
             if p not in PHASES[1:]:
-                raise ConfigError(
+                raise SettingsError(
                     f"decision drive_phases: {p!r} is not a phase the policy may drive in "
                     "(autonomous, driver)"
                 )
         age = self.perception_max_age_s
         if not (isinstance(age, int | float) and age > 0 and math.isfinite(age)):
-            raise ConfigError("decision perception_max_age_s must be a positive number")
+            raise SettingsError("decision perception_max_age_s must be a positive number")
         if not (isinstance(self.valid_ms, int) and 1 <= self.valid_ms <= 1000):
-            raise ConfigError("decision valid_ms must be 1..1000 (the Brain caps it at 1000)")
+            raise SettingsError("decision valid_ms must be 1..1000 (the Brain caps it at 1000)")
         if self.decision_hz is not None and not 0 < self.decision_hz <= 1000:
-            raise ConfigError(f"decision decision_hz must be in (0, 1000], got {self.decision_hz}")
+            raise SettingsError(
+                f"decision decision_hz must be in (0, 1000], got {self.decision_hz}"
+            )
         if not (math.isfinite(self.driver_time_offset_s) and self.driver_time_offset_s >= 0):
-            raise ConfigError("decision driver_time_offset_s must be >= 0")
+            raise SettingsError("decision driver_time_offset_s must be >= 0")
         if not (isinstance(self.rings_held, int) and self.rings_held >= 0):
-            raise ConfigError("decision rings_held must be a whole number >= 0")
+            raise SettingsError("decision rings_held must be a whole number >= 0")
         if not isinstance(self.intake_fills, bool):
-            raise ConfigError("decision intake_fills must be true or false")
+            raise SettingsError("decision intake_fills must be true or false")
         if not isinstance(self.frame_pose, bool):
-            raise ConfigError("decision frame_pose must be true or false")
+            raise SettingsError("decision frame_pose must be true or false")
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -118,9 +118,9 @@ class CameraSettings:
 
     def __post_init__(self) -> None:
         if self.detector not in ("cnn", "classical"):
-            raise ConfigError(f"camera detector must be cnn or classical, not {self.detector!r}")
+            raise SettingsError(f"camera detector must be cnn or classical, not {self.detector!r}")
         if not self.retry_s > 0:
-            raise ConfigError("camera retry_s must be positive")
+            raise SettingsError("camera retry_s must be positive")
 
 
 @dataclass(frozen=True)
@@ -139,7 +139,7 @@ class LogSettings:
 
     def __post_init__(self) -> None:
         if self.level not in ("debug", "info", "warning", "error"):
-            raise ConfigError(f"log level must be debug, info, warning or error: {self.level!r}")
+            raise SettingsError(f"log level must be debug, info, warning or error: {self.level!r}")
 
 
 @dataclass(frozen=True)
@@ -156,7 +156,7 @@ class Settings:
         groups = {f.name: f.type for f in fields(cls)}
         unknown = sorted(set(data) - set(groups))
         if unknown:
-            raise ConfigError(f"config has no table [{unknown[0]}] (tables: {sorted(groups)})")
+            raise SettingsError(f"config has no table [{unknown[0]}] (tables: {sorted(groups)})")
         kinds = {
             "link": LinkConfig, "decision": DecisionConfig, "policy": PolicySettings,
             "camera": CameraSettings, "record": RecordSettings, "log": LogSettings,
@@ -168,9 +168,9 @@ class Settings:
         try:
             data = tomllib.loads(Path(path).read_text())
         except FileNotFoundError as exc:
-            raise ConfigError(f"config file {path} does not exist") from exc
+            raise SettingsError(f"config file {path} does not exist") from exc
         except (OSError, tomllib.TOMLDecodeError) as exc:
-            raise ConfigError(f"config file {path}: {exc}") from exc
+            raise SettingsError(f"config file {path}: {exc}") from exc
         return cls.from_dict(data)
 
     def with_overrides(self, **groups: dict[str, Any]) -> Settings:

@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from jetson.autonomy.spec import ObservationSpec
 from protocol import framing, messages
 from protocol.framing import DownlinkDecoder, Received
 from protocol.messages import (
@@ -42,7 +43,6 @@ from protocol.messages import (
     Role,
     State,
 )
-from sim.observation import ObservationSpec
 
 StateMaker = Callable[[int, float], dict[str, Any]]  # (state seq, seconds since start) -> fields
 

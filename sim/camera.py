@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from jetson.autonomy.geometry import field_to_robot
 from sim.config import CameraConfig
-from sim.geometry import field_to_robot
 from sim.visibility import CameraPose
 from sim.world import World
 

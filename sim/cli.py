@@ -230,7 +230,7 @@ def _add_dataset(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_dataset(args: argparse.Namespace) -> int:
-    from jetson.perception.errors import DatasetError
+    from jetson.errors import DatasetError
     from sim.config import ConfigError
     from sim.dataset import DatasetConfig, write_dataset
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass, fields, is_dataclass, replace
 from dataclasses import field as dc_field
 from typing import Any, Literal, TypeVar
 
-from sim.geometry import INCH
+from jetson.autonomy.geometry import INCH
 
 Fidelity = Literal["training", "high"]
 FIDELITIES: tuple[Fidelity, ...] = ("training", "high")

@@ -38,9 +38,9 @@ from typing import Any
 import numpy as np
 import pybullet as p
 
+from jetson.autonomy.geometry import field_to_robot
 from sim.camera import projection_matrix, render_camera, view_matrix
 from sim.config import ROBOTS, CameraConfig, ConfigError, WorldConfig
-from sim.geometry import field_to_robot
 from sim.world import World
 
 # The perception HSV window on OpenCV's scales (H 0-179, S and V 0-255), from the original

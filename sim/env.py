@@ -6,7 +6,7 @@
     env = gym.make("pete/TippingPoint-v0", opponent="none", world={"fidelity": "high"})
     env = sim.env.TippingPointEnv(opponent="policy", opponent_policy=lambda obs: my_net(obs))
 
-Observation: sim.observation's stacked vector (float32, ObservationSpec in `env.spec_obs`).
+Observation: jetson.autonomy.spec's stacked vector (float32, ObservationSpec in `env.spec_obs`).
 Action: [linear, angular] in [-1, 1] (scaled to the robot's limits; angular > 0 turns clockwise),
 plus [intake] / [clamp] when configured; with `skills`, one score per skill (sim/skills.py).
 Reward: the sum of the weighted components; each component is in info["reward_components"] (this
@@ -27,10 +27,10 @@ import gymnasium as gym
 import numpy as np
 import pybullet as p
 
+from jetson.autonomy.geometry import other_alliance
+from jetson.autonomy.spec import ObservationSpec, observation_bounds
 from sim.config import ConfigError
-from sim.geometry import other_alliance
 from sim.match import EnvConfig, MatchCore, make_config
-from sim.observation import ObservationSpec, observation_bounds
 from sim.render import top_down
 from sim.scripted import GreedyChaser
 from sim.world import World

@@ -31,10 +31,10 @@ from typing import Any
 
 import numpy as np
 
+from jetson.autonomy.geometry import other_alliance
+from jetson.autonomy.spec import ObservationSpec
 from sim.config import ConfigError
-from sim.geometry import other_alliance
 from sim.match import EnvConfig, MatchCore, make_config
-from sim.observation import ObservationSpec
 from sim.planner import Planner, PlannerConfig
 from sim.players import IdlePlayer, Player, PolicyPlayer, RandomPlayer, ScriptedPlayer
 
@@ -114,7 +114,8 @@ def load_player(text: str) -> PlayerSpec:
     if path.suffix == ".onnx":
         if looks_like_original(path):
             return PlayerSpec("original", lambda: OriginalPlayer(path))
-        from sim.policy import OnnxPolicy, PolicyError
+        from jetson.autonomy.policy import OnnxPolicy
+        from jetson.errors import PolicyError
 
         try:
             policy = OnnxPolicy(path)

@@ -15,19 +15,15 @@ from typing import Any, Literal
 
 import numpy as np
 
+from jetson.autonomy.camera import MemoryCamera
+from jetson.autonomy.geometry import AllianceName, field_to_robot, heading_vector, to_alliance_frame
+from jetson.autonomy.goal_memory import GoalMemory
+from jetson.autonomy.observation import FrameStack, RobotView, build_frame
+from jetson.autonomy.ring_memory import RingMemory
+from jetson.autonomy.skills import SkillConfig, SkillDriver
+from jetson.autonomy.spec import ObservationSpec
 from sim.config import CameraConfig, ConfigError, RewardConfig, RobotConfig, WorldConfig, merge
 from sim.field import FieldSpec
-from sim.geometry import Alliance, field_to_robot, heading_vector, to_alliance_frame
-from sim.observation import (
-    FrameStack,
-    GoalMemory,
-    MemoryCamera,
-    ObservationSpec,
-    RingMemory,
-    RobotView,
-    build_frame,
-)
-from sim.skills import SkillConfig, SkillDriver
 from sim.world import RING_FLOOR, RING_HELD, DriveCommand, GpsReading, StepEvents, World
 
 REWARD_COMPONENTS = (
@@ -210,7 +206,7 @@ class RobotStep:
     info: dict[str, Any]
 
 
-def skill_settings(field: FieldSpec, alliance: Alliance, robot: RobotConfig) -> dict[str, Any]:
+def skill_settings(field: FieldSpec, alliance: AllianceName, robot: RobotConfig) -> dict[str, Any]:
     """What a SkillConfig takes from the field and the robot: the alliance's platform in its
     alliance frame (the same for both alliances), the robot's length and top speeds."""
     plat = field.platform(alliance)
@@ -430,7 +426,7 @@ class MatchCore:
         view = self.goal_memories[index].observe(view)
         return build_frame(self.spec, view, rng)
 
-    def _score_margin(self, alliance: Alliance) -> float:
+    def _score_margin(self, alliance: AllianceName) -> float:
         s = self.world.score()
         other = "blue" if alliance == "red" else "red"
         return float(s[alliance].total - s[other].total)
@@ -513,7 +509,7 @@ class MatchCore:
         front = np.asarray(r.xy) + r.config.length_m / 2 * heading_vector(r.heading)
         return float(np.sqrt(((floor - front) ** 2).sum(axis=1).min()))
 
-    def _goal_scores_for(self, goal: int, alliance: Alliance) -> bool:
+    def _goal_scores_for(self, goal: int, alliance: AllianceName) -> bool:
         return self.world.goals[goal].spec.alliance in (None, alliance)
 
     def _goal_potential(self, index: int) -> float:
@@ -552,7 +548,7 @@ class MatchCore:
         dy = max(abs(r.y - plat.center[1]) - half_y, 0.0)
         return float(np.hypot(dx, dy))
 
-    def goals_counting(self, alliance: Alliance) -> int:
+    def goals_counting(self, alliance: AllianceName) -> int:
         """Mobile goals that count for the alliance in its own zone (RewardConfig.goal_zone)."""
         w = self.world
         n = 0

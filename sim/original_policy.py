@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-from sim.geometry import Alliance, to_alliance_frame
+from jetson.autonomy.geometry import AllianceName, to_alliance_frame
 from sim.match import MatchCore
 from sim.world import DriveCommand
 
@@ -51,7 +51,7 @@ def original_observation(
     x_m: float,
     y_m: float,
     rings_robot_xy: ArrayLike,
-    alliance: Alliance = "red",
+    alliance: AllianceName = "red",
 ) -> np.ndarray:
     """The 25 inputs for a robot at GPS position (x, y) whose camera sees rings at robot-frame
     positions (N, 2) (x right, y forward, metres). The original had no heading input."""

@@ -8,7 +8,7 @@
     obs, rewards, terms, truncs, infos = env.step(actions)
 
 Agents are named <alliance>_<slot>. Every agent observes the alliance-symmetric stacked vector of
-sim.observation, so one policy can play either side (self-play). The configuration is the
+jetson.autonomy.spec, so one policy can play either side (self-play). The configuration is the
 Gymnasium env's (sim.match.EnvConfig) minus agent_alliance and opponent. A pin (with end_on_pin)
 or the end of the match ends the episode for every agent at once.
 """
@@ -23,9 +23,9 @@ import numpy as np
 import pybullet as p
 from pettingzoo import ParallelEnv
 
+from jetson.autonomy.spec import observation_bounds
 from sim.config import ConfigError
 from sim.match import EnvConfig, MatchCore, make_config
-from sim.observation import observation_bounds
 from sim.render import top_down
 from sim.world import World
 

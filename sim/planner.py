@@ -33,10 +33,10 @@ from typing import Literal
 
 import numpy as np
 
-from sim.geometry import field_to_robot, robot_to_field
+from jetson.autonomy.geometry import field_to_robot, robot_to_field
+from jetson.autonomy.route import TourConfig, leg_costs, tour
+from jetson.autonomy.skills import Trail, arc_through, back_onto, pursuit_point, turn_first
 from sim.match import MatchCore
-from sim.route import TourConfig, leg_costs, tour
-from sim.skills import Trail, arc_through, back_onto, pursuit_point, turn_first
 from sim.visibility import camera_pose, in_frustum
 from sim.world import DriveCommand, World
 

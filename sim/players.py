@@ -1,7 +1,7 @@
 """Who drives a robot in a match: one interface for policies, the planner, scripts and baselines.
 
     player.reset(core, index, rng)                 # a new match; `index` is the robot it drives
-    command = player.act(core, index, obs)         # every control step; obs: sim.observation's
+    command = player.act(core, index, obs)         # every control step; obs: jetson.autonomy.spec's
 
 A player may read the World through `core` (the planner and the scripted chaser do: they see what
 the robot's sensors give, via core.view); a learned policy only uses `obs`. Everything here is
@@ -15,9 +15,9 @@ from typing import Protocol
 
 import numpy as np
 
+from jetson.autonomy.skills import SkillConfig, SkillDriver
 from sim.match import MatchCore
 from sim.scripted import GreedyChaser
-from sim.skills import SkillConfig, SkillDriver
 from sim.world import DriveCommand
 
 ActionFn = Callable[[np.ndarray], np.ndarray]

@@ -13,8 +13,9 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw
 
+from jetson.autonomy.camera import robot_to_camera_rotation
+from jetson.autonomy.geometry import box_corners, robot_to_field
 from sim.config import CameraConfig
-from sim.geometry import box_corners, robot_to_camera_rotation, robot_to_field
 from sim.world import RING_FLOOR, World
 
 _RED = (200, 40, 45)

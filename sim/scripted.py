@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.skills import Trail
+from jetson.autonomy.skills import Trail
 from sim.world import RING_FLOOR, DriveCommand, World
 
 

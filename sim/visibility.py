@@ -18,8 +18,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from jetson.autonomy.camera import project_points, robot_to_camera_rotation
+from jetson.autonomy.geometry import heading_vector
 from sim.config import CameraConfig
-from sim.geometry import heading_vector, project_points, robot_to_camera_rotation
 
 FloatArray = NDArray[np.float64]
 _EPS = 1e-9

@@ -31,10 +31,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pybullet as p
 
-from sim.config import RobotConfig, WorldConfig
-from sim.field import FieldSpec, GoalSpec, load_field
-from sim.geometry import (
-    Alliance,
+from jetson.autonomy.geometry import (
+    AllianceName,
     field_to_robot,
     heading_to_yaw,
     heading_vector,
@@ -45,6 +43,8 @@ from sim.geometry import (
     yaw_quaternion,
     yaw_to_heading,
 )
+from sim.config import RobotConfig, WorldConfig
+from sim.field import FieldSpec, GoalSpec, load_field
 from sim.visibility import (
     CameraPose,
     Obstacles,
@@ -98,7 +98,7 @@ class GpsReading:
 @dataclass
 class RobotState:
     index: int
-    alliance: Alliance
+    alliance: AllianceName
     slot: int  # 0, 1 within the alliance
     config: RobotConfig
     body: int
@@ -193,7 +193,7 @@ class World:
         self.dt = self.config.control_dt
         self.substeps = self.config.substeps
         self.training = self.config.fidelity == "training"
-        self.lineup: list[tuple[Alliance, str]] = [("red", n) for n in self.config.red] + [
+        self.lineup: list[tuple[AllianceName, str]] = [("red", n) for n in self.config.red] + [
             ("blue", n) for n in self.config.blue
         ]
         self.robots: list[RobotState] = []
@@ -910,7 +910,7 @@ class World:
             return False
         return plat.contains_point(r.x, r.y)
 
-    def goal_owner(self, g: GoalState) -> tuple[Alliance | None, bool]:
+    def goal_owner(self, g: GoalState) -> tuple[AllianceName | None, bool]:
         """Which alliance a goal scores for right now, and whether it is elevated."""
         if g.carried_by is not None:
             carrier = self.robots[g.carried_by]

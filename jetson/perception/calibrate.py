@@ -18,9 +18,9 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from jetson.autonomy.camera import Intrinsics
+from jetson.errors import CalibrationError
 from jetson.perception.dataset import IMAGE_SUFFIXES
-from jetson.perception.errors import CalibrationError
-from jetson.perception.frame import Intrinsics
 
 MIN_VIEWS = 3
 

@@ -21,10 +21,10 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from jetson.autonomy.camera import Intrinsics
+from jetson.errors import CameraConfigError
 from jetson.perception.camera import CameraConfig
 from jetson.perception.detection import RING_MINOR_M, RING_OUTER_M, Detection
-from jetson.perception.errors import ConfigError
-from jetson.perception.frame import Intrinsics
 from jetson.perception.prefilter import HsvWindow
 
 RING_FILL = 0.7  # a flat ring's pixels over (expected width x expected height), measured
@@ -50,11 +50,11 @@ class ClassicalConfig:
 
     def __post_init__(self) -> None:
         if self.min_area_px <= 0 or self.reference_width <= 0:
-            raise ConfigError("min_area_px and reference_width must be positive")
+            raise CameraConfigError("min_area_px and reference_width must be positive")
         for name in ("aspect_range", "fill_range", "width_m_range"):
             lo, hi = getattr(self, name)
             if not 0 < lo < hi:
-                raise ConfigError(f"{name} must be 0 < low < high, got {(lo, hi)}")
+                raise CameraConfigError(f"{name} must be 0 < low < high, got {(lo, hi)}")
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from jetson.errors import CameraConfigError
 from jetson.perception.camera import CameraConfig
-from jetson.perception.errors import ConfigError
 
 DETECTORS = ("classical", "cnn")  # as jetson.perception.pipeline, without importing OpenCV
 
@@ -114,9 +114,11 @@ def _patch(text: str) -> tuple[int, int]:
     try:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError as exc:
-        raise ConfigError(f"--patch is WIDTHxHEIGHT in pixels, e.g. 192x160; got {text!r}") from exc
+        raise CameraConfigError(
+            f"--patch is WIDTHxHEIGHT in pixels, e.g. 192x160; got {text!r}"
+        ) from exc
     if w < 16 or h < 16 or w % 16 or h % 16:
-        raise ConfigError(f"--patch sides must be multiples of 16, at least 16; got {text!r}")
+        raise CameraConfigError(f"--patch sides must be multiples of 16, at least 16; got {text!r}")
     return w, h
 
 
@@ -124,7 +126,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     try:
         from jetson.perception.cnn.train import TrainConfig, train
     except ImportError as exc:
-        raise ConfigError(
+        raise CameraConfigError(
             f"training needs torch ({exc}); install the sim extra: pip install "
             "'pacman-pete[sim]' (the Jetson only runs models; train on a desktop)"
         ) from exc
@@ -172,7 +174,9 @@ def cmd_tune(args: argparse.Namespace) -> int:
         sizes = tuple(int(v) for v in args.sizes.split(","))
         thresholds = tuple(float(v) for v in args.thresholds.split(","))
     except ValueError as exc:
-        raise ConfigError(f"--sizes and --thresholds are comma-separated numbers: {exc}") from exc
+        raise CameraConfigError(
+            f"--sizes and --thresholds are comma-separated numbers: {exc}"
+        ) from exc
     tuning = tune(args.model, list(args.val), sizes, thresholds)
     print("mean F1 over the folders' held-out images, by input long side and threshold:")
     print(format_table(tuning))
@@ -190,7 +194,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
-    from jetson.perception.camera import CameraMount
+    from jetson.autonomy.camera import CameraMount
     from jetson.perception.classical import ClassicalDetector
     from jetson.perception.cnn.runtime import CnnDetector
     from jetson.perception.dataset import RingDataset
@@ -248,8 +252,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 
 def cmd_synth(args: argparse.Namespace) -> int:
+    from jetson.autonomy.camera import Intrinsics
     from jetson.perception.dataset import write_meta, write_sample
-    from jetson.perception.frame import Intrinsics
     from jetson.perception.synthetic import random_frame
 
     camera = _camera(args)
@@ -257,7 +261,7 @@ def cmd_synth(args: argparse.Namespace) -> int:
     if (args.width, args.height) != (intr.width, intr.height):
         intr = intr.scaled(args.width, args.height)
     if args.frames < 1:
-        raise ConfigError("--frames must be at least 1")
+        raise CameraConfigError("--frames must be at least 1")
     out: Path = args.out
     write_meta(
         out,
@@ -285,7 +289,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
     board = parse_board(args.board)
     if not args.square_mm > 0:
-        raise ConfigError(f"--square-mm must be positive, got {args.square_mm}")
+        raise CameraConfigError(f"--square-mm must be positive, got {args.square_mm}")
     cal = calibrate_folder(args.images, board, args.square_mm / 1000.0)
     i = cal.intrinsics
     print(f"board found in {len(cal.per_image_rms_px)} images; skipped: {cal.skipped or 'none'}")

@@ -38,7 +38,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from jetson.perception.errors import DatasetError
+from jetson.errors import DatasetError
 from jetson.perception.frame import depth_from_mm, depth_to_mm
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp")

@@ -10,11 +10,12 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from jetson.perception.camera import CameraConfig, CameraMount
+from jetson.autonomy.camera import CameraMount, Intrinsics
+from jetson.errors import DatasetError
+from jetson.perception.camera import CameraConfig
 from jetson.perception.dataset import RingDataset, fingerprint, holdout_names, image_names
 from jetson.perception.detection import RING_MINOR_M, RING_OUTER_M, Detection, iou_matrix
-from jetson.perception.errors import DatasetError
-from jetson.perception.frame import Frame, Intrinsics
+from jetson.perception.frame import Frame
 from jetson.perception.localise import Localiser
 from jetson.perception.pipeline import Pipeline
 

@@ -14,7 +14,7 @@ floor (3rd to 97th percentile in x and in y). Why not the box centre at the medi
 looking down sees the ring's top and its near side, so the median surface point is 2-3 cm nearer
 than the centre (measured on synthetic rings); the extent's middle is off by a few millimetres.
 
-The output, rings_robot_xy sorted nearest first, is what sim.observation.RobotView takes.
+The output, rings_robot_xy sorted nearest first, is what jetson.autonomy.spec.RobotView takes.
 """
 
 from __future__ import annotations
@@ -25,10 +25,10 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from jetson.autonomy.camera import Intrinsics
+from jetson.errors import CameraConfigError
 from jetson.perception.camera import CameraConfig
 from jetson.perception.detection import RING_MINOR_M, Detection
-from jetson.perception.errors import ConfigError
-from jetson.perception.frame import Intrinsics
 
 
 @dataclass(frozen=True)
@@ -46,9 +46,9 @@ class LocaliserConfig:
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.hole_ratio < 1.0:
-            raise ConfigError(f"hole_ratio must be in [0, 1), got {self.hole_ratio}")
+            raise CameraConfigError(f"hole_ratio must be in [0, 1), got {self.hole_ratio}")
         if not 0 < self.near_m < self.max_range_m:
-            raise ConfigError("need 0 < near_m < max_range_m")
+            raise CameraConfigError("need 0 < near_m < max_range_m")
 
     def to_dict(self) -> dict[str, object]:
         return asdict(self)
@@ -214,5 +214,5 @@ class Localiser:
 
 
 def rings_robot_xy(estimates: list[RingEstimate]) -> NDArray[np.float64]:
-    """(N, 2) positions for sim.observation.RobotView.rings_robot_xy, nearest first."""
+    """(N, 2) positions for jetson.autonomy.spec.RobotView.rings_robot_xy, nearest first."""
     return np.asarray([e.robot_xy for e in estimates], dtype=np.float64).reshape(-1, 2)

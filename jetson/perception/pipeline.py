@@ -2,7 +2,7 @@
 
     pipeline = Pipeline(make_detector("cnn"), CameraConfig.load(path))
     result = pipeline.process(frame)
-    view.rings_robot_xy = result.rings_robot_xy          # sim.observation.RobotView
+    view.rings_robot_xy = result.rings_robot_xy          # jetson.autonomy.spec.RobotView
 
 Positions use the frame's own intrinsics (a RealSense and the simulator's stream send theirs;
 image folders and videos get the camera config's) and the camera config's mount.
@@ -21,10 +21,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from jetson.errors import CameraConfigError
 from jetson.perception.camera import CameraConfig
 from jetson.perception.classical import ClassicalConfig, ClassicalDetector
 from jetson.perception.detection import Detection, Detector
-from jetson.perception.errors import ConfigError
 from jetson.perception.frame import Frame
 from jetson.perception.localise import Localiser, LocaliserConfig, RingEstimate, rings_robot_xy
 from jetson.perception.prefilter import PrefilterConfig, prefilter
@@ -46,7 +46,7 @@ def make_detector(
         from jetson.perception.cnn.runtime import CnnDetector
 
         return CnnDetector(model, score_threshold)
-    raise ConfigError(f"unknown detector {name!r}; choose from {DETECTORS}")
+    raise CameraConfigError(f"unknown detector {name!r}; choose from {DETECTORS}")
 
 
 @dataclass

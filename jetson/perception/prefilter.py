@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from jetson.perception.errors import ConfigError
+from jetson.errors import CameraConfigError
 
 
 @dataclass(frozen=True)
@@ -32,7 +32,7 @@ class HsvWindow:
         for name, top in (("h", 180.0), ("s", 255.0), ("v", 255.0)):
             lo, hi = getattr(self, name)
             if not 0.0 <= lo <= hi <= top:
-                raise ConfigError(f"HSV {name} window must satisfy 0 <= low <= high <= {top}")
+                raise CameraConfigError(f"HSV {name} window must satisfy 0 <= low <= high <= {top}")
 
     def bounds(self) -> tuple[NDArray[np.uint8], NDArray[np.uint8]]:
         """Integer bounds for cv2.inRange: a pixel is in when its value lies in [low, high]."""
@@ -56,7 +56,7 @@ class PrefilterConfig:
 
     def __post_init__(self) -> None:
         if self.blur_ksize < 1:
-            raise ConfigError(f"blur_ksize must be at least 1, got {self.blur_ksize}")
+            raise CameraConfigError(f"blur_ksize must be at least 1, got {self.blur_ksize}")
 
     def ksize_for(self, width: int) -> int:
         k = round(self.blur_ksize * width / self.reference_width)
@@ -70,13 +70,13 @@ class PrefilterConfig:
         data = dict(data)
         known = {"enabled", "window", "blur_ksize", "reference_width"}
         if set(data) - known:
-            raise ConfigError(f"unknown pre-filter keys {sorted(set(data) - known)}")
+            raise CameraConfigError(f"unknown pre-filter keys {sorted(set(data) - known)}")
         w = data.pop("window", {})
         try:
             window = HsvWindow(**{k: tuple(v) for k, v in w.items()})
             return cls(window=window, **data)
         except TypeError as exc:
-            raise ConfigError(f"bad pre-filter config: {exc}") from exc
+            raise CameraConfigError(f"bad pre-filter config: {exc}") from exc
 
 
 @dataclass

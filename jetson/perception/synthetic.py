@@ -21,9 +21,9 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from jetson.perception.camera import CameraMount
+from jetson.autonomy.camera import CameraMount, Intrinsics
 from jetson.perception.detection import RING_MAJOR_M, RING_MINOR_M, RING_OUTER_M
-from jetson.perception.frame import Frame, Intrinsics, depth_from_mm, depth_to_mm
+from jetson.perception.frame import Frame, depth_from_mm, depth_to_mm
 
 FloatArray = NDArray[np.float64]
 

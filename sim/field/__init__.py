@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from sim.geometry import INCH, Alliance
+from jetson.autonomy.geometry import INCH, AllianceName
 
 FIELD_DIR = Path(__file__).resolve().parent
 DEFAULT_FIELD = "tipping_point"
@@ -52,7 +52,7 @@ class RingSpec:
 class GoalSpec:
     name: str
     kind: str  # "alliance", "neutral" or "neutral_tall"
-    alliance: Alliance | None
+    alliance: AllianceName | None
     position: tuple[float, float]
     base_radius: float
     base_height: float
@@ -63,7 +63,7 @@ class GoalSpec:
 
 @dataclass(frozen=True)
 class PlatformSpec:
-    alliance: Alliance
+    alliance: AllianceName
     center: tuple[float, float]
     size: tuple[float, float]  # (extent along x, extent along y)
     height: float
@@ -107,7 +107,7 @@ class Zone:
 
 @dataclass(frozen=True)
 class StartSpec:
-    alliance: Alliance
+    alliance: AllianceName
     robot: str
     position: tuple[float, float]
     heading: float
@@ -159,13 +159,13 @@ class FieldSpec:
         """Half the field width: the observation's length unit."""
         return self.size / 2.0
 
-    def platform(self, alliance: Alliance) -> PlatformSpec:
+    def platform(self, alliance: AllianceName) -> PlatformSpec:
         for p in self.platforms:
             if p.alliance == alliance:
                 return p
         raise FieldError(f"field {self.name!r} has no {alliance} platform")
 
-    def start(self, alliance: Alliance, robot: str) -> StartSpec:
+    def start(self, alliance: AllianceName, robot: str) -> StartSpec:
         for s in self.starts:
             if s.alliance == alliance and s.robot == robot:
                 return s
@@ -237,7 +237,7 @@ class _Reader:
             raise self.fail(f"{where}.{key}", f"expected a non-empty string, got {value!r}")
         return value
 
-    def alliance(self, data: dict[str, Any], key: str, where: str) -> Alliance:
+    def alliance(self, data: dict[str, Any], key: str, where: str) -> AllianceName:
         value = data.get(key)
         if value not in ("red", "blue"):
             raise self.fail(f"{where}.{key}", f"expected 'red' or 'blue', got {value!r}")

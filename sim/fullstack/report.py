@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 from PIL import Image, ImageDraw
 
+from jetson.autonomy.camera import project_points, robot_to_camera_rotation
 from sim.config import CameraConfig
-from sim.geometry import project_points, robot_to_camera_rotation
 
 MATCH_RADIUS_M = 0.15  # a perceived ring within this of a true one is that ring
 

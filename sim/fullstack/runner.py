@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from jetson.autonomy.geometry import field_to_robot
 from sim.fullstack.report import (
     MatchResult,
     PerceptionScore,
@@ -47,7 +48,6 @@ from sim.fullstack.report import (
     write_summary,
     write_timeline,
 )
-from sim.geometry import field_to_robot
 
 ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_POLICY = ROOT / "models" / "policy" / "policy.onnx"
@@ -331,10 +331,9 @@ class FullStackMatch:
         return report.last_step_ms - PREROLL_MS
 
     def _setup(self, tmp: Path, realtime: bool) -> None:
+        from jetson.autonomy.camera import CameraMount, Intrinsics
         from jetson.clock import ManualClock, MonotonicClock
         from jetson.perception.camera import CameraConfig as JetsonCamera
-        from jetson.perception.camera import CameraMount
-        from jetson.perception.frame import Intrinsics
         from sim.fullstack.brain_host import BrainHost, BrainHostError
         from sim.fullstack.cable import Cable
         from sim.fullstack.hardware import RobotHardware
@@ -522,7 +521,7 @@ class FullStackMatch:
             self._opp_k = k
             obs = None
             if self.opp_spec is not None:
-                from sim.observation import FrameStack
+                from jetson.autonomy.observation import FrameStack
 
                 frame = self.core.frame(self.ib)
                 if self.opp_stack is None:
@@ -534,7 +533,8 @@ class FullStackMatch:
         return self.opp_command
 
     def _send_frame(self, stamp_s: float) -> None:
-        from jetson.perception.frame import Frame, Intrinsics
+        from jetson.autonomy.camera import Intrinsics
+        from jetson.perception.frame import Frame
         from sim.camera import render_camera
 
         c = self.cam_cfg

@@ -15,9 +15,9 @@ from typing import Any
 import numpy as np
 import torch
 
-from sim.observation import ObservationSpec
+from jetson.autonomy.skills import SkillConfig
+from jetson.autonomy.spec import ObservationSpec
 from sim.ppo import Agent
-from sim.skills import SkillConfig
 from sim.training.config import TrainConfig, parse_config
 
 CHECKPOINT_VERSION = 1

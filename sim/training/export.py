@@ -1,4 +1,4 @@
-"""Export a trained Agent to policy.onnx plus policy.json (what sim.policy.OnnxPolicy loads).
+"""Export a trained Agent to policy.onnx plus policy.json (what jetson.autonomy.policy.OnnxPolicy loads).
 
 The graph is the deterministic policy with the observation normalisation folded in:
 
@@ -21,9 +21,9 @@ from typing import Any
 import torch
 from torch import nn
 
+from jetson.autonomy.policy import FORMAT, FORMAT_VERSION, metadata_path, sha256
+from jetson.autonomy.spec import ObservationSpec
 from sim.match import EnvConfig
-from sim.observation import ObservationSpec
-from sim.policy import FORMAT, FORMAT_VERSION, metadata_path, sha256
 from sim.ppo import Agent
 
 INPUT_NAME = "obs"

@@ -20,7 +20,7 @@ visible rings, the field's layout), in the policy's action units. The trainer's 
 pulls the policy toward it (DAgger: the labels come from the states the learner visits). The
 teacher plays the match's game: it drives onto the platform at the end only where the match's
 reward pays for it, so in an uncapped match paid as ring collection it collects to the bell.
-`teacher="route"` advises what sim.skills' route skill would drive from the learner's own
+`teacher="route"` advises what jetson.autonomy.skills' route skill would drive from the learner's own
 observation (pure pursuit onto the first route slot): a teacher whose every action follows from
 what the policy sees, so the policy can copy it exactly, where the planner also acts on its
 hidden target and back-off timers.
@@ -44,12 +44,12 @@ from typing import Any, Literal
 
 import numpy as np
 
+from jetson.autonomy.geometry import field_to_robot, other_alliance
+from jetson.autonomy.skills import SkillConfig, SkillDriver, option_for
 from sim.config import ConfigError, RewardConfig, RobotConfig
-from sim.geometry import field_to_robot, other_alliance
 from sim.match import REWARD_COMPONENTS, EnvConfig, MatchCore
 from sim.planner import Planner, PlannerConfig
 from sim.players import IdlePlayer, Player, RandomPlayer, ScriptedPlayer
-from sim.skills import SkillConfig, SkillDriver, option_for
 from sim.world import DriveCommand
 
 OPPONENT_KINDS = ("policy", "planner", "scripted", "random", "idle", "none")
@@ -57,7 +57,7 @@ TEACHERS = ("none", "planner", "route")
 ADVICE_SIZE = 2  # a teacher advises (linear, angular): the drive, not the intake or clamp
 
 
-# The route teacher: sim.skills' controller with the route as its only option, always picked.
+# The route teacher: jetson.autonomy.skills' controller with the route as its only option, always picked.
 ROUTE_SKILL = SkillConfig(route_option=True, ring_options=0, goal_options=0, platform=False)
 ROUTE_ACTION = np.ones(1)
 
@@ -176,7 +176,7 @@ class StepResult:
     # [-1, 1]; NaN without a teacher.
     advice: np.ndarray | None = None
     # (n_envs,): whether the learner's action for learner_obs decides anything (False while a
-    # skill manoeuvre it committed to is under way: sim.skills, commit_goal_s).
+    # skill manoeuvre it committed to is under way: jetson.autonomy.skills, commit_goal_s).
     deciding: np.ndarray | None = None
     # (n_envs,): whether learner_obs belongs to an uncapped match (EnvConfig.uncapped_share),
     # where the trainer may keep its teacher longer (ImitationConfig.uncapped_until_step).

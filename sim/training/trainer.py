@@ -39,10 +39,10 @@ from typing import Any
 import numpy as np
 import torch
 
+from jetson.autonomy.skills import SkillConfig
+from jetson.autonomy.spec import ObservationSpec
 from sim.match import MatchCore
-from sim.observation import ObservationSpec
 from sim.ppo import Agent, Batch, RewardScaler, compute_gae, ppo_update
-from sim.skills import SkillConfig
 from sim.training.checkpoint import build_agent, load_checkpoint, save_checkpoint
 from sim.training.config import TrainConfig
 from sim.training.export import export_policy, versions

@@ -13,9 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from jetson.autonomy.camera import CameraMount, Intrinsics
 from jetson.clock import MonotonicClock
-from jetson.perception.camera import CameraMount
-from jetson.perception.frame import Intrinsics
 from jetson.perception.sources.stream import FrameStreamServer
 from jetson.perception.synthetic import Ring, Scene, render
 from jetson.service import build

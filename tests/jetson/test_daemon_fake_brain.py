@@ -25,12 +25,12 @@ import numpy as np
 import pytest
 
 from jetson import cli
+from jetson.autonomy.policy import OnnxPolicy
 from jetson.camera_feed import CameraWorker, SyncPerception
 from jetson.clock import MonotonicClock
 from jetson.decide import Decider
 from jetson.log import EventLog
 from jetson.loop import Daemon
-from jetson.policy import OnnxPolicy
 from jetson.recorder import RecordingDir
 from jetson.replay import replay
 from jetson.settings import DecisionConfig, LinkConfig

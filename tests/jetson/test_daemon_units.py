@@ -13,12 +13,14 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from jetson.autonomy.policy import OnnxPolicy
+from jetson.autonomy.spec import ObservationSpec
 from jetson.decide import Decider, PerceptionInput, PoseHistory
+from jetson.errors import PolicyError, SettingsError
 from jetson.handshake import Handshake, LinkState
 from jetson.log import EventLog, LatencyStats, percentile
-from jetson.policy import OnnxPolicy, PolicyError
 from jetson.replay import recorded_decision
-from jetson.settings import ConfigError, DecisionConfig, Settings
+from jetson.settings import DecisionConfig, Settings
 from jetson.testing import ProbePolicy, write_mlp_policy
 from protocol.messages import (
     FINGERPRINT,
@@ -30,7 +32,6 @@ from protocol.messages import (
     Role,
     State,
 )
-from sim.observation import ObservationSpec
 
 SPEC = ObservationSpec()
 UNIT = SPEC.length_unit_m
@@ -304,7 +305,7 @@ def test_settings_file_round_trip_and_errors_name_the_key(tmp_path: Path) -> Non
         ("[link\n", "bad.toml"),
     ):
         bad.write_text(text)
-        with pytest.raises(ConfigError, match=needle.replace("[", r"\[")):
+        with pytest.raises(SettingsError, match=needle.replace("[", r"\[")):
             Settings.load(bad)
 
 
@@ -315,19 +316,6 @@ def test_the_shipped_example_config_loads() -> None:
 
 
 # --- policy file --------------------------------------------------------------------------------
-
-
-def test_policy_reader_matches_sim_policy_on_the_same_file(tmp_path: Path) -> None:
-    from sim.policy import OnnxPolicy as SimPolicy
-
-    path = write_mlp_policy(tmp_path, seed=1)
-    ours, theirs = OnnxPolicy(path), SimPolicy(path)
-    assert ours.spec == theirs.spec and ours.control_hz == 12.0
-    assert ours.action_scale == theirs.meta.actions.scale
-    obs = np.random.default_rng(0).uniform(-1, 1, (20, SPEC.size)).astype(np.float32)
-    for o in obs:
-        assert np.array_equal(ours(o), theirs(o))
-    assert OnnxPolicy(tmp_path).path == path  # the folder works too
 
 
 def test_a_tampered_or_missing_policy_is_refused_by_name(tmp_path: Path) -> None:
@@ -385,9 +373,9 @@ def test_the_configured_intake_reaches_a_policy_that_reads_it() -> None:
 
 
 def test_decision_config_is_checked() -> None:
-    with pytest.raises(ConfigError, match="perception_max_age_s"):
+    with pytest.raises(SettingsError, match="perception_max_age_s"):
         DecisionConfig(perception_max_age_s=0)
-    with pytest.raises(ConfigError, match="intake_fills must be true or false"):
+    with pytest.raises(SettingsError, match="intake_fills must be true or false"):
         DecisionConfig(intake_fills="no")  # type: ignore[arg-type]
     assert replace(DecisionConfig(), valid_ms=100).valid_ms == 100
 
@@ -534,7 +522,7 @@ def test_a_goal_memory_policy_reads_the_brains_clamp_and_drops_the_held_goal() -
 
 
 def test_a_skill_policy_is_driven_by_the_skill_controller() -> None:
-    from sim.skills import SkillConfig
+    from jetson.autonomy.skills import SkillConfig
 
     spec = ObservationSpec(n_stack=0)
     skills = SkillConfig(ring_options=2, goal_options=0, platform=False)
@@ -559,7 +547,7 @@ def test_a_skill_policy_is_driven_by_the_skill_controller() -> None:
 
 
 def test_a_skill_controller_that_raises_is_a_stop_with_the_error() -> None:
-    from sim.skills import SkillConfig
+    from jetson.autonomy.skills import SkillConfig
 
     class SkillPolicy(ProbePolicy):
         action_names = ("ring0",)
@@ -633,9 +621,9 @@ def test_a_camera_view_memory_policy_forgets_only_what_the_configured_camera_sho
     # memory_view "camera": the daemon looks through [camera]'s mount and intrinsics (here the
     # defaults, 0.3 m up and tilted 30 deg down: the floor shows to ~2.1 m). Red robot at
     # (0.5, -0.5) facing +x; prior ring A 1.2 m ahead, C 2.4 m ahead (above the picture), B behind.
+    from jetson.errors import ObservationError
     from jetson.service import memory_camera
     from jetson.settings import CameraSettings
-    from sim.observation import ObservationError
 
     prior = ((1.7, -0.5), (2.9, -0.5), (-0.5, -0.5))
     spec = ObservationSpec(ring_memory=True, prior_rings=prior, n_stack=0, memory_view="camera")

@@ -11,7 +11,7 @@ import pytest
 pytest.importorskip("pybullet")
 pytest.importorskip("cv2")
 
-from jetson.perception.camera import CameraMount
+from jetson.autonomy.camera import CameraMount
 from jetson.perception.dataset import RingDataset
 from sim.camera import rgb_to_hsv_opencv
 from sim.cli import main
@@ -162,10 +162,10 @@ def test_bad_arguments_are_clear_errors(tmp_path: Path, folder: Path, capsys) ->
 
 
 def test_evaluation_places_each_frame_with_its_own_robots_camera(tmp_path: Path) -> None:
+    from jetson.autonomy.camera import Intrinsics
     from jetson.perception.camera import CameraConfig
     from jetson.perception.classical import ClassicalDetector
     from jetson.perception.evaluate import frame_mounts, score_dataset
-    from jetson.perception.frame import Intrinsics
     from jetson.perception.pipeline import Pipeline
 
     cfg = DatasetConfig(frames=6, seed=5, width=320, height=240, robots=("15in", "24in"))
@@ -184,8 +184,8 @@ def test_evaluation_places_each_frame_with_its_own_robots_camera(tmp_path: Path)
 def test_spectator_frames_photograph_the_same_scenes_from_outside_the_field(
     tmp_path: Path,
 ) -> None:
+    from jetson.autonomy.geometry import heading_vector, robot_to_field
     from sim.field import load_field
-    from sim.geometry import heading_vector, robot_to_field
 
     half = load_field().half
     robot_cfg = DatasetConfig(frames=4, seed=3, width=320, height=240)

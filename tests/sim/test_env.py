@@ -12,8 +12,8 @@ from pettingzoo.test import parallel_api_test, parallel_seed_test
 from PIL import Image
 
 import sim.env
+from jetson.autonomy.geometry import INCH
 from sim.config import ConfigError
-from sim.geometry import INCH
 from sim.match import REWARD_COMPONENTS, EnvConfig, MatchCore, make_config
 from sim.parallel_env import parallel_env
 from sim.world import DriveCommand

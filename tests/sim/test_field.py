@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from jetson.autonomy.geometry import INCH
 from sim.field import FieldError, load_field, parse_field, resolve_field_path
-from sim.geometry import INCH
 
 
 def test_tipping_point_counts_and_units() -> None:

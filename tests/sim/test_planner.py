@@ -7,10 +7,10 @@ import itertools
 import numpy as np
 import pytest
 
+from jetson.autonomy.route import two_opt
+from jetson.autonomy.skills import pursuit_point
 from sim.match import MatchCore, make_config
 from sim.planner import Planner, PlannerConfig
-from sim.route import two_opt
-from sim.skills import pursuit_point
 from sim.world import RING_FLOOR
 
 

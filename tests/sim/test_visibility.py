@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from jetson.autonomy.camera import project_points
 from sim.camera import LABEL_RING, render_camera, rgb_to_hsv_opencv
 from sim.config import CameraConfig, WorldConfig, merge
-from sim.geometry import project_points
 from sim.visibility import (
     Obstacles,
     brute_force_visible,

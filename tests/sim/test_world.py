@@ -8,8 +8,8 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
+from jetson.autonomy.geometry import box_corners, field_to_robot
 from sim.config import ConfigError, WorldConfig
-from sim.geometry import box_corners, field_to_robot
 from sim.world import RING_FLOOR, RING_HELD, RING_SCORED, DriveCommand, World, WorldError
 
 

@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from jetson.errors import DatasetError, ModelError
 from jetson.perception.cnn.runtime import (
     ModelInfo,
     metadata_path,
@@ -36,7 +37,6 @@ from jetson.perception.cnn.runtime import (
     to_input,
 )
 from jetson.perception.dataset import RingDataset
-from jetson.perception.errors import DatasetError, ModelError
 from jetson.perception.evaluate import heldout_of
 
 DEFAULT_FRAMES = 96

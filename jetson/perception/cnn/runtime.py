@@ -23,8 +23,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from jetson.errors import ModelError
 from jetson.perception.detection import Detection, non_max_suppression
-from jetson.perception.errors import ModelError
 
 MODEL_FORMAT = "pete-ringnet"
 MODEL_VERSION = 1

@@ -28,7 +28,8 @@ import torch
 from numpy.typing import NDArray
 from torch.nn import functional
 
-from jetson.perception.camera import CameraMount
+from jetson.autonomy.camera import CameraMount, Intrinsics
+from jetson.errors import DatasetError
 from jetson.perception.cnn.augment import AugmentConfig, augment
 from jetson.perception.cnn.model import STRIDE, RingNet, export_onnx
 from jetson.perception.cnn.runtime import (
@@ -39,9 +40,7 @@ from jetson.perception.cnn.runtime import (
     metadata_path,
 )
 from jetson.perception.dataset import RingDataset, fingerprint, holdout_names, image_names
-from jetson.perception.errors import DatasetError
 from jetson.perception.evaluate import Counts, match
-from jetson.perception.frame import Intrinsics
 from jetson.perception.synthetic import random_frame
 
 Image = NDArray[np.uint8]

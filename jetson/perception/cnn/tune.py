@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
+from jetson.errors import DatasetError
 from jetson.perception.cnn.runtime import CnnDetector, metadata_path, network_ms
 from jetson.perception.dataset import RingDataset
-from jetson.perception.errors import DatasetError
 from jetson.perception.evaluate import Counts, heldout_of, match
 
 DEFAULT_SIZES = (480, 512, 528, 544, 560, 576, 608, 640)

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from jetson.perception.errors import SourceError
-from jetson.perception.frame import Intrinsics
+from jetson.autonomy.camera import Intrinsics
+from jetson.errors import SourceError
 from jetson.perception.sources.base import FrameSource
 
 __all__ = ["FrameSource", "open_source"]

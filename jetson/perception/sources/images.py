@@ -10,9 +10,10 @@ from pathlib import Path
 
 import cv2
 
+from jetson.autonomy.camera import Intrinsics
+from jetson.errors import SourceError
 from jetson.perception.dataset import IMAGE_SUFFIXES
-from jetson.perception.errors import SourceError
-from jetson.perception.frame import Frame, Intrinsics, depth_from_mm
+from jetson.perception.frame import Frame, depth_from_mm
 from jetson.perception.sources.base import FrameSource
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm")

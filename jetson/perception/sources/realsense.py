@@ -16,8 +16,9 @@ from typing import Any
 import cv2
 import numpy as np
 
-from jetson.perception.errors import SourceError
-from jetson.perception.frame import Frame, Intrinsics
+from jetson.autonomy.camera import Intrinsics
+from jetson.errors import SourceError
+from jetson.perception.frame import Frame
 from jetson.perception.sources.base import FrameSource
 
 INSTALL_HINT = (

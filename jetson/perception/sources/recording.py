@@ -20,8 +20,9 @@ from typing import IO, Any
 
 import cv2
 
-from jetson.perception.errors import SourceError
-from jetson.perception.frame import DEPTH_UNIT_M, Frame, Intrinsics, depth_from_mm, depth_to_mm
+from jetson.autonomy.camera import Intrinsics
+from jetson.errors import SourceError
+from jetson.perception.frame import DEPTH_UNIT_M, Frame, depth_from_mm, depth_to_mm
 from jetson.perception.sources.base import FrameSource
 
 RECORDING_FORMAT = "pete-recording"

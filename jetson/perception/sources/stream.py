@@ -38,8 +38,9 @@ from pathlib import Path
 
 import numpy as np
 
-from jetson.perception.errors import SourceError
-from jetson.perception.frame import Frame, Intrinsics, depth_from_mm, depth_to_mm
+from jetson.autonomy.camera import Intrinsics
+from jetson.errors import SourceError
+from jetson.perception.frame import Frame, depth_from_mm, depth_to_mm
 from jetson.perception.sources.base import FrameSource
 
 MAGIC = b"PETF"

@@ -9,7 +9,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from sim import geometry as g
+from jetson.autonomy import camera
+from jetson.autonomy import geometry as g
 
 coord = st.floats(-2.0, 2.0, allow_nan=False)
 heading = st.floats(0.0, 359.999, allow_nan=False)
@@ -76,12 +77,12 @@ def test_clockwise_command_is_negative_yaw_rate() -> None:
 
 
 def test_camera_rotation_tilted_down_looks_forward_and_down() -> None:
-    rot = g.robot_to_camera_rotation(-30.0)
+    rot = camera.robot_to_camera_rotation(-30.0)
     optical_z = rot[2]  # the optical axis in robot coordinates
     assert np.allclose(optical_z, [0.0, math.cos(math.radians(30)), -0.5])
     assert np.allclose(rot @ rot.T, np.eye(3))
     # A point straight ahead on the optical axis projects to the principal point.
-    uv, z = g.project_points([[0.0, 0.0, 2.0]], 600.0, 600.0, 320.0, 240.0)
+    uv, z = camera.project_points([[0.0, 0.0, 2.0]], 600.0, 600.0, 320.0, 240.0)
     assert np.allclose(uv, [[320.0, 240.0]]) and z[0] == 2.0
 
 

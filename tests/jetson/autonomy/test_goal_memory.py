@@ -8,7 +8,10 @@ import json
 import numpy as np
 import pytest
 
-from sim.observation import GoalMemory, ObservationError, ObservationSpec, RobotView, build_frame
+from jetson.autonomy.goal_memory import GoalMemory
+from jetson.autonomy.observation import RobotView, build_frame
+from jetson.autonomy.spec import ObservationSpec
+from jetson.errors import ObservationError
 
 # Two goals for a red robot at the origin facing +y (heading 0): one right behind its back (where
 # the clamp takes a goal), one far ahead.
@@ -97,7 +100,7 @@ def test_spec_checks_and_the_older_fingerprints() -> None:
 
 def test_the_simulator_fills_the_layout_reports_the_clamp_and_rewards_it() -> None:
     pytest.importorskip("pybullet")
-    from sim.geometry import heading_vector
+    from jetson.autonomy.geometry import heading_vector
     from sim.match import MatchCore, make_config
     from sim.world import DriveCommand
 

@@ -6,15 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.observation import (
-    FrameStack,
-    ObservationError,
-    ObservationSpec,
-    RingMemory,
-    RobotView,
-    build_frame,
-    observation_bounds,
-)
+from jetson.autonomy.observation import FrameStack, RobotView, build_frame
+from jetson.autonomy.ring_memory import RingMemory
+from jetson.autonomy.spec import ObservationSpec, observation_bounds
+from jetson.errors import ObservationError
 
 FLAG = ObservationSpec(version=5, intake_flag=True, goal_memory=True, prior_goals=((0.0, 1.0),))
 

@@ -9,14 +9,9 @@ import sys
 import numpy as np
 import pytest
 
-from sim.observation import (
-    FrameStack,
-    ObservationError,
-    ObservationSpec,
-    RobotView,
-    build_frame,
-    observation_bounds,
-)
+from jetson.autonomy.observation import FrameStack, RobotView, build_frame
+from jetson.autonomy.spec import ObservationSpec, observation_bounds
+from jetson.errors import ObservationError
 
 SPEC = ObservationSpec()
 UNIT = SPEC.length_unit_m
@@ -157,16 +152,16 @@ def test_bounds_hold_the_frames() -> None:
 
 
 def test_imports_without_pybullet_or_gymnasium() -> None:
-    """The Jetson imports sim.observation with neither PyBullet nor Gymnasium installed."""
+    """The Jetson imports jetson.autonomy.spec with neither PyBullet nor Gymnasium installed."""
     code = (
         "import sys\n"
         "for name in ('pybullet', 'pybullet_data', 'gymnasium', 'pettingzoo', 'PIL'):\n"
         "    sys.modules[name] = None\n"
-        "import sim.observation, sim.geometry, sim.config, sim.field, sim.visibility\n"
+        "import jetson.autonomy.observation as o, sim.config, sim.field, sim.visibility\n"
         "import numpy as np\n"
-        "spec = sim.observation.ObservationSpec()\n"
-        "v = sim.observation.RobotView(0.0, 0.0, 0.0, 'red', 1.0, np.zeros((0, 2)))\n"
-        "assert sim.observation.build_frame(spec, v).shape == (spec.frame_size,)\n"
+        "spec = o.ObservationSpec()\n"
+        "v = o.RobotView(0.0, 0.0, 0.0, 'red', 1.0, np.zeros((0, 2)))\n"
+        "assert o.build_frame(spec, v).shape == (spec.frame_size,)\n"
         "assert 'pybullet' not in [m for m in sys.modules if sys.modules[m] is not None]\n"
         "print('ok')\n"
     )

@@ -8,16 +8,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from sim.observation import (
-    REMEMBERED,
-    SEEN,
-    MemoryCamera,
-    ObservationError,
-    ObservationSpec,
-    RingMemory,
-    RobotView,
-    build_frame,
-)
+from jetson.autonomy.camera import MemoryCamera
+from jetson.autonomy.observation import RobotView, build_frame
+from jetson.autonomy.ring_memory import RingMemory
+from jetson.autonomy.spec import REMEMBERED, SEEN, ObservationSpec
+from jetson.errors import ObservationError
 
 # Three prior rings for a red robot at the origin facing +y (heading 0): one straight ahead in
 # view, one behind, one far to the right outside the cone.

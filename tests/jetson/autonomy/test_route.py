@@ -8,16 +8,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from sim.observation import (
-    REMEMBERED,
-    SEEN,
-    ObservationError,
-    ObservationSpec,
-    RingMemory,
-    RobotView,
-    build_frame,
-)
-from sim.route import TourConfig, leg_costs, tour
+from jetson.autonomy.observation import RobotView, build_frame
+from jetson.autonomy.ring_memory import RingMemory
+from jetson.autonomy.route import TourConfig, leg_costs, tour
+from jetson.autonomy.spec import REMEMBERED, SEEN, ObservationSpec
+from jetson.errors import ObservationError
 
 
 def test_a_turn_costs_distance() -> None:

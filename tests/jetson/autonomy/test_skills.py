@@ -8,12 +8,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from jetson.autonomy.observation import RobotView, build_frame
+from jetson.autonomy.skills import SkillConfig, SkillDriver, skill_config_from_dict
+from jetson.autonomy.spec import ObservationSpec
 from sim.config import ConfigError
 from sim.evaluate import eval_env, make_cores, play_match
 from sim.match import EnvConfig, make_config
-from sim.observation import ObservationSpec, RobotView, build_frame
 from sim.players import IdlePlayer, PolicyPlayer
-from sim.skills import SkillConfig, SkillDriver, skill_config_from_dict
 
 SPEC = ObservationSpec(n_stack=0, goal_memory=True, goal_clamp_offset_m=0.35)
 SKILLS = SkillConfig(
@@ -202,7 +203,7 @@ def test_the_gymnasium_env_takes_skill_actions() -> None:
 
 
 def test_the_route_option_drives_to_the_routes_first_stop_and_the_teacher_names_it() -> None:
-    from sim.skills import option_for
+    from jetson.autonomy.skills import option_for
 
     spec = ObservationSpec(n_stack=0, ring_memory=True, route_slots=1)
     skills = SkillConfig(route_option=True, ring_options=2, goal_options=0, platform=False)

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from jetson.cli import main
+from jetson.errors import CalibrationError
 from jetson.perception.calibrate import board_points, calibrate_folder, parse_board
-from jetson.perception.errors import CalibrationError
 
 BOARD = (9, 6)  # inner corners
 SQUARE_M = 0.025

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from jetson.errors import DatasetError, ModelError
 from jetson.perception.cnn.augment import AugmentConfig, augment, photometric, random_patch
 from jetson.perception.cnn.runtime import (
     CnnDetector,
@@ -20,7 +21,6 @@ from jetson.perception.cnn.runtime import (
     to_input,
 )
 from jetson.perception.detection import Detection
-from jetson.perception.errors import DatasetError, ModelError
 
 torch = pytest.importorskip("torch")
 ort = pytest.importorskip("onnxruntime")

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from jetson.errors import DatasetError, ModelError
 from jetson.perception.cnn.runtime import CnnDetector, input_size, metadata_path, to_input
 from jetson.perception.dataset import RingDataset, fingerprint, holdout_names, write_sample
-from jetson.perception.errors import DatasetError, ModelError
 from jetson.perception.evaluate import Counts
 from jetson.perception.synthetic import random_frame
 

@@ -9,6 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
+from jetson.errors import CameraConfigError, DatasetError
 from jetson.perception.camera import CameraConfig
 from jetson.perception.classical import ClassicalDetector
 from jetson.perception.dataset import (
@@ -22,7 +23,6 @@ from jetson.perception.dataset import (
     write_sample,
 )
 from jetson.perception.detection import Detection, iou_matrix, non_max_suppression
-from jetson.perception.errors import ConfigError, DatasetError
 from jetson.perception.evaluate import (
     Counts,
     DatasetScore,
@@ -50,7 +50,7 @@ def test_hsv_window_is_the_reports() -> None:
     img[0, 1] = (204, 0, 153)  # fully saturated purple: S 255, outside
     img[0, 2] = (40, 40, 200)  # red
     assert w.mask(img)[0].tolist() == [255, 0, 0]
-    with pytest.raises(ConfigError, match="HSV h"):
+    with pytest.raises(CameraConfigError, match="HSV h"):
         HsvWindow(h=(150.0, 120.0))
 
 
@@ -70,7 +70,7 @@ def test_prefilter_kernel_scales_with_the_image() -> None:
     cfg = PrefilterConfig()
     assert cfg.ksize_for(640) == 35
     assert cfg.ksize_for(320) % 2 == 1 and 17 <= cfg.ksize_for(320) <= 19
-    with pytest.raises(ConfigError):
+    with pytest.raises(CameraConfigError):
         PrefilterConfig(blur_ksize=0)
     assert PrefilterConfig.from_dict(PrefilterConfig().to_dict()) == PrefilterConfig()
 

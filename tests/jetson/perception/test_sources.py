@@ -13,8 +13,9 @@ import cv2
 import numpy as np
 import pytest
 
-from jetson.perception.errors import SourceError
-from jetson.perception.frame import Frame, Intrinsics
+from jetson.autonomy.camera import Intrinsics
+from jetson.errors import SourceError
+from jetson.perception.frame import Frame
 from jetson.perception.sources import open_source
 from jetson.perception.sources.images import ImageFolderSource
 from jetson.perception.sources.realsense import RealSenseSource

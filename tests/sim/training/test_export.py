@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 import torch
 
+from jetson.autonomy.policy import OnnxPolicy
+from jetson.autonomy.spec import ObservationSpec
+from jetson.errors import PolicyError
 from sim.match import make_config
-from sim.observation import ObservationSpec
-from sim.policy import OnnxPolicy, PolicyError
 from sim.ppo import Agent, PPOConfig
 from sim.training.export import export_policy
 
@@ -92,14 +93,14 @@ def test_the_jetson_side_needs_no_torch() -> None:
 
     code = (
         "import sys; sys.modules['torch'] = None\n"
-        "import sim.policy, sim.observation\n"
+        "import jetson.autonomy.policy, jetson.autonomy.spec\n"
         "assert 'pybullet' not in sys.modules\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
 def test_a_skill_policy_exports_its_controller_and_both_readers_load_it(tmp_path: Path) -> None:
-    from jetson.policy import OnnxPolicy as JetsonPolicy
+    from jetson.autonomy.policy import OnnxPolicy as JetsonPolicy
 
     spec = ObservationSpec(n_stack=1, goal_memory=True, goal_clamp_offset_m=0.35)
     env = make_config(

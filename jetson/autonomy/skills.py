@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.observation import ObservationSpec
+from jetson.autonomy.spec import ObservationSpec
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ Robot frame
     same handedness and the same "clockwise is positive" rule hold in both. (The original team's
     Unity sim used the same axes: local x right, local z forward.)
 
-Alliance frame
+AllianceName frame
     The field frame as an alliance sees it: red's equals the field frame, blue's is rotated by
     180 degrees about the centre, so both alliances share one observation space. The Tipping Point
     field is point-symmetric, so a blue robot in the alliance frame sees what a red robot in the
@@ -27,7 +27,8 @@ PyBullet world
 Camera frame (optical, as OpenCV and librealsense use)
     +x right in the image, +y down, +z forward along the optical axis.
 
-Only numpy here: the Jetson imports this module through sim.observation.
+Only numpy here: the robot's decision code (jetson.autonomy) and the simulator share it. The
+pinhole camera model (robot frame <-> optical frame <-> pixels) is jetson/autonomy/camera.py.
 """
 
 from __future__ import annotations
@@ -41,8 +42,9 @@ from numpy.typing import ArrayLike, NDArray
 INCH = 0.0254
 """Metres per inch: the VEX manuals are in inches, everything here is in metres."""
 
-Alliance = Literal["red", "blue"]
-ALLIANCES: tuple[Alliance, Alliance] = ("red", "blue")
+AllianceName = Literal["red", "blue"]
+"""An alliance as the decision code names it (the wire's is protocol.messages.AllianceName)."""
+ALLIANCES: tuple[AllianceName, AllianceName] = ("red", "blue")
 
 FloatArray = NDArray[np.float64]
 
@@ -108,7 +110,7 @@ def robot_to_field(
 
 
 def to_alliance_frame(
-    xy: ArrayLike, heading_deg: float | None, alliance: Alliance
+    xy: ArrayLike, heading_deg: float | None, alliance: AllianceName
 ) -> tuple[FloatArray, float | None]:
     """A field-frame position (and heading) as the given alliance sees it.
 
@@ -124,7 +126,7 @@ def to_alliance_frame(
     raise ValueError(f"alliance must be 'red' or 'blue', got {alliance!r}")
 
 
-def other_alliance(alliance: Alliance) -> Alliance:
+def other_alliance(alliance: AllianceName) -> AllianceName:
     if alliance == "red":
         return "blue"
     if alliance == "blue":
@@ -181,35 +183,6 @@ def points_in_box(
         & (local[..., 1] >= y_range[0])
         & (local[..., 1] <= y_range[1])
     )
-
-
-# --- camera -------------------------------------------------------------------------------------
-
-
-def robot_to_camera_rotation(tilt_deg: float) -> FloatArray:
-    """Rotation taking robot-frame 3D vectors (x right, y forward, z up) to the optical frame.
-
-    tilt_deg is the camera's pitch: negative looks down (the original mounted it at -30 deg).
-    """
-    t = math.radians(tilt_deg)
-    # Untilted: optical x = robot x (right), optical y = -robot z (down), optical z = robot y.
-    base = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
-    # Tilting down by |t| rotates the optical axis towards -z about the robot's x axis.
-    c, s = math.cos(t), math.sin(t)
-    pitch = np.array([[1.0, 0.0, 0.0], [0.0, c, s], [0.0, -s, c]])
-    return pitch @ base
-
-
-def project_points(
-    points_cam: ArrayLike, fx: float, fy: float, cx: float, cy: float
-) -> tuple[FloatArray, FloatArray]:
-    """Pinhole projection of optical-frame points (N, 3): pixels (N, 2) and depth (N,)."""
-    p = np.asarray(points_cam, dtype=np.float64)
-    z = p[..., 2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        u = fx * p[..., 0] / z + cx
-        v = fy * p[..., 1] / z + cy
-    return np.stack([u, v], axis=-1), z
 
 
 def push_out_of_box(

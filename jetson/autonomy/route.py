@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.geometry import field_to_robot
+from jetson.autonomy.geometry import field_to_robot
 
 FloatArray = NDArray[np.float64]
 

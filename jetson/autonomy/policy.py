@@ -1,12 +1,17 @@
-"""The driving policy: an exported policy.onnx and its policy.json, run with onnxruntime.
+"""The one policy reader: an exported policy.onnx and its policy.json, run with onnxruntime.
+
+    policy = OnnxPolicy("models/policy/policy.onnx")   # or its folder; reads policy.json beside it
+    action = policy(obs)                              # one observation, or a batch (N, size)
+    linear_mps, angular_rad_s = policy.command(obs)   # scaled to the robot; angular clockwise
 
 The files are what sim.training.export writes (format "pacman-pete-policy", version 1): the
-network takes the raw stacked observation of sim.observation and returns actions in [-1, 1];
-policy.json carries the observation spec (checked against its fingerprint), the input and output
-names, and how each action scales to the robot's units, or, for a skill policy, the settings of
-the controller that drives its skills (sim/skills.py). The Jetson reads them here with numpy,
-onnxruntime, sim.observation and sim.skills only (tests check this reader against sim.policy's
-on the same file, so the two cannot drift apart).
+network takes the raw stacked observation (spec.py) and returns actions in [-1, 1]; policy.json
+carries the observation spec (checked against its fingerprint), the input and output names, how
+each action scales to the robot's units, or, for a skill policy, the settings of the controller
+that drives its skills (skills.py). A file that does not say all of this consistently, or whose
+spec differs from the one the caller builds, is refused with the reason named, never run on the
+wrong inputs. The robot and the simulator both read policies here: numpy and onnxruntime only
+(imported when a policy is opened).
 """
 
 from __future__ import annotations
@@ -20,16 +25,12 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.observation import ObservationError, ObservationSpec
-from sim.skills import SkillConfig, skill_config_from_dict
+from jetson.autonomy.skills import SkillConfig, skill_config_from_dict
+from jetson.autonomy.spec import ObservationSpec
+from jetson.errors import ObservationError, PolicyError
 
 FORMAT = "pacman-pete-policy"
 FORMAT_VERSION = 1
-DEFAULT_MODEL = Path(__file__).resolve().parent.parent / "models" / "policy" / "policy.onnx"
-
-
-class PolicyError(RuntimeError):
-    """A policy that cannot be loaded or run, named with the reason."""
 
 
 class Policy(Protocol):
@@ -43,6 +44,15 @@ class Policy(Protocol):
     skills: SkillConfig | None
 
     def __call__(self, obs: NDArray[np.float32]) -> NDArray[np.float32]: ...
+
+
+def metadata_path(onnx_path: Path) -> Path:
+    """Where a policy.onnx's metadata lives: policy.json beside it."""
+    return onnx_path.with_suffix(".json")
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def control_hz_of(meta: Mapping[str, Any]) -> float | None:
@@ -64,37 +74,35 @@ def control_hz_of(meta: Mapping[str, Any]) -> float | None:
 
 
 class OnnxPolicy:
-    """A deterministic policy from policy.onnx + policy.json; call with one observation."""
+    """A deterministic policy from policy.onnx + policy.json: the network's clipped mean action.
 
-    def __init__(self, path: str | Path) -> None:
-        import onnxruntime as ort
+    `expected_spec`: the observation the caller builds; a policy trained on another is refused
+    with the differing fields named.
+    """
 
+    def __init__(self, path: str | Path, expected_spec: ObservationSpec | None = None) -> None:
         p = Path(path)
         if p.is_dir():
             p = p / "policy.onnx"
         if not p.is_file():
             raise PolicyError(f"no policy at {path} (give policy.onnx or its folder)")
-        meta_file = p.with_suffix(".json")
+        meta_file = metadata_path(p)
         if not meta_file.is_file():
             raise PolicyError(f"{p}: its metadata {meta_file.name} is missing beside it")
         try:
             meta = json.loads(meta_file.read_text())
-        except (OSError, json.JSONDecodeError) as exc:
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise PolicyError(f"{meta_file}: cannot be read: {exc}") from exc
+        if not isinstance(meta, dict):
+            raise PolicyError(f"{meta_file}: must hold a JSON object")
         self.path = p
-        self.meta = meta
-        self.sha256 = hashlib.sha256(p.read_bytes()).hexdigest()
+        self.name = p.stem
+        self.meta: dict[str, Any] = meta
+        self.sha256 = sha256(p)
         self._parse(meta, str(meta_file))
-        options = ort.SessionOptions()
-        # Batch-1 MLP: one thread beats thread hand-offs, and perception needs the other cores.
-        options.intra_op_num_threads = 1
-        options.inter_op_num_threads = 1
-        try:
-            self._session = ort.InferenceSession(
-                str(p), options, providers=["CPUExecutionProvider"]
-            )
-        except Exception as exc:  # onnxruntime has its own exception types
-            raise PolicyError(f"{p}: onnxruntime cannot load it: {exc}") from exc
+        if expected_spec is not None and expected_spec.fingerprint() != self.spec.fingerprint():
+            raise PolicyError(_spec_difference(expected_spec, self.spec))
+        self._session = _open_session(p)
         names = [i.name for i in self._session.get_inputs()]
         if self._input not in names:
             raise PolicyError(f"{p}: no input named {self._input!r} (it has {names})")
@@ -116,16 +124,17 @@ class OnnxPolicy:
             acts = meta["actions"]
             self.action_names = tuple(str(n) for n in acts["names"])
             self.action_scale = tuple(float(s) for s in acts["scale"])
+            self.action_units = tuple(str(u) for u in acts.get("units", ()))
             skills = acts.get("skills")
             self.skills = None if skills is None else skill_config_from_dict(dict(skills))
-        except (KeyError, TypeError, ValueError) as exc:
-            raise PolicyError(f"{where}: missing or malformed entry {exc}") from exc
         except ObservationError as exc:
             raise PolicyError(f"{where}: {exc}") from exc
+        except (KeyError, TypeError, ValueError) as exc:
+            raise PolicyError(f"{where}: missing or malformed entry {exc}") from exc
         if self.spec.fingerprint() != fingerprint:
             raise PolicyError(
                 f"{where}: observation fingerprint {fingerprint} does not match its spec "
-                f"({self.spec.fingerprint()})"
+                f"({self.spec.fingerprint()}): the file was edited or is corrupt"
             )
         if in_size != self.spec.size:
             raise PolicyError(f"{where}: input size {in_size} != observation size {self.spec.size}")
@@ -147,8 +156,42 @@ class OnnxPolicy:
             raise PolicyError(f"{self.path}: contents do not match onnx_sha256 in {where}")
 
     def __call__(self, obs: NDArray[np.float32]) -> NDArray[np.float32]:
-        x = np.asarray(obs, dtype=np.float32).reshape(1, -1)
-        if x.shape[1] != self.spec.size:
-            raise PolicyError(f"observation has {x.shape[1]} values, the policy {self.spec.size}")
-        out = self._session.run([self._output], {self._input: x})[0]
-        return np.asarray(out, dtype=np.float32).reshape(-1)
+        """Actions for one observation (size,) or a batch (N, size)."""
+        x = np.asarray(obs, dtype=np.float32)
+        single = x.ndim == 1
+        if single:
+            x = x[None, :]
+        if x.ndim != 2 or x.shape[1] != self.spec.size:
+            raise PolicyError(
+                f"observation must have {self.spec.size} values (spec fingerprint "
+                f"{self.spec.fingerprint()}), got shape {np.shape(obs)}"
+            )
+        out = np.asarray(self._session.run([self._output], {self._input: x})[0], np.float32)
+        return out[0] if single else out
+
+    def command(self, obs: NDArray[np.float32]) -> tuple[float, ...]:
+        """The action scaled to the robot's units (m/s, rad/s clockwise, ...)."""
+        a = self(obs)
+        return tuple(float(v) * s for v, s in zip(a, self.action_scale, strict=True))
+
+
+def _open_session(path: Path) -> Any:
+    import onnxruntime as ort
+
+    options = ort.SessionOptions()
+    # A batch-1 MLP is faster without thread hand-offs, and perception needs the other cores.
+    options.intra_op_num_threads = 1
+    options.inter_op_num_threads = 1
+    try:
+        return ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+    except Exception as exc:  # onnxruntime raises its own exception types
+        raise PolicyError(f"{path}: onnxruntime cannot load it: {exc}") from exc
+
+
+def _spec_difference(expected: ObservationSpec, got: ObservationSpec) -> str:
+    a, b = expected.to_dict(), got.to_dict()
+    diff = {k: (a[k], b[k]) for k in a if a[k] != b.get(k)}
+    return (
+        f"the policy expects another observation (fingerprint {got.fingerprint()}, "
+        f"this robot builds {expected.fingerprint()}); differences (robot, policy): {diff}"
+    )
