@@ -166,6 +166,8 @@ class OnnxPolicy:
                 f"observation must have {self.spec.size} values (spec fingerprint "
                 f"{self.spec.fingerprint()}), got shape {np.shape(obs)}"
             )
+        if not np.all(np.isfinite(x)):
+            raise PolicyError("observation contains NaN or infinity")
         out = np.asarray(self._session.run([self._output], {self._input: x})[0], np.float32)
         return out[0] if single else out
 
