@@ -4,11 +4,11 @@ Pure and deterministic (no I/O, no clock: the caller passes the perception's age
 `pete-jetson replay` can re-run a recorded session through exactly this code.
 
 - Phase gating: the policy drives only in `drive_phases`; otherwise the answer is a stop.
-- The observation is jetson.autonomy.spec's, built as in training: own pose in the alliance frame,
+- The observation is jetson.autonomy's, built as in training: own pose in the alliance frame,
   rings in the robot frame, no noise; the ring and goal memories when the policy's spec has them
   (the goal memory follows State.goal_clamped; a Brain without a clamp sensor reads as open).
-- A skill policy (its policy.json names skills) scores options; jetson.autonomy.skills' controller drives
-  the best one from the same observation, as it did in training.
+- A skill policy (its policy.json names skills) scores options; jetson.autonomy.skills' controller
+  drives the best one from the same observation, as it did in training.
   A perception result older than `perception_max_age_s`, or none, gives no rings: empty slots,
   as the policy saw rings it could not see.
 - A camera result is 50-150 ms old when it is used (exposure, detection, the frame's wait for the

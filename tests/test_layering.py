@@ -218,8 +218,7 @@ def test_the_checker_finds_a_wrong_import_and_a_cycle(tmp_path: Path) -> None:
         "jetson/errors.py": "",
         "jetson/autonomy/__init__.py": "",
         "jetson/autonomy/policy.py": (
-            "import numpy\nfrom jetson.errors import X\n"
-            "def load():\n    import onnxruntime\n"
+            "import numpy\nfrom jetson.errors import X\ndef load():\n    import onnxruntime\n"
         ),
         "jetson/autonomy/bad.py": "import scipy\n",
         "jetson/daemon.py": "from sim.world import World\n",

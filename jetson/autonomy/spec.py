@@ -103,7 +103,8 @@ class ObservationSpec:
     # it when empty) is moved out across the nearer side, as a bumper shoves a ring, instead of
     # staying where the robot now stands. The shoved ring lies beside the robot, below the
     # camera's picture: forgotten, it is lost to the robot until it turns that way. Off: it
-    # gains rings in training fidelity's pushing and loses them in high fidelity's (TRAINING.md).
+    # gains rings in training fidelity's pushing and loses them in high fidelity's
+    # (docs/notes/2026-11-26-training-pushed-rings-and-noise.md).
     memory_push: bool = False
     memory_body: tuple[float, ...] = ()
     # Where the memory looks for rings it knows. "cone": the cone above around the robot's

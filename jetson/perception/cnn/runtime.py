@@ -30,7 +30,7 @@ MODEL_FORMAT = "pete-ringnet"
 MODEL_VERSION = 1
 MULTIPLE = 16
 REPO_ROOT = Path(__file__).resolve().parents[3]
-# Measured (jetson/perception/README.md, "A larger input, small frames capped"): the 240x180
+# Measured (docs/notes/2026-11-26-perception-cut-rings-and-larger-input.md): the 240x180
 # renders the full-stack match feeds the detector score as well blown up 2.27 times as 2.5, and
 # worse at 2.9 (twice the false rings).
 DEFAULT_MAX_UPSCALE = 2.25
