@@ -12,9 +12,9 @@ drawn evenly from the calibration folders but never from the images the model he
 training: those are what `detector eval` scores it on.
 
 Why: on one CPU core the int8 network runs in about half the time of the float one (measured
-in docs/notes/2026-11-25-perception-more-renders-and-int8.md), which pays for a larger input (smaller rings found) within the
-60 frames/s budget. Needs the `onnx` package (the sim extra); the result runs with onnxruntime
-alone, like every model here.
+in docs/notes/2026-11-25-perception-more-renders-and-int8.md), which pays for a larger input
+(smaller rings found) within the 60 frames/s budget. Needs the `onnx` package (the sim extra);
+the result runs with onnxruntime alone, like every model here.
 """
 
 from __future__ import annotations
@@ -93,7 +93,8 @@ def quantize(
     image, whose fine colour steps decide ring against floor on real photos, and the last
     writes the heat and box terms that are thresholded and exponentiated. They are two of
     twelve convolutions and cheap (3 input channels; 5 output channels); quantized too, they cost
-    a model trained at input 560 0.02 F1 on the held-out photos (docs/notes/2026-11-25-perception-more-renders-and-int8.md)."""
+    a model trained at input 560 0.02 F1 on the held-out photos
+    (docs/notes/2026-11-25-perception-more-renders-and-int8.md)."""
     try:
         from onnxruntime.quantization import (
             CalibrationDataReader,
