@@ -20,7 +20,8 @@ import pybullet as p
 from jetson.autonomy.geometry import field_to_robot
 from sim.config import CameraConfig
 from sim.visibility import CameraPose
-from sim.world import World
+from sim.world import sensors
+from sim.world.physics import World
 
 LABEL_BACKGROUND = 0
 LABEL_RING = 1
@@ -82,7 +83,7 @@ def render_camera(world: World, index: int, cam: CameraConfig | None = None) -> 
     robot = world.robots[index]
     cam = cam or robot.config.camera
     world.ensure_ring_visuals()
-    pose = world.camera_pose(index)
+    pose = sensors.camera_pose(world, index)
     near = cam.near_m * 0.5
     _, _, rgba, zbuf, seg = p.getCameraImage(
         cam.width,
@@ -113,7 +114,7 @@ def render_camera(world: World, index: int, cam: CameraConfig | None = None) -> 
     valid = seg >= 0
     labels[valid] = kind_lut[seg[valid]]
     ring_ids[valid] = ring_lut[seg[valid]]
-    vis = world.visible_rings(index)
+    vis = sensors.visible_rings(world, index)
     xy = field_to_robot(world.ring_xy[vis], robot.xy, robot.heading)
     return CameraFrame(rgb, depth, labels, ring_ids, intrinsics(cam), pose, vis, xy, world.time_s)
 

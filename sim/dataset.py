@@ -41,7 +41,8 @@ import pybullet as p
 from jetson.autonomy.geometry import field_to_robot
 from sim.camera import projection_matrix, render_camera, view_matrix
 from sim.config import ROBOTS, CameraConfig, ConfigError, WorldConfig
-from sim.world import World
+from sim.world import sensors
+from sim.world.physics import World
 
 # The perception HSV window on OpenCV's scales (H 0-179, S and V 0-255), from the original
 # team's GRIP pipeline. Ring colours are drawn inside it with a margin, and V high enough that
@@ -242,7 +243,7 @@ def _render_rgb(world: World, cam: CameraConfig, index: int, light: dict[str, An
     _, _, rgba, _, _ = p.getCameraImage(
         cam.width,
         cam.height,
-        view_matrix(world.camera_pose(index)),
+        view_matrix(sensors.camera_pose(world, index)),
         projection_matrix(cam),
         renderer=p.ER_TINY_RENDERER,
         flags=p.ER_NO_SEGMENTATION_MASK,

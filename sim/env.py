@@ -33,7 +33,7 @@ from sim.config import ConfigError
 from sim.match import EnvConfig, MatchCore, make_config
 from sim.render import top_down
 from sim.scripted import GreedyChaser
-from sim.world import World
+from sim.world.physics import World
 
 ENV_ID = "pete/TippingPoint-v0"
 

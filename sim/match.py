@@ -24,7 +24,9 @@ from jetson.autonomy.skills import SkillConfig, SkillDriver
 from jetson.autonomy.spec import ObservationSpec
 from sim.config import CameraConfig, ConfigError, RewardConfig, RobotConfig, WorldConfig, merge
 from sim.field import FieldSpec
-from sim.world import RING_FLOOR, RING_HELD, DriveCommand, GpsReading, StepEvents, World
+from sim.world import rules, sensors
+from sim.world.physics import World
+from sim.world.state import RING_FLOOR, RING_HELD, DriveCommand, GpsReading, StepEvents
 
 REWARD_COMPONENTS = (
     "rings",
@@ -390,7 +392,7 @@ class MatchCore:
             x, y, h = g.x, g.y, g.heading_deg
         else:
             x, y, h = r.x, r.y, r.heading
-        rings = w.visible_rings(index)
+        rings = sensors.visible_rings(w, index)
         others = np.zeros((0, 2))
         if self.spec.n_other_robots:
             pts = [(o.x, o.y) for o in w.robots if o.index != index]
@@ -402,7 +404,7 @@ class MatchCore:
             heading_deg=h,
             alliance=r.alliance,
             time_s=w.time_s,
-            rings_robot_xy=w.rings_in_robot_frame(index, rings),
+            rings_robot_xy=sensors.rings_in_robot_frame(w, index, rings),
             rings_held=r.held,
             others_robot_xy=others,
             goal_clamped=r.carried_goal is not None,
@@ -414,7 +416,7 @@ class MatchCore:
         player that asks for the view), it is the same reading, as a real sensor's would be."""
         g = self._gps_now.get(index)
         if g is None or g.time_s != self.world.time_s:
-            g = self.world.gps(index, self._gps_rngs[index])
+            g = sensors.gps(self.world, index, self._gps_rngs[index])
             self._gps_now[index] = g
         return g
 
@@ -476,7 +478,7 @@ class MatchCore:
                 comp["goals_end"] = cfg.goal_end * self.goals_counting(r.alliance)
                 if self.on_opponent_side(r.index):
                     comp["side_end"] = cfg.opponent_side_end
-                if w.robot_elevated(r):
+                if rules.robot_elevated(w, r):
                     comp["elevated_end"] = cfg.elevated_end
             for k, v in comp.items():
                 self.totals[r.index][k] += v
@@ -556,7 +558,7 @@ class MatchCore:
             if not self._goal_scores_for(g.index, alliance):
                 continue
             if self.reward.goal_zone == "home":
-                owner, _ = w.goal_owner(g)
+                owner, _ = rules.goal_owner(w, g)
                 n += owner == alliance
             else:
                 n += (g.x < 0) == (alliance == "red")

@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike
 
 from jetson.autonomy.geometry import AllianceName, to_alliance_frame
 from sim.match import MatchCore
-from sim.world import DriveCommand
+from sim.world.state import DriveCommand
 
 N_INPUTS = 25
 N_RINGS = 10

@@ -27,7 +27,7 @@ from jetson.autonomy.spec import observation_bounds
 from sim.config import ConfigError
 from sim.match import EnvConfig, MatchCore, make_config
 from sim.render import top_down
-from sim.world import World
+from sim.world.physics import World
 
 
 class TippingPointParallelEnv(ParallelEnv):

@@ -38,7 +38,8 @@ from jetson.autonomy.route import TourConfig, leg_costs, tour
 from jetson.autonomy.skills import Trail, arc_through, back_onto, pursuit_point, turn_first
 from sim.match import MatchCore
 from sim.visibility import camera_pose, in_frustum
-from sim.world import DriveCommand, World
+from sim.world.physics import World
+from sim.world.state import DriveCommand
 
 Strategy = Literal["nearest", "route"]
 

@@ -18,7 +18,7 @@ import numpy as np
 from jetson.autonomy.skills import SkillConfig, SkillDriver
 from sim.match import MatchCore
 from sim.scripted import GreedyChaser
-from sim.world import DriveCommand
+from sim.world.state import DriveCommand
 
 ActionFn = Callable[[np.ndarray], np.ndarray]
 

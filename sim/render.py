@@ -16,7 +16,9 @@ from PIL import Image, ImageDraw
 from jetson.autonomy.camera import robot_to_camera_rotation
 from jetson.autonomy.geometry import box_corners, robot_to_field
 from sim.config import CameraConfig
-from sim.world import RING_FLOOR, World
+from sim.world import sensors
+from sim.world.physics import World
+from sim.world.state import RING_FLOOR
 
 _RED = (200, 40, 45)
 _BLUE = (30, 80, 190)
@@ -85,7 +87,7 @@ def top_down(
     d.rectangle([px(-half, half), px(half, -half)], outline=f.wall_rgb, width=3)
 
     if visible is None:
-        visible = [world.visible_rings(i) for i in range(len(world.robots))]
+        visible = [sensors.visible_rings(world, i) for i in range(len(world.robots))]
     seen = set()
     for v in visible:
         seen.update(int(i) for i in v)

@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from jetson.autonomy.skills import Trail
-from sim.world import RING_FLOOR, DriveCommand, World
+from sim.world.physics import World
+from sim.world.state import RING_FLOOR, DriveCommand
 
 
 @dataclass

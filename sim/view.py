@@ -10,7 +10,7 @@ from sim.camera import render_camera
 from sim.config import WorldConfig
 from sim.render import save_gif, save_png, top_down
 from sim.scripted import GreedyChaser
-from sim.world import World
+from sim.world.physics import World
 
 
 def write_view(

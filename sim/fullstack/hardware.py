@@ -30,7 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim.fullstack.brain_host import BrainHost, BrainReport
-from sim.world import DriveCommand, RobotState, World
+from sim.world import sensors
+from sim.world.physics import World
+from sim.world.state import DriveCommand, RobotState
 
 
 def competition_phase(match_time_s: float, isolation_s: float, started: bool, over: bool) -> str:
@@ -84,7 +86,7 @@ class RobotHardware:
     def read(self, phase: str) -> SensorReading:
         gps = None
         if self.gps_failure is None:
-            g = self.world.gps(self.index, self.rng)
+            g = sensors.gps(self.world, self.index, self.rng)
             gps = (g.x, g.y, g.heading_deg, g.error_m)
         left, right = self.robot.wheel_speeds()
         rings = min(self.robot.held, 254) if self.ring_counter else None

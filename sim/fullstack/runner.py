@@ -48,6 +48,7 @@ from sim.fullstack.report import (
     write_summary,
     write_timeline,
 )
+from sim.world import sensors
 
 ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_POLICY = ROOT / "models" / "policy" / "policy.onnx"
@@ -602,7 +603,7 @@ class FullStackMatch:
                 link=report.link,
                 faults="+".join(report.faults) or "none",
                 perceived=-1 if p is None else len(p.rings_robot_xy),
-                visible=len(w.visible_rings(self.ia)),
+                visible=len(sensors.visible_rings(w, self.ia)),
             )
         )
 
@@ -847,8 +848,8 @@ class SimStackMatch:
                         source="policy",
                         link="-",
                         faults="-",
-                        perceived=len(w.visible_rings(idx)),
-                        visible=len(w.visible_rings(idx)),
+                        perceived=len(sensors.visible_rings(w, idx)),
+                        visible=len(sensors.visible_rings(w, idx)),
                     )
                 )
             if self.replay.gif_due(w.time_s):

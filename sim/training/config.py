@@ -75,8 +75,8 @@ class ImitationConfig:
     acts on its observation alone.
 
     teacher = "route" (drive policies whose observation has a route slot): the label is what
-    jetson.autonomy.skills' route skill drives from the learner's own observation, pure pursuit onto the
-    first route slot. Every label follows from what the policy sees, so it can be copied
+    jetson.autonomy.skills' route skill drives from the learner's own observation, pure pursuit
+    onto the first route slot. Every label follows from what the policy sees, so it can be copied
     exactly; the planner's labels also depend on its hidden target and back-off timers.
     """
 

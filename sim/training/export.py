@@ -1,4 +1,4 @@
-"""Export a trained Agent to policy.onnx plus policy.json (what jetson.autonomy.policy.OnnxPolicy loads).
+"""Export a trained Agent to policy.onnx plus policy.json, what jetson.autonomy.policy reads.
 
 The graph is the deterministic policy with the observation normalisation folded in:
 

@@ -20,8 +20,8 @@ visible rings, the field's layout), in the policy's action units. The trainer's 
 pulls the policy toward it (DAgger: the labels come from the states the learner visits). The
 teacher plays the match's game: it drives onto the platform at the end only where the match's
 reward pays for it, so in an uncapped match paid as ring collection it collects to the bell.
-`teacher="route"` advises what jetson.autonomy.skills' route skill would drive from the learner's own
-observation (pure pursuit onto the first route slot): a teacher whose every action follows from
+`teacher="route"` advises what jetson.autonomy.skills' route skill would drive from the learner's
+own observation (pure pursuit onto the first route slot): a teacher whose every action follows from
 what the policy sees, so the policy can copy it exactly, where the planner also acts on its
 hidden target and back-off timers.
 
@@ -50,14 +50,15 @@ from sim.config import ConfigError, RewardConfig, RobotConfig
 from sim.match import REWARD_COMPONENTS, EnvConfig, MatchCore
 from sim.planner import Planner, PlannerConfig
 from sim.players import IdlePlayer, Player, RandomPlayer, ScriptedPlayer
-from sim.world import DriveCommand
+from sim.world.state import DriveCommand
 
 OPPONENT_KINDS = ("policy", "planner", "scripted", "random", "idle", "none")
 TEACHERS = ("none", "planner", "route")
 ADVICE_SIZE = 2  # a teacher advises (linear, angular): the drive, not the intake or clamp
 
 
-# The route teacher: jetson.autonomy.skills' controller with the route as its only option, always picked.
+# The route teacher: jetson.autonomy.skills' controller with the route as its only option, always
+# picked.
 ROUTE_SKILL = SkillConfig(route_option=True, ring_options=0, goal_options=0, platform=False)
 ROUTE_ACTION = np.ones(1)
 

@@ -103,7 +103,7 @@ def test_truth_positions_agree_with_the_depth_image(folder: Path, samples: list)
 
 def test_no_ring_lies_inside_a_goal_base_or_under_a_robot() -> None:
     from sim.dataset import _world_config, render_sample
-    from sim.world import World
+    from sim.world.physics import World
 
     world = World(_world_config())
     try:

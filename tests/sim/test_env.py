@@ -16,7 +16,7 @@ from jetson.autonomy.geometry import INCH
 from sim.config import ConfigError
 from sim.match import REWARD_COMPONENTS, EnvConfig, MatchCore, make_config
 from sim.parallel_env import parallel_env
-from sim.world import DriveCommand
+from sim.world.state import DriveCommand
 
 SHORT = {"interaction_s": 4.0}
 

@@ -25,6 +25,7 @@ from sim.original_policy import (
     observe,
     original_observation,
 )
+from sim.world import sensors
 
 ORIGINAL = Path(
     os.environ.get("PETE_ORIGINAL_POLICY", "/work/shared/anchors/blrsai-policy/4-29-22-1.0.onnx")
@@ -82,7 +83,7 @@ def test_world_state_gives_the_documented_inputs(alliance: str) -> None:
         w.set_floor_rings(field)
         for _ in range(12):  # one second of standing still: time 1 s
             core.step([core.command(i, [0.0, 0.0])])
-        assert sorted(w.visible_rings(i).tolist()) == [0, 1, 2], "all three in view"
+        assert sorted(sensors.visible_rings(w, i).tolist()) == [0, 1, 2], "all three in view"
         obs = observe(core, i)
         expected = np.zeros(25, dtype=np.float32)
         expected[0] = 1.0 / 105.0

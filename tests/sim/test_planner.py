@@ -11,7 +11,7 @@ from jetson.autonomy.route import two_opt
 from jetson.autonomy.skills import pursuit_point
 from sim.match import MatchCore, make_config
 from sim.planner import Planner, PlannerConfig
-from sim.world import RING_FLOOR
+from sim.world.state import RING_FLOOR
 
 
 def test_pursuit_point_is_on_the_path_at_the_lookahead() -> None:

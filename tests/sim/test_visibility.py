@@ -17,7 +17,9 @@ from sim.visibility import (
     visible,
     visible_among_rings,
 )
-from sim.world import RING_FLOOR, World
+from sim.world import sensors
+from sim.world.physics import World
+from sim.world.state import RING_FLOOR
 
 CAM = CameraConfig()
 
@@ -77,11 +79,15 @@ def test_world_culling_matches_brute_force() -> None:
             for i in range(2):
                 w.place_robot(i, *rng.uniform(-1.4, 1.4, 2), rng.uniform(0, 360))
             for i in range(2):
-                fast = set(w.visible_rings(i).tolist())
+                fast = set(sensors.visible_rings(w, i).tolist())
                 floor = np.flatnonzero(w.ring_state == RING_FLOOR)
                 pts = np.column_stack([w.ring_xy[floor], w.ring_z[floor]])
                 slow = brute_force_visible(
-                    pts, w.camera_pose(i), w.robots[i].config.camera, w.obstacles(i), 800
+                    pts,
+                    sensors.camera_pose(w, i),
+                    w.robots[i].config.camera,
+                    sensors.obstacles(w, i),
+                    800,
                 )
                 slow_set = set(floor[slow].tolist())
                 agree += int(fast == slow_set)
@@ -101,14 +107,14 @@ def test_high_fidelity_ray_tests_agree_with_the_geometry() -> None:
             for i in range(2):
                 w.place_robot(i, *rng.uniform(-1.3, 1.3, 2), rng.uniform(0, 360))
             for i in range(2):
-                rays = set(w.visible_rings(i).tolist())
+                rays = set(sensors.visible_rings(w, i).tolist())
                 floor = np.flatnonzero(w.ring_state == RING_FLOOR)
                 pts = np.column_stack([w.ring_xy[floor], w.ring_z[floor]])
                 cam = w.robots[i].config.camera
-                pose = w.camera_pose(i)
+                pose = sensors.camera_pose(w, i)
                 ring = w.field.ring
                 geo = visible_among_rings(
-                    pts, pose, cam, w.obstacles(i), ring.radius, ring.thickness
+                    pts, pose, cam, sensors.obstacles(w, i), ring.radius, ring.thickness
                 )
                 geo_set = set(floor[geo].tolist())
                 both += len(rays | geo_set)
@@ -125,9 +131,9 @@ def test_turning_fast_hides_everything_when_configured() -> None:
     with World(cfg) as w:
         w.reset()
         w.place_robot(0, -1.0, 0.3, 90.0)
-        assert len(w.visible_rings(0)) > 0
+        assert len(sensors.visible_rings(w, 0)) > 0
         w.robots[0].w = 1.0
-        assert len(w.visible_rings(0)) == 0
+        assert len(sensors.visible_rings(w, 0)) == 0
 
 
 @pytest.fixture(scope="module")
@@ -203,6 +209,6 @@ def test_rings_can_hide_rings_when_configured() -> None:
                 w.place_goal(i, -1.5 + 0.5 * i, 1.6)
             w.set_floor_rings(row)
             w.place_robot(0, 0.0, -1.3, 0.0)
-            counts[flag] = len(w.visible_rings(0))
+            counts[flag] = len(sensors.visible_rings(w, 0))
     assert counts[False] >= 6
     assert counts[True] < counts[False]

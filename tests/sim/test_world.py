@@ -10,7 +10,9 @@ import pytest
 
 from jetson.autonomy.geometry import box_corners, field_to_robot
 from sim.config import ConfigError, WorldConfig
-from sim.world import RING_FLOOR, RING_HELD, RING_SCORED, DriveCommand, World, WorldError
+from sim.world import rules, sensors
+from sim.world.physics import World, WorldError
+from sim.world.state import RING_FLOOR, RING_HELD, RING_SCORED, DriveCommand
 
 
 def clear_field(world: World) -> None:
@@ -234,7 +236,7 @@ def test_clamp_transfer_and_score(solo: World) -> None:
     local = field_to_robot([[g.x, g.y]], r.xy, r.heading)[0]
     assert local[1] < -r.config.length_m / 2
     score = solo.score()["red"]
-    owner, _ = solo.goal_owner(g)
+    owner, _ = rules.goal_owner(solo, g)
     zone_goals = score.goals_in_zone
     assert score.rings == 4
     assert score.total == 4 * 3 + zone_goals * 20 + score.robots_elevated * 30
@@ -262,13 +264,13 @@ def test_score_counts_as_the_manual() -> None:
         sc = f.scoring
         # Red: 3 rings on its goal; goals in its zone: red_north and red_south (start there) and
         # not the blue one; robot elevated.
-        red_in_zone = sum(1 for g in w.goals if w.goal_owner(g) == ("red", False))
+        red_in_zone = sum(1 for g in w.goals if rules.goal_owner(w, g) == ("red", False))
         assert s["red"].rings == 3
         assert s["red"].robots_elevated == 1
         assert s["red"].total == 3 * sc.ring_branch + red_in_zone * 20 + 30
         # Blue: its own goal's 2 rings count wherever it is; the neutral's 5 count in its zone.
         assert s["blue"].rings == 2 + 5
-        assert w.goal_owner(blue_goal) == (None, False)
+        assert rules.goal_owner(w, blue_goal) == (None, False)
 
 
 def test_pin_after_five_seconds_of_contact() -> None:
@@ -285,13 +287,13 @@ def test_pin_after_five_seconds_of_contact() -> None:
                 pins_at.append(w.time_s)
         assert pins_at, "robots pushing each other for 6 s must be a pin"
         assert pins_at[0] == pytest.approx(5.0, abs=w.dt + 1e-9)
-        assert w.pin_timer(0, 1) < 1.5
+        assert rules.pin_timer(w, 0, 1) < 1.5
         # Apart: the timer resets and nothing is called.
         w.place_robot(0, -1.0, 0.0, 90.0)
         w.place_robot(1, 1.0, 0.0, 90.0)
         for _ in range(72):
             assert not w.step([DriveCommand(), DriveCommand()]).pins
-        assert w.pin_timer(0, 1) == 0.0
+        assert rules.pin_timer(w, 0, 1) == 0.0
 
 
 def test_match_ends_at_the_configured_time() -> None:
@@ -325,11 +327,11 @@ def test_gps_latency_and_noise(solo: World) -> None:
     solo.place_robot(0, -1.0, 0.0, 90.0)
     run(solo, DriveCommand(0.5, 0.0), 12)
     latency = r.config.gps.latency_s
-    reading = solo.gps(0)
+    reading = sensors.gps(solo, 0)
     assert reading.x == pytest.approx(r.x - 0.5 * latency, abs=1e-6)
     assert reading.heading_deg == pytest.approx(90.0, abs=1e-6)
     rng = np.random.default_rng(3)
-    xs = np.array([solo.gps(0, rng).x for _ in range(2000)])
+    xs = np.array([sensors.gps(solo, 0, rng).x for _ in range(2000)])
     assert xs.std() == pytest.approx(r.config.gps.noise_xy_m, rel=0.1)
 
 

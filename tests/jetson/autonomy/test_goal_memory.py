@@ -102,7 +102,7 @@ def test_the_simulator_fills_the_layout_reports_the_clamp_and_rewards_it() -> No
     pytest.importorskip("pybullet")
     from jetson.autonomy.geometry import heading_vector
     from sim.match import MatchCore, make_config
-    from sim.world import DriveCommand
+    from sim.world.state import DriveCommand
 
     cfg = make_config(
         world={"blue": []},
@@ -165,7 +165,7 @@ def test_midgame_start_share_starts_part_way_into_a_match() -> None:
     pytest.importorskip("pybullet")
     from sim.config import ConfigError
     from sim.match import MatchCore, make_config
-    from sim.world import RING_FLOOR, RING_HELD, DriveCommand
+    from sim.world.state import RING_FLOOR, RING_HELD, DriveCommand
 
     with pytest.raises(ConfigError, match="midgame_start_share"):
         make_config(midgame_start_share=-0.1)

@@ -103,7 +103,7 @@ def test_uncapped_matches_take_their_own_reward() -> None:
     pytest.importorskip("pybullet")
     from sim.config import ConfigError
     from sim.match import MatchCore, make_config
-    from sim.world import DriveCommand
+    from sim.world.state import DriveCommand
 
     with pytest.raises(ConfigError, match=r"env.uncapped_reward: unknown keys \['sore'\]"):
         make_config(uncapped_reward={"sore": 0.0})

@@ -17,7 +17,8 @@ from protocol.messages import FINGERPRINT, PROTOCOL_VERSION, Hello, Role, State
 from sim.config import WorldConfig
 from sim.fullstack.brain_host import DEFAULT_BINARY, BrainHost, BrainReport
 from sim.fullstack.hardware import RobotHardware, competition_phase
-from sim.world import DriveCommand, World
+from sim.world.physics import World
+from sim.world.state import DriveCommand
 
 
 @pytest.fixture(scope="module")

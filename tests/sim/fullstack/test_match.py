@@ -65,7 +65,7 @@ def options(policy: Path, out: Path, **kw: object) -> MatchOptions:
 
 def start_pose(seed: int) -> tuple[float, float, float]:
     from sim.evaluate import eval_env
-    from sim.world import World
+    from sim.world.physics import World
 
     env = eval_env("capped", "training")
     with World(env.world) as w:

@@ -209,8 +209,8 @@ def test_the_planner_teacher_labels_every_learner_state_with_its_own_action() ->
 
 
 def test_the_route_teacher_advises_the_route_skill_from_the_learners_own_observation() -> None:
-    """The route teacher's advice is what jetson.autonomy.skills drives onto the observation's first route
-    slot: a function of the observation alone. A learner that follows it collects rings; a
+    """The route teacher's advice is what jetson.autonomy.skills drives onto the observation's first
+    route slot: a function of the observation alone. A learner that follows it collects rings; a
     config whose observation has no route slot, or a skill policy, is refused by name."""
     import numpy as np
 

@@ -1,8 +1,11 @@
-"""The simulated field: PyBullet bodies for walls, goals and robots; rings, rules and sensors.
+"""The simulated field's physics: PyBullet bodies for walls, goals, robots and rings, and stepping.
 
     world = World(WorldConfig())            # owns a p.DIRECT client; or World(cfg, client=cid)
     world.reset(np.random.default_rng(7))
     events = world.step([DriveCommand(0.5, 0.0), DriveCommand()])   # one control step per robot
+
+The game's rules (scoring, goal ownership, pins) are sim.world.rules and the sensors (GPS, camera,
+visibility) sim.world.sensors: functions over the state this class keeps.
 
 Two fidelities (WorldConfig.fidelity):
 
@@ -26,7 +29,6 @@ from __future__ import annotations
 import contextlib
 import math
 from collections import deque
-from dataclasses import dataclass, field
 
 import numpy as np
 import pybullet as p
@@ -44,127 +46,22 @@ from jetson.autonomy.geometry import (
     yaw_to_heading,
 )
 from sim.config import RobotConfig, WorldConfig
-from sim.field import FieldSpec, GoalSpec, load_field
-from sim.visibility import (
-    CameraPose,
-    Obstacles,
-    camera_pose,
-    in_frustum,
-    visible,
-    visible_among_rings,
+from sim.field import FieldSpec, load_field
+from sim.world import rules
+from sim.world.state import (
+    POST_RADIUS,
+    RING_FLOOR,
+    RING_HELD,
+    RING_SCORED,
+    AllianceScore,
+    DriveCommand,
+    GoalState,
+    RobotState,
+    StepEvents,
 )
-
-RING_FLOOR = 0
-RING_HELD = 1
-RING_SCORED = 2
-RING_OUT = 3  # not in play (never used in this match)
 
 _PARK_Z = -5.0  # collected ring bodies wait here, under the floor and out of every ray
 _GOAL_DAMPING = 0.99  # training: stands in for floor friction (a pushed goal slides ~0.2 m)
-_POST_RADIUS = 0.025  # the goal's vertical post, for occlusion and rendering
-
-
-@dataclass
-class DriveCommand:
-    """What a robot is told to do for one control step.
-
-    linear: m/s forward; angular: rad/s, positive clockwise (heading increasing), as in the wire
-    protocol's Command. intake: run the ring intake. clamp: True grabs a goal at the back when one
-    is there, False releases, None leaves it to WorldConfig.auto_clamp.
-    """
-
-    linear: float = 0.0
-    angular: float = 0.0
-    intake: bool = True
-    clamp: bool | None = None
-
-    @classmethod
-    def from_wheels(
-        cls, robot: RobotConfig, left_mps: float, right_mps: float, intake: bool = True
-    ) -> DriveCommand:
-        v, w = robot.from_wheel_speeds(left_mps, right_mps)
-        return cls(v, w, intake)
-
-
-@dataclass(frozen=True)
-class GpsReading:
-    x: float
-    y: float
-    heading_deg: float
-    error_m: float
-    time_s: float
-
-
-@dataclass
-class RobotState:
-    index: int
-    alliance: AllianceName
-    slot: int  # 0, 1 within the alliance
-    config: RobotConfig
-    body: int
-    x: float = 0.0
-    y: float = 0.0
-    heading: float = 0.0
-    v: float = 0.0  # commanded forward speed after the limits, m/s
-    w: float = 0.0  # commanded turn rate after the limits, rad/s clockwise
-    measured_v: float = 0.0  # what the robot actually did over the last step (0 when blocked)
-    measured_w: float = 0.0
-    held: int = 0
-    collected: int = 0  # rings taken in through the intake this match
-    carried_goal: int | None = None
-    transfer_timer: float = 0.0
-    intake_on: bool = True
-    history: deque[tuple[float, float, float, float]] = field(default_factory=deque)
-
-    @property
-    def name(self) -> str:
-        return f"{self.alliance}_{self.slot}"
-
-    @property
-    def xy(self) -> tuple[float, float]:
-        return (self.x, self.y)
-
-    @property
-    def room(self) -> int:
-        cap = self.config.ring_capacity
-        return 1 << 30 if cap is None else max(0, cap - self.held)
-
-    def wheel_speeds(self) -> tuple[float, float]:
-        """Left and right wheel surface speeds as encoders would measure them, m/s."""
-        return self.config.wheel_speeds(self.measured_v, self.measured_w)
-
-
-@dataclass
-class GoalState:
-    index: int
-    spec: GoalSpec
-    body: int
-    x: float
-    y: float
-    carried_by: int | None = None
-    rings: int = 0
-
-
-@dataclass
-class StepEvents:
-    """What happened in one control step (indices are robot indices)."""
-
-    collected: list[int]  # rings each robot took in
-    scored: list[int]  # rings each robot moved onto its goal
-    clamped: list[tuple[int, int]] = field(default_factory=list)  # (robot, goal)
-    released: list[tuple[int, int]] = field(default_factory=list)
-    pins: list[tuple[int, int]] = field(default_factory=list)  # (red robot, blue robot)
-    phase_changed: bool = False
-    match_over: bool = False
-
-
-@dataclass(frozen=True)
-class AllianceScore:
-    rings: int
-    goals_in_zone: int
-    goals_elevated: int
-    robots_elevated: int
-    total: int
 
 
 class WorldError(RuntimeError):
@@ -209,7 +106,7 @@ class World:
         self.time_s = 0.0
         self.steps = 0
         self.over = False
-        self._pin_timers: dict[tuple[int, int], float] = {}
+        self.pin_timers: dict[tuple[int, int], float] = {}  # sim.world.rules' pin clocks
         self._barrier: int | None = None
         self._ready = False
         # score() is asked for by every robot's info each step; it only changes when the world
@@ -259,7 +156,7 @@ class World:
         self.time_s = 0.0
         self.steps = 0
         self.over = False
-        self._pin_timers = {}
+        self.pin_timers = {}
         self._build_field()
         self._build_goals()
         self._build_robots(rng)
@@ -356,14 +253,14 @@ class World:
             else:
                 col = p.createCollisionShapeArray(
                     shapeTypes=[p.GEOM_CYLINDER, p.GEOM_CYLINDER],
-                    radii=[g.base_radius, _POST_RADIUS],
+                    radii=[g.base_radius, POST_RADIUS],
                     lengths=[g.base_height, g.height],
                     collisionFramePositions=[[0, 0, g.base_height / 2], [0, 0, g.height / 2]],
                     physicsClientId=cid,
                 )
             vis = p.createVisualShapeArray(
                 shapeTypes=[p.GEOM_CYLINDER, p.GEOM_CYLINDER],
-                radii=[g.base_radius, _POST_RADIUS],
+                radii=[g.base_radius, POST_RADIUS],
                 lengths=[g.base_height, g.height],
                 rgbaColors=[rgba, rgba],
                 visualFramePositions=[[0, 0, g.base_height / 2], [0, 0, g.height / 2]],
@@ -609,7 +506,7 @@ class World:
         if self.training and self.config.push_rings:
             self._push_rings()
         self._transfer(events)
-        self._pins(events, dt)
+        rules.update_pins(self, self._touching, events, dt)
         for r in self.robots:
             r.history.append((self.time_s, r.x, r.y, r.heading))
         if self.time_s >= self.match_length_s - 1e-9:
@@ -875,85 +772,23 @@ class World:
                 self.goals[r.carried_goal].rings += 1
                 events.scored[r.index] += 1
 
-    # --- rules --------------------------------------------------------------------------------
+    # --- rules (sim.world.rules) ----------------------------------------------------------
 
-    def _pins(self, events: StepEvents, dt: float) -> None:
+    def _touching(self, a: RobotState, b: RobotState) -> bool:
+        """Whether two robots are in contact (within pin_contact_m), for the pin rule."""
         margin = self.config.pin_contact_m
-        for a in self.robots:
-            if a.alliance != "red":
-                continue
-            for b in self.robots:
-                if b.alliance != "blue":
-                    continue
-                key = (a.index, b.index)
-                d = math.hypot(a.x - b.x, a.y - b.y)
-                touching = False
-                if d <= a.config.radius_m + b.config.radius_m + margin:
-                    touching = bool(
-                        p.getClosestPoints(a.body, b.body, margin, physicsClientId=self.client)
-                    )
-                if touching:
-                    self._pin_timers[key] = self._pin_timers.get(key, 0.0) + dt
-                    if self._pin_timers[key] >= self.pin_time_s - 1e-9:
-                        events.pins.append(key)
-                        self._pin_timers[key] = 0.0
-                else:
-                    self._pin_timers[key] = 0.0
-
-    def pin_timer(self, red_index: int, blue_index: int) -> float:
-        return self._pin_timers.get((red_index, blue_index), 0.0)
-
-    def robot_elevated(self, r: RobotState) -> bool:
-        try:
-            plat = self.field.platform(r.alliance)
-        except ValueError:
-            return False
-        return plat.contains_point(r.x, r.y)
-
-    def goal_owner(self, g: GoalState) -> tuple[AllianceName | None, bool]:
-        """Which alliance a goal scores for right now, and whether it is elevated."""
-        if g.carried_by is not None:
-            carrier = self.robots[g.carried_by]
-            if self.robot_elevated(carrier) and g.spec.alliance in (None, carrier.alliance):
-                return carrier.alliance, True
-        for alliance, zone in self.field.home_zones.items():
-            inside = zone.contains_point(g.x, g.y, margin=g.spec.base_radius)
-            if inside and g.spec.alliance in (None, alliance):
-                return alliance, False  # type: ignore[return-value]
-        return None, False
+        d = math.hypot(a.x - b.x, a.y - b.y)
+        touching = False
+        if d <= a.config.radius_m + b.config.radius_m + margin:
+            touching = bool(p.getClosestPoints(a.body, b.body, margin, physicsClientId=self.client))
+        return touching
 
     def score(self) -> dict[str, AllianceScore]:
-        """The match score as the Tipping Point manual counts it, for the current state.
-
-        Rings on an alliance goal count for its alliance wherever it is; rings on a neutral goal
-        count only while it is in a home zone (or elevated). Every ring counts as on a branch.
-        """
+        """sim.world.rules.score for the current state, cached until the world changes."""
         key = (self.steps, self._edits, tuple(g.rings for g in self.goals))
         if self._score_cache is not None and self._score_cache[0] == key:
             return dict(self._score_cache[1])
-        sc = self.field.scoring
-        out = {}
-        for alliance in ("red", "blue"):
-            rings = in_zone = elevated_goals = 0
-            for g in self.goals:
-                owner, elevated = self.goal_owner(g)
-                if g.spec.alliance == alliance or (g.spec.alliance is None and owner == alliance):
-                    rings += g.rings
-                if owner == alliance:
-                    if elevated:
-                        elevated_goals += 1
-                    else:
-                        in_zone += 1
-            robots_up = sum(
-                1 for r in self.robots if r.alliance == alliance and self.robot_elevated(r)
-            )
-            total = (
-                rings * sc.ring_branch
-                + in_zone * sc.goal_in_home_zone
-                + elevated_goals * sc.goal_elevated
-                + robots_up * sc.robot_elevated
-            )
-            out[alliance] = AllianceScore(rings, in_zone, elevated_goals, robots_up, total)
+        out = rules.score(self)
         self._score_cache = (key, out)
         return dict(out)
 
@@ -1011,96 +846,6 @@ class World:
         self._ring_visuals = None
         self._ring_visual_state = None
         self.ring_bodies = [] if self.training else self._make_ring_bodies(dynamic=True)
-
-    # --- sensors ------------------------------------------------------------------------------
-
-    def gps(self, index: int, rng: np.random.Generator | None = None) -> GpsReading:
-        """The GPS reading of robot `index`: its pose `latency_s` ago, plus noise when rng."""
-        r = self.robots[index]
-        gcfg = r.config.gps
-        t = self.time_s - gcfg.latency_s
-        hist = r.history
-        x, y, h = hist[-1][1], hist[-1][2], hist[-1][3]
-        if t < hist[-1][0]:
-            x, y, h = hist[0][1], hist[0][2], hist[0][3]
-            for (t0, x0, y0, h0), (t1, x1, y1, h1) in zip(
-                list(hist)[:-1], list(hist)[1:], strict=True
-            ):
-                if t0 <= t <= t1:
-                    a = (t - t0) / (t1 - t0) if t1 > t0 else 1.0
-                    dh = (h1 - h0 + 180.0) % 360.0 - 180.0
-                    x, y, h = x0 + a * (x1 - x0), y0 + a * (y1 - y0), h0 + a * dh
-                    break
-        if rng is not None:
-            x += rng.normal(0.0, gcfg.noise_xy_m)
-            y += rng.normal(0.0, gcfg.noise_xy_m)
-            h += rng.normal(0.0, gcfg.noise_heading_deg)
-        return GpsReading(x, y, float(wrap_heading(h)), gcfg.noise_xy_m, self.time_s)
-
-    def camera_pose(self, index: int) -> CameraPose:
-        r = self.robots[index]
-        return camera_pose((r.x, r.y), r.heading, r.config.camera)
-
-    def obstacles(self, exclude_robot: int | None = None, with_rings: bool = False) -> Obstacles:
-        boxes = []
-        for r in self.robots:
-            if r.index != exclude_robot:
-                rc = r.config
-                boxes.append((r.x, r.y, r.heading, rc.width_m / 2, rc.length_m / 2, rc.height_m))
-        discs = []
-        for g in self.goals:
-            discs.append((g.x, g.y, g.spec.base_radius, g.spec.base_height))
-            discs.append((g.x, g.y, _POST_RADIUS, g.spec.height))
-        obs = Obstacles.build(boxes, discs)
-        if with_rings:
-            floor = np.flatnonzero(self.ring_state == RING_FLOOR)
-            rad = np.full(len(floor), self.field.ring.radius)
-            hz = self.ring_z[floor] + self.field.ring.thickness / 2
-            obs.disc_xy = np.concatenate([obs.disc_xy, self.ring_xy[floor]])
-            obs.disc_radius = np.concatenate([obs.disc_radius, rad])
-            obs.disc_height = np.concatenate([obs.disc_height, hz])
-        return obs
-
-    def visible_rings(self, index: int) -> np.ndarray:
-        """Indices of the rings on the floor that robot `index`'s camera sees."""
-        r = self.robots[index]
-        cam = r.config.camera
-        if cam.max_turn_rate_rad_s is not None and abs(r.w) > cam.max_turn_rate_rad_s:
-            return np.zeros(0, dtype=np.int64)
-        floor = np.flatnonzero(self.ring_state == RING_FLOOR)
-        if len(floor) == 0:
-            return floor
-        pts = np.column_stack([self.ring_xy[floor], self.ring_z[floor]])
-        pose = self.camera_pose(index)
-        if self.training:
-            obstacles = self.obstacles(index)
-            if self.config.occlude_with_rings:
-                ring = self.field.ring
-                mask = visible_among_rings(pts, pose, cam, obstacles, ring.radius, ring.thickness)
-            else:
-                mask = visible(pts, pose, cam, obstacles)
-            return floor[mask]
-        mask, _, _ = in_frustum(pts, pose, cam)
-        keep = np.flatnonzero(mask)
-        if len(keep):
-            mask[keep] = self._rays_clear(pose, floor[keep], index)
-        return floor[mask]
-
-    def _rays_clear(self, pose: CameraPose, rings: np.ndarray, index: int) -> np.ndarray:
-        """High fidelity: a ray from the camera hits the ring itself (or nothing) first."""
-        start = [tuple(pose.position)] * len(rings)
-        ends = [(self.ring_xy[i, 0], self.ring_xy[i, 1], self.ring_z[i]) for i in rings]
-        hits = p.rayTestBatch(start, ends, physicsClientId=self.client)
-        own = self.robots[index].body
-        out = np.zeros(len(rings), dtype=bool)
-        for k, (i, hit) in enumerate(zip(rings, hits, strict=True)):
-            body = hit[0]
-            out[k] = body in (-1, own, self.ring_bodies[i])
-        return out
-
-    def rings_in_robot_frame(self, index: int, rings: np.ndarray) -> np.ndarray:
-        r = self.robots[index]
-        return field_to_robot(self.ring_xy[rings], (r.x, r.y), r.heading)
 
     # --- rendering support ------------------------------------------------------------------
 
