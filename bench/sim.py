@@ -55,8 +55,8 @@ def _env_match(fidelity: str, steps: int, camera: bool, seed: int = 0) -> tuple[
 
 
 def _world_match(steps: int, seed: int = 0) -> tuple[int, float]:
+    from sim.baselines.scripted import GreedyChaser
     from sim.config import WorldConfig
-    from sim.scripted import GreedyChaser
     from sim.world.physics import World
 
     with World(WorldConfig(interaction_s=steps / 12.0)) as w:

@@ -20,8 +20,8 @@ competence  (the report's task, 10-ring cap) train the config (sim/configs/cappe
             without it and reported beside (competence_no_teacher_*), so what the teacher
             contributes shows; --skip-no-teacher leaves that run out.
 strength    (no cap: every ring counts, the intake never fills) rings per 105 s match, each
-            player against the same opponent (sim.scripted's greedy chaser, which is none of the
-            compared players), --matches seeded matches with sides swapped per seed.
+            player against the same opponent (sim.baselines.scripted's greedy chaser, which is
+            none of the compared players), --matches seeded matches with sides swapped per seed.
             The planner parks in the last seconds, which this game does not pay, so the
             planner without its endgame (planner-collector, the stronger collector) runs too.
             Targets: ours >= the planner, ours >= the collector, ours > the original.

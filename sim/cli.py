@@ -131,8 +131,8 @@ def _opponent(word: str) -> PlayerSpec | None:
 def _cmd_eval(args: argparse.Namespace) -> int:
     import json
 
+    from sim.baselines.original import OriginalPolicyError
     from sim.evaluate import EvalError, evaluate, load_player
-    from sim.original_policy import OriginalPolicyError
 
     try:
         a = load_player(args.policy)
@@ -152,8 +152,8 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 
 
 def _cmd_play(args: argparse.Namespace) -> int:
+    from sim.baselines.original import OriginalPolicyError
     from sim.evaluate import EvalError, load_player
-    from sim.original_policy import OriginalPolicyError
     from sim.replay import write_replay
 
     try:

@@ -29,10 +29,10 @@ import pybullet as p
 
 from jetson.autonomy.geometry import other_alliance
 from jetson.autonomy.spec import ObservationSpec, observation_bounds
+from sim.baselines.scripted import GreedyChaser
 from sim.config import ConfigError
 from sim.match import EnvConfig, MatchCore, make_config
 from sim.render import top_down
-from sim.scripted import GreedyChaser
 from sim.world.physics import World
 
 ENV_ID = "pete/TippingPoint-v0"

@@ -4,7 +4,7 @@
 
 Players (`load_player`): a path to our policy.onnx (with policy.json beside it), a training
 checkpoint (.pt) or run folder, `original:PATH` (the original team's ONNX through
-sim.original_policy; a bare path to it works too), `planner` (= planner-route),
+sim.baselines.original; a bare path to it works too), `planner` (= planner-route),
 `planner-nearest`, `planner-collector` (the route planner without its endgame: it collects to the
 bell instead of parking, the stronger planner where only rings pay), `scripted`, `random`,
 `idle`, and, as an opponent only, `none` (alone on the field).
@@ -33,9 +33,9 @@ import numpy as np
 
 from jetson.autonomy.geometry import other_alliance
 from jetson.autonomy.spec import ObservationSpec
+from sim.baselines.planner import Planner, PlannerConfig
 from sim.config import ConfigError
 from sim.match import EnvConfig, MatchCore, make_config
-from sim.planner import Planner, PlannerConfig
 from sim.players import IdlePlayer, Player, PolicyPlayer, RandomPlayer, ScriptedPlayer
 
 # Start and ring jitter make seeds differ; training configs use the same values.
@@ -80,7 +80,7 @@ class PlayerSpec:
 
 def load_player(text: str) -> PlayerSpec:
     """A PlayerSpec from a command-line word (see the module docstring)."""
-    from sim.original_policy import OriginalPlayer, looks_like_original
+    from sim.baselines.original import OriginalPlayer, looks_like_original
 
     word = text.strip()
     if word in ("planner", "planner-route"):

@@ -16,8 +16,8 @@ from typing import Protocol
 import numpy as np
 
 from jetson.autonomy.skills import SkillConfig, SkillDriver
+from sim.baselines.scripted import GreedyChaser
 from sim.match import MatchCore
-from sim.scripted import GreedyChaser
 from sim.world.state import DriveCommand
 
 ActionFn = Callable[[np.ndarray], np.ndarray]
@@ -59,7 +59,7 @@ class RandomPlayer:
 
 
 class ScriptedPlayer:
-    """sim.scripted's greedy ring-chaser (ground-truth rings): the simulator's stock opponent."""
+    """sim.baselines.scripted's greedy ring-chaser (ground-truth rings): the stock opponent."""
 
     name = "scripted"
 

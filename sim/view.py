@@ -6,10 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.baselines.scripted import GreedyChaser
 from sim.camera import render_camera
 from sim.config import WorldConfig
 from sim.render import save_gif, save_png, top_down
-from sim.scripted import GreedyChaser
 from sim.world.physics import World
 
 

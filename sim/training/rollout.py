@@ -10,8 +10,10 @@ per match when learner_side is "random": the observation is alliance-symmetric, 
 plays both); the other is the opponent, of a kind chosen per slot:
 
     policy     actions come from the caller (the self-play pool runs in the training process)
-    planner    sim.planner's route planner     scripted  sim.scripted's greedy chaser
-    random     uniform random actions          idle      stands still
+    planner    sim.baselines.planner's route planner
+    scripted   sim.baselines.scripted's greedy chaser
+    random     uniform random actions
+    idle       stands still
     none       no opponent robot on the field
 
 A teacher (`teacher="planner"`) drives a shadow of the learner's robot: for every observation the
@@ -46,9 +48,9 @@ import numpy as np
 
 from jetson.autonomy.geometry import field_to_robot, other_alliance
 from jetson.autonomy.skills import SkillConfig, SkillDriver, option_for
+from sim.baselines.planner import Planner, PlannerConfig
 from sim.config import ConfigError, RewardConfig, RobotConfig
 from sim.match import REWARD_COMPONENTS, EnvConfig, MatchCore
-from sim.planner import Planner, PlannerConfig
 from sim.players import IdlePlayer, Player, RandomPlayer, ScriptedPlayer
 from sim.world.state import DriveCommand
 

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from sim.baselines.planner import Planner
 from sim.cli import main
 from sim.evaluate import EvalError, evaluate, load_player, mean_ci, wilson
-from sim.planner import Planner
 from sim.training.config import parse_config
 from sim.training.trainer import train
 

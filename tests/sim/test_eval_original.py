@@ -15,8 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.match import MatchCore, make_config
-from sim.original_policy import (
+from sim.baselines.original import (
     CUBE_M,
     SPEED_MPS,
     TURN_RAD_S,
@@ -25,6 +24,7 @@ from sim.original_policy import (
     observe,
     original_observation,
 )
+from sim.match import MatchCore, make_config
 from sim.world import sensors
 
 ORIGINAL = Path(
@@ -96,7 +96,7 @@ def test_world_state_gives_the_documented_inputs(alliance: str) -> None:
 
 
 def test_not_an_original_file_is_refused(tmp_path: Path) -> None:
-    from sim.original_policy import OriginalPolicy
+    from sim.baselines.original import OriginalPolicy
 
     bad = tmp_path / "x.onnx"
     bad.write_bytes(b"not onnx")
@@ -109,7 +109,7 @@ def test_not_an_original_file_is_refused(tmp_path: Path) -> None:
 
 @pytest.mark.skipif(not ORIGINAL.is_file(), reason="the original policy file is not here")
 def test_the_original_file_runs_and_drives() -> None:
-    from sim.original_policy import OriginalPlayer
+    from sim.baselines.original import OriginalPlayer
 
     assert looks_like_original(ORIGINAL)
     player = OriginalPlayer(ORIGINAL)

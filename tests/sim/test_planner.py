@@ -1,4 +1,4 @@
-"""sim.planner: pure pursuit geometry, tour ordering, and the baseline actually collecting rings."""
+"""sim.baselines.planner: pure pursuit geometry, tour ordering, and the baseline collecting."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import pytest
 
 from jetson.autonomy.route import two_opt
 from jetson.autonomy.skills import pursuit_point
+from sim.baselines.planner import Planner, PlannerConfig
 from sim.match import MatchCore, make_config
-from sim.planner import Planner, PlannerConfig
 from sim.world.state import RING_FLOOR
 
 

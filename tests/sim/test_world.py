@@ -352,7 +352,7 @@ def test_misuse_is_reported() -> None:
 
 def test_same_seed_same_match() -> None:
     def play(seed: int) -> list[tuple[float, ...]]:
-        from sim.scripted import GreedyChaser
+        from sim.baselines.scripted import GreedyChaser
 
         with World(WorldConfig(start_jitter_m=0.05, start_jitter_deg=10.0)) as w:
             w.reset(np.random.default_rng(seed))

@@ -174,8 +174,8 @@ def test_the_planner_teacher_labels_every_learner_state_with_its_own_action() ->
     a learner that follows its advice drives exactly as the planner does."""
     import numpy as np
 
+    from sim.baselines.planner import Planner
     from sim.match import make_config
-    from sim.planner import Planner
     from sim.training.rollout import RolloutConfig, VecMatches, _Slot
 
     env = make_config({"max_steps": 96, "world": {"start_jitter_m": 0.0, "start_jitter_deg": 0.0}})

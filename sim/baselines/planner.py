@@ -14,7 +14,7 @@ Order (`strategy`):
   route    a tour heuristic over the known rings: for each of the `route_rings` cheapest
            candidates as the first stop, a nearest-neighbour tour through the rest, improved by
            2-opt, as long as the robot has room; the cheapest tour's first ring is the target
-           (sim/route.py, which also gives the observation's route slots).
+           (jetson/autonomy/route.py, which also gives the observation's route slots).
 
 Control: pure pursuit (Coulter 1992) along the polyline robot -> target -> next stop: the point
 `lookahead_m` along the path gives the curvature 2 x / d^2 of the arc through it; speed drops

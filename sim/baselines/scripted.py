@@ -3,7 +3,7 @@
 It knows where every ring on the floor is (ground truth, not its camera), drives to the one that
 is cheapest to reach (distance plus a turning penalty), backs off when stuck, and heads for its
 alliance's home zone in the last seconds when carrying a goal. It is deliberately simple: the
-planner that routes over known rings with pure pursuit belongs to sim.planner (training issue).
+planner that routes over known rings with pure pursuit is sim.baselines.planner.
 """
 
 from __future__ import annotations
