@@ -30,7 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from bench.common import RESULTS_DIR, Result
-from sim.fullstack.runner import DEFAULT_POLICY, MatchError, MatchOptions, run_match
+from sim.fullstack.options import DEFAULT_POLICY, MatchError, MatchOptions
+from sim.fullstack.runner import run_match
 
 RATIO_TARGET = 0.9
 WALL_TARGET_S = 60.0

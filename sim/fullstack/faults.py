@@ -24,12 +24,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from protocol import messages
+from sim.fullstack.options import LOOP_MS, MatchError, MatchOptions, RunningMatch
 from sim.fullstack.report import Check
-from sim.fullstack.runner import LOOP_MS, MatchError
 
 if TYPE_CHECKING:
     from sim.fullstack.brain_host import BrainReport
-    from sim.fullstack.runner import FullStackMatch
 
 CUT_S = 2.0
 CORRUPTION = 0.01
@@ -69,16 +68,16 @@ class Scenario:
     def jetson_fingerprint(self) -> int:
         return messages.FINGERPRINT
 
-    def due(self, m: FullStackMatch, at_ms: int) -> bool:
+    def due(self, m: RunningMatch, at_ms: int) -> bool:
         return m.match_ms == at_ms
 
-    def before_tick(self, m: FullStackMatch) -> None:
+    def before_tick(self, m: RunningMatch) -> None:
         pass
 
-    def after_tick(self, m: FullStackMatch, report: BrainReport) -> None:
+    def after_tick(self, m: RunningMatch, report: BrainReport) -> None:
         pass
 
-    def checks(self, m: FullStackMatch) -> list[Check]:
+    def checks(self, m: RunningMatch) -> list[Check]:
         up, down = m.cable.up, m.cable.down
         return [
             Check(
@@ -99,7 +98,7 @@ class _StopWatch:
         self.stopped_ms: int | None = None  # ...at the first step not driven by the Jetson
         self.jetson_after_stop = 0  # steps the Jetson drove again afterwards
 
-    def start(self, m: FullStackMatch) -> None:
+    def start(self, m: RunningMatch) -> None:
         self.event_ms = m.brain_now_ms()
 
     def note(self, report: BrainReport) -> None:
@@ -139,7 +138,7 @@ class LinkCut(Scenario):
         self.watch = _StopWatch()
         self.resumed_ms: int | None = None
 
-    def before_tick(self, m: FullStackMatch) -> None:
+    def before_tick(self, m: RunningMatch) -> None:
         if self.due(m, self.at_ms):
             m.cable.unplug()
             self.watch.start(m)  # after: in realtime the daemon may write until the cut
@@ -148,7 +147,7 @@ class LinkCut(Scenario):
             m.cable.plug_in()
             m.replay.event(self.back_ms / 1000, "USB cable back")
 
-    def after_tick(self, m: FullStackMatch, report: BrainReport) -> None:
+    def after_tick(self, m: RunningMatch, report: BrainReport) -> None:
         t = m.step_match_ms(report)
         if t < self.back_ms:
             self.watch.note(report)
@@ -156,7 +155,7 @@ class LinkCut(Scenario):
             self.resumed_ms = t
             m.replay.event(t / 1000, "Jetson drives again")
 
-    def checks(self, m: FullStackMatch) -> list[Check]:
+    def checks(self, m: RunningMatch) -> list[Check]:
         d = m.jetson.daemon.counters
         out = [
             *super().checks(m),
@@ -202,12 +201,12 @@ class Corruption(Scenario):
         self.jetson_steps_after = 0
         self.link_error_steps = 0
 
-    def before_tick(self, m: FullStackMatch) -> None:
+    def before_tick(self, m: RunningMatch) -> None:
         if self.due(m, self.at_ms):
             m.cable.set_corruption(CORRUPTION, CORRUPTION)
             m.replay.event(self.at_ms / 1000, f"{CORRUPTION:.0%} of bytes corrupted both ways")
 
-    def after_tick(self, m: FullStackMatch, report: BrainReport) -> None:
+    def after_tick(self, m: RunningMatch, report: BrainReport) -> None:
         t = m.step_match_ms(report)
         if t >= self.at_ms + 1000:  # a second to settle: then the Jetson must keep driving
             self.steps_after += 1
@@ -215,7 +214,7 @@ class Corruption(Scenario):
         if "link_errors" in report.faults:
             self.link_error_steps += 1
 
-    def checks(self, m: FullStackMatch) -> list[Check]:
+    def checks(self, m: RunningMatch) -> list[Check]:
         up, down = m.cable.up, m.cable.down
         share = self.jetson_steps_after / self.steps_after if self.steps_after else 0.0
         return [
@@ -247,7 +246,7 @@ class JetsonKilled(Scenario):
         self.pose_at_sticks: tuple[float, float] | None = None
         self.driver_moved_m = 0.0
 
-    def before_tick(self, m: FullStackMatch) -> None:
+    def before_tick(self, m: RunningMatch) -> None:
         if self.due(m, self.at_ms):
             m.jetson.kill()
             self.watch.start(m)  # after: in realtime the daemon may write until it dies
@@ -268,14 +267,14 @@ class JetsonKilled(Scenario):
                 )
             m.replay.event(self.sticks_off_ms / 1000, "driver lets go")
 
-    def after_tick(self, m: FullStackMatch, report: BrainReport) -> None:
+    def after_tick(self, m: RunningMatch, report: BrainReport) -> None:
         t = m.step_match_ms(report)
         if t < self.sticks_on_ms:
             self.watch.note(report)
         if self.sticks_on_ms <= t < self.sticks_off_ms and report.source == "driver":
             self.driver_steps += report.moving
 
-    def checks(self, m: FullStackMatch) -> list[Check]:
+    def checks(self, m: RunningMatch) -> list[Check]:
         driver_ok = self.driver_steps > 0 and self.driver_moved_m > 0.05
         return [
             *super().checks(m),
@@ -306,15 +305,15 @@ class SchemaMismatch(Scenario):
     def jetson_fingerprint(self) -> int:
         return OTHER_FINGERPRINT
 
-    def before_tick(self, m: FullStackMatch) -> None:
+    def before_tick(self, m: RunningMatch) -> None:
         if self.start is None:
             r = m.world.robots[m.ia]
             self.start = (r.x, r.y)
 
-    def after_tick(self, m: FullStackMatch, report: BrainReport) -> None:
+    def after_tick(self, m: RunningMatch, report: BrainReport) -> None:
         self.moving_steps += report.moving
 
-    def checks(self, m: FullStackMatch) -> list[Check]:
+    def checks(self, m: RunningMatch) -> list[Check]:
         r = m.world.robots[m.ia]
         assert self.start is not None
         moved = math.hypot(r.x - self.start[0], r.y - self.start[1])
@@ -358,7 +357,7 @@ class CameraStops(Scenario):
         self.steps_after = 0
         self.jetson_steps_after = 0
 
-    def before_tick(self, m: FullStackMatch) -> None:
+    def before_tick(self, m: RunningMatch) -> None:
         if self.due(m, self.at_ms) and m.server is not None:
             # The daemon's clock when it happened (its log's `t`): in lockstep the previous
             # step's time, in realtime the wall clock's.
@@ -369,13 +368,13 @@ class CameraStops(Scenario):
             self.applied_at_stop = m.brain_track.applied
             m.replay.event(self.at_ms / 1000, "camera stops")
 
-    def after_tick(self, m: FullStackMatch, report: BrainReport) -> None:
+    def after_tick(self, m: RunningMatch, report: BrainReport) -> None:
         t = m.step_match_ms(report)
         if self.applied_at_stop is not None and t > self.at_ms:
             self.steps_after += 1
             self.jetson_steps_after += report.source == "jetson"
 
-    def checks(self, m: FullStackMatch) -> list[Check]:
+    def checks(self, m: RunningMatch) -> list[Check]:
         log = read_log(m.folder / "daemon.jsonl")
         at = self.at_clock if self.at_clock is not None else math.inf
         after = [e for e in log if float(e.get("t") or 0.0) >= at - 1e-9]
@@ -406,7 +405,7 @@ FAULTS: dict[str, type[Scenario]] = {
 }
 
 
-def make_scenario(name: str | None, at_s: float | None, options: Any) -> Scenario:
+def make_scenario(name: str | None, at_s: float | None, options: MatchOptions) -> Scenario:
     """The scenario for --fault NAME (None: no fault) in a match of these options."""
     match_s = options.seconds if options.seconds is not None else 105.0
     match_s = min(match_s, 105.0)

@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from jetson.autonomy.geometry import field_to_robot
+from sim.fullstack.options import LOOP_MS, MatchError, MatchOptions
 from sim.fullstack.report import (
     MatchResult,
     PerceptionScore,
@@ -50,88 +51,12 @@ from sim.fullstack.report import (
 )
 from sim.world import sensors
 
-ROOT = Path(__file__).resolve().parents[2]
-DEFAULT_POLICY = ROOT / "models" / "policy" / "policy.onnx"
-DEFAULT_DETECTOR_MODEL = ROOT / "models" / "ringnet.onnx"
-STACKS = ("full", "sim")
 PREROLL_MS = 1000  # powered and disabled before the match: the two sides shake hands
-LOOP_MS = 10  # the Brain's loop period (brain_host reports it; checked at start)
 SAMPLE_MS = 100
 POLICY_HZ = 12.0
 # Pixels (at 640x480) a ring must cover in a frame to count as shown: a whole ring 3 m away
 # covers about 120.
 MIN_RING_PX = 40
-
-
-class MatchError(ValueError):
-    """Options that cannot make a match, or a stack that could not be started, named."""
-
-
-@dataclass(frozen=True)
-class MatchOptions:
-    stack: str = "full"
-    seed: int = 0
-    policy: Path = DEFAULT_POLICY
-    opponent: str = "planner"  # a sim player word (sim.evaluate.load_player) or "none"
-    seconds: float | None = None  # stop the match early (the match clock still says 105 s)
-    realtime: bool = False
-    fault: str | None = None
-    fault_at_s: float | None = None  # match time of the fault (default: a third of the match)
-    scenario: str = "capped"
-    camera: bool = True
-    ring_counter: bool = True  # the simulated intake counts its rings (the State's rings_held)
-    # A RealSense gives 30 frames/s; rendering costs ~20 ms a frame here, so the lockstep match
-    # renders 10/s at 240x180 (perception places rings as well as at 320x240: F1 0.85 both).
-    camera_width: int = 240
-    camera_height: int = 180
-    camera_hz: float = 10.0
-    detector: str = "auto"  # auto (cnn when its model is there, else classical) | cnn | classical
-    detector_model: Path | None = None
-    perception_latency_s: float = 0.05
-    gif: bool = True
-    gif_every_s: float = 0.5
-    gif_size: int = 400
-    plots: bool = True
-    record: bool = False  # keep the daemon's session recording (sessions/ in the run folder)
-    out: Path = Path("runs/match")
-    brain_host: Path | None = None
-
-    def __post_init__(self) -> None:
-        if self.stack not in STACKS:
-            raise MatchError(f"stack must be one of {STACKS}, got {self.stack!r}")
-        if self.seconds is not None and not (self.seconds > 0 and math.isfinite(self.seconds)):
-            raise MatchError(f"seconds must be a positive number, got {self.seconds}")
-        if not 16 <= self.camera_width <= 1280 or not 12 <= self.camera_height <= 960:
-            raise MatchError(
-                f"camera size {self.camera_width}x{self.camera_height} is outside 16x12..1280x960"
-            )
-        period = 1000.0 / self.camera_hz if self.camera_hz > 0 else math.inf
-        if not (math.isfinite(period) and abs(period / LOOP_MS - round(period / LOOP_MS)) < 1e-6):
-            raise MatchError(
-                f"camera_hz {self.camera_hz} must give a frame period that is a whole number of "
-                f"{LOOP_MS} ms loop steps (e.g. 10, 5, 4, 2.5)"
-            )
-        if self.detector not in ("auto", "cnn", "classical"):
-            raise MatchError(f"detector must be auto, cnn or classical, got {self.detector!r}")
-        if not 0 <= self.perception_latency_s < period / 1000.0:
-            raise MatchError(
-                f"perception_latency_s must be >= 0 and shorter than the frame period "
-                f"({period:g} ms): one frame is processed at a time"
-            )
-        if not self.gif_every_s > 0 or not 64 <= self.gif_size <= 2048:
-            raise MatchError("gif_every_s must be > 0 and gif_size within 64..2048")
-        if self.fault is not None and self.stack != "full":
-            raise MatchError("faults are scenarios of the full stack: use --stack full")
-
-    @property
-    def frame_period_ms(self) -> int:
-        return round(1000.0 / self.camera_hz)
-
-    def detector_choice(self) -> tuple[str, Path | None]:
-        if self.detector == "auto":
-            model = self.detector_model or DEFAULT_DETECTOR_MODEL
-            return ("cnn", model) if model.is_file() else ("classical", None)
-        return self.detector, self.detector_model
 
 
 def run_match(options: MatchOptions, progress: Callable[[str], None] | None = None) -> MatchResult:
@@ -337,8 +262,8 @@ class FullStackMatch:
         from jetson.perception.camera import CameraConfig as JetsonCamera
         from sim.fullstack.brain_host import BrainHost, BrainHostError
         from sim.fullstack.cable import Cable
+        from sim.fullstack.daemon import DaemonError, DaemonHost, DaemonOptions
         from sim.fullstack.hardware import RobotHardware
-        from sim.fullstack.jetson import JetsonError, JetsonOptions, SimJetson
         from sim.match import MatchCore
 
         o = self.options
@@ -398,7 +323,7 @@ class FullStackMatch:
             ).save(camera_file)
         kind, model = o.detector_choice()
         self.detector = kind
-        jopts = JetsonOptions(
+        jopts = DaemonOptions(
             policy=o.policy,
             camera=o.camera,
             detector=kind,
@@ -412,11 +337,11 @@ class FullStackMatch:
         self.clock = MonotonicClock() if realtime else ManualClock(0.0)
         self.daemon_log = (self.folder / "daemon.jsonl").open("w")
         try:
-            self.jetson = SimJetson(
+            self.jetson = DaemonHost(
                 jopts, self.clock, self.cable.port_path, frames_address, self.daemon_log,
                 realtime=realtime,
             )  # fmt: skip
-        except JetsonError as exc:
+        except DaemonError as exc:
             raise MatchError(str(exc)) from exc
         self.jetson.start()
         if self.server is not None and not self.server.wait_for_client(10.0):

@@ -10,8 +10,9 @@ import pytest
 
 from sim.fullstack.brain_host import DEFAULT_BINARY
 from sim.fullstack.faults import FAULTS, read_log
+from sim.fullstack.options import MatchOptions
 from sim.fullstack.report import MatchResult
-from sim.fullstack.runner import MatchOptions, run_match
+from sim.fullstack.runner import run_match
 
 pytestmark = pytest.mark.skipif(
     not DEFAULT_BINARY.exists(), reason="brain_host is not built: run `make build` first"

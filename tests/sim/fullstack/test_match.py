@@ -17,7 +17,8 @@ import pytest
 
 from sim import cli
 from sim.fullstack.brain_host import DEFAULT_BINARY
-from sim.fullstack.runner import MatchError, MatchOptions, run_match
+from sim.fullstack.options import MatchError, MatchOptions
+from sim.fullstack.runner import run_match
 
 pytestmark = pytest.mark.skipif(
     not DEFAULT_BINARY.exists(), reason="brain_host is not built: run `make build` first"

@@ -34,12 +34,12 @@ from protocol import messages
 RESULT_TIMEOUT_S = 10.0
 
 
-class JetsonError(RuntimeError):
+class DaemonError(RuntimeError):
     """The in-process daemon could not be built or stopped keeping up."""
 
 
 @dataclass(frozen=True)
-class JetsonOptions:
+class DaemonOptions:
     policy: Path
     camera: bool = True
     detector: str = "classical"  # classical | cnn
@@ -91,12 +91,12 @@ class RecordingFeed:
         return got
 
 
-class SimJetson:
+class DaemonHost:
     """The daemon, its camera thread and its gate, wired to a port path and a frame stream."""
 
     def __init__(
         self,
-        options: JetsonOptions,
+        options: DaemonOptions,
         clock: Clock,
         port_path: Path,
         frames_address: str | None,
@@ -128,7 +128,7 @@ class SimJetson:
         self.feed: GatedFeed | RecordingFeed | None = None
         if options.camera:
             if frames_address is None:
-                raise JetsonError("the camera needs a frame stream address")
+                raise DaemonError("the camera needs a frame stream address")
             self.feed = (
                 RecordingFeed(self.results)
                 if realtime
@@ -144,8 +144,8 @@ class SimJetson:
                 boot_id=options.boot_id,
                 fingerprint=options.fingerprint,
             )
-        except Exception as exc:  # PolicyError, ConfigError, onnxruntime's own
-            raise JetsonError(f"the daemon cannot start: {exc}") from exc
+        except Exception as exc:  # PolicyError, SettingsError, onnxruntime's own
+            raise DaemonError(f"the daemon cannot start: {exc}") from exc
         self.daemon = self.service_.daemon
         self.log = self.daemon.log
         self.camera: Any = None
@@ -153,7 +153,7 @@ class SimJetson:
             try:
                 self.camera = make_camera(self.settings, clock, self.log)
             except Exception as exc:  # a missing detector model, a bad camera config
-                raise JetsonError(f"the daemon's camera cannot start: {exc}") from exc
+                raise DaemonError(f"the daemon's camera cannot start: {exc}") from exc
             if isinstance(self.feed, RecordingFeed):
                 self.feed.camera = self.camera
         self.alive = True
@@ -199,7 +199,7 @@ class SimJetson:
             return d.link is None or d.link.rx_bytes >= rx_total
 
         if not d.pump_until(caught_up, timeout_s):
-            raise JetsonError(
+            raise DaemonError(
                 f"the daemon read {d.link.rx_bytes if d.link else 0} of {rx_total} bytes "
                 f"within {timeout_s:g} s"
             )
@@ -246,7 +246,7 @@ class SimJetson:
             if self.camera.errors > errors:
                 return None  # the pipeline failed on this frame (the thread logged why)
             time.sleep(0.0002)
-        raise JetsonError(f"the camera thread gave no result for frame {index} in time")
+        raise DaemonError(f"the camera thread gave no result for frame {index} in time")
 
     def drop_pending_frames(self) -> None:
         """The stream stopped: frames in flight will never be processed."""

@@ -1,0 +1,137 @@
+"""What a full-stack match is asked for, and what its parts share without importing each other.
+
+MatchOptions is one match's options (pete-sim match's flags); LOOP_MS the Brain's loop period.
+RunningMatch is what a fault scenario (sim.fullstack.faults) reads and changes of the match that
+runs it (sim.fullstack.runner.FullStackMatch is the one), so the scenarios need not import the
+runner that imports them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+if TYPE_CHECKING:
+    from jetson.clock import Clock
+    from sim.fullstack.brain_host import BrainReport
+    from sim.fullstack.cable import Cable
+    from sim.fullstack.daemon import DaemonHost
+    from sim.world.physics import World
+
+ROOT = Path(__file__).resolve().parents[2]
+DEFAULT_POLICY = ROOT / "models" / "policy" / "policy.onnx"
+DEFAULT_DETECTOR_MODEL = ROOT / "models" / "ringnet.onnx"
+STACKS = ("full", "sim")
+LOOP_MS = 10  # the Brain's loop period (brain_host reports it; checked at start)
+
+
+class MatchError(ValueError):
+    """Options that cannot make a match, or a stack that could not be started, named."""
+
+
+@dataclass(frozen=True)
+class MatchOptions:
+    stack: str = "full"
+    seed: int = 0
+    policy: Path = DEFAULT_POLICY
+    opponent: str = "planner"  # a sim player word (sim.evaluate.load_player) or "none"
+    seconds: float | None = None  # stop the match early (the match clock still says 105 s)
+    realtime: bool = False
+    fault: str | None = None
+    fault_at_s: float | None = None  # match time of the fault (default: a third of the match)
+    scenario: str = "capped"
+    camera: bool = True
+    ring_counter: bool = True  # the simulated intake counts its rings (the State's rings_held)
+    # A RealSense gives 30 frames/s; rendering costs ~20 ms a frame here, so the lockstep match
+    # renders 10/s at 240x180 (perception places rings as well as at 320x240: F1 0.85 both).
+    camera_width: int = 240
+    camera_height: int = 180
+    camera_hz: float = 10.0
+    detector: str = "auto"  # auto (cnn when its model is there, else classical) | cnn | classical
+    detector_model: Path | None = None
+    perception_latency_s: float = 0.05
+    gif: bool = True
+    gif_every_s: float = 0.5
+    gif_size: int = 400
+    plots: bool = True
+    record: bool = False  # keep the daemon's session recording (sessions/ in the run folder)
+    out: Path = Path("runs/match")
+    brain_host: Path | None = None
+
+    def __post_init__(self) -> None:
+        if self.stack not in STACKS:
+            raise MatchError(f"stack must be one of {STACKS}, got {self.stack!r}")
+        if self.seconds is not None and not (self.seconds > 0 and math.isfinite(self.seconds)):
+            raise MatchError(f"seconds must be a positive number, got {self.seconds}")
+        if not 16 <= self.camera_width <= 1280 or not 12 <= self.camera_height <= 960:
+            raise MatchError(
+                f"camera size {self.camera_width}x{self.camera_height} is outside 16x12..1280x960"
+            )
+        period = 1000.0 / self.camera_hz if self.camera_hz > 0 else math.inf
+        if not (math.isfinite(period) and abs(period / LOOP_MS - round(period / LOOP_MS)) < 1e-6):
+            raise MatchError(
+                f"camera_hz {self.camera_hz} must give a frame period that is a whole number of "
+                f"{LOOP_MS} ms loop steps (e.g. 10, 5, 4, 2.5)"
+            )
+        if self.detector not in ("auto", "cnn", "classical"):
+            raise MatchError(f"detector must be auto, cnn or classical, got {self.detector!r}")
+        if not 0 <= self.perception_latency_s < period / 1000.0:
+            raise MatchError(
+                f"perception_latency_s must be >= 0 and shorter than the frame period "
+                f"({period:g} ms): one frame is processed at a time"
+            )
+        if not self.gif_every_s > 0 or not 64 <= self.gif_size <= 2048:
+            raise MatchError("gif_every_s must be > 0 and gif_size within 64..2048")
+        if self.fault is not None and self.stack != "full":
+            raise MatchError("faults are scenarios of the full stack: use --stack full")
+
+    @property
+    def frame_period_ms(self) -> int:
+        return round(1000.0 / self.camera_hz)
+
+    def detector_choice(self) -> tuple[str, Path | None]:
+        if self.detector == "auto":
+            model = self.detector_model or DEFAULT_DETECTOR_MODEL
+            return ("cnn", model) if model.is_file() else ("classical", None)
+        return self.detector, self.detector_model
+
+
+class MatchEvents(Protocol):
+    """The replay's event list (events.txt, the plots' markers)."""
+
+    def event(self, t_s: float, text: str) -> None: ...
+
+
+class BrainRecord(Protocol):
+    """What the Brain did over the match so far, from its reports."""
+
+    applied: int  # distinct Commands that drove the motors
+    faults_seen: set[str]
+    link_states: set[str]
+
+
+class RunningMatch(Protocol):
+    """What a fault scenario needs of the full-stack match that runs it."""
+
+    folder: Path  # the run folder (daemon.jsonl)
+    realtime: bool
+    world: World
+    ia: int  # the robot the stack drives
+    match_len_ms: int
+    extra_lines: list[str]  # side-channel commands for brain_host's next step
+    camera_stopped: bool
+    cable: Cable
+    jetson: DaemonHost
+    server: Any  # the frame stream (jetson.perception.sources.stream), None without a camera
+    clock: Clock  # the daemon's clock
+    replay: MatchEvents
+    brain_track: BrainRecord
+
+    @property
+    def match_ms(self) -> int: ...
+
+    def brain_now_ms(self) -> int: ...
+
+    def step_match_ms(self, report: BrainReport) -> int: ...
