@@ -30,7 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from bench.common import RESULTS_DIR, Result
-from sim.fullstack.options import DEFAULT_POLICY, MatchError, MatchOptions
+from sim.errors import MatchError
+from sim.fullstack.options import DEFAULT_POLICY, MatchOptions
 from sim.fullstack.runner import run_match
 
 RATIO_TARGET = 0.9

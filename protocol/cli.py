@@ -10,7 +10,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from protocol.schema import DEFAULT_SCHEMA, SchemaError, load_schema
+from protocol.errors import SchemaError
+from protocol.schema import DEFAULT_SCHEMA, load_schema
 
 DESCRIPTION = """\
 The Brain <-> Jetson wire protocol: one schema (protocol/schema.toml), two generated codecs.

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from protocol import framing, messages
+from protocol.errors import DemoError, FingerprintMismatch
 from protocol.messages import Alliance, Command, Fault, GpsStatus, Hello, MatchPhase, Role, State
 
 DEFAULT_TOOL = Path("build/host/bin/pete_codec_tool")
@@ -30,10 +31,6 @@ SEED = 2022
 COMMANDS = 1000
 CORRUPT_FRACTION = 0.01
 RANDOM_PACKETS = 500
-
-
-class DemoError(RuntimeError):
-    """Something in the demonstration did not behave as the protocol promises."""
 
 
 # --- the C++ side, through pete_codec_tool ------------------------------------------------------
@@ -274,7 +271,7 @@ def handshake_scene(tool: CodecTool) -> None:
         raise DemoError(f"the Hello did not decode: {event}")
     try:
         framing.check_hello(event.message)
-    except framing.FingerprintMismatch as exc:
+    except FingerprintMismatch as exc:
         print(f"   Jetson refuses: {exc}")
     else:
         raise DemoError("a Hello with a foreign fingerprint was accepted")

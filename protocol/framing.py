@@ -16,13 +16,14 @@ import struct
 from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from enum import IntEnum, IntFlag, StrEnum
+from enum import IntEnum, IntFlag
 from types import ModuleType
 from typing import Any
 
 from cobs import cobs
 
 from protocol import messages as _default_codec
+from protocol.errors import ErrorKind, FingerprintMismatch, FrameError
 from protocol.schema import INTEGER_RANGES
 
 HEADER_SIZE = 3
@@ -39,32 +40,6 @@ TEXT_STREAMS = (b"sout", b"serr", b"kdbg", b"jinx")
 _HEADER = struct.Struct("<BBB")
 _CRC = struct.Struct("<H")
 _HEX_DIGITS = b"0123456789abcdef"
-
-
-class ErrorKind(StrEnum):
-    """Why a frame was dropped; the C++ decoder counts the same kinds (pete::wire::Error)."""
-
-    GARBAGE = "garbage"
-    BAD_COBS = "bad_cobs"
-    TRUNCATED = "truncated"
-    BAD_CRC = "bad_crc"
-    BAD_LENGTH = "bad_length"
-    UNKNOWN_ID = "unknown_id"
-    BAD_VALUE = "bad_value"
-    WRONG_DIRECTION = "wrong_direction"
-    OVERSIZE = "oversize"
-    UNKNOWN_STREAM = "unknown_stream"
-
-
-class FrameError(ValueError):
-    def __init__(self, kind: ErrorKind, detail: str) -> None:
-        super().__init__(f"{kind}: {detail}")
-        self.kind = kind
-        self.detail = detail
-
-
-class FingerprintMismatch(RuntimeError):
-    """The peer was generated from another schema: it must not drive the robot."""
 
 
 def crc16(data: bytes, crc: int = 0xFFFF) -> int:

@@ -12,6 +12,8 @@ import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
+from protocol.errors import SchemaError
+
 DEFAULT_SCHEMA = Path(__file__).with_name("schema.toml")
 
 # name -> (size in bytes, struct code, C++ type)
@@ -62,10 +64,6 @@ _RESERVED_TYPES = {
     "IntEnum", "IntFlag", "MESSAGES", "NamedTuple", "STREAM",
 }  # fmt: skip
 _RESERVED_FIELDS = (_RESERVED - {"seq"}) | {"encode_body", "decode_body"}  # own `seq` is fine
-
-
-class SchemaError(ValueError):
-    """The schema file is malformed; the message names the offending entry."""
 
 
 @dataclass(frozen=True)

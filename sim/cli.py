@@ -77,9 +77,8 @@ def _interrupt(signum: int, frame: object) -> None:
 def _cmd_train(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from sim.config import ConfigError
+    from sim.errors import ConfigError, WorkerError
     from sim.training.config import load_config
-    from sim.training.rollout import WorkerError
     from sim.training.trainer import train
 
     try:
@@ -131,8 +130,8 @@ def _opponent(word: str) -> PlayerSpec | None:
 def _cmd_eval(args: argparse.Namespace) -> int:
     import json
 
-    from sim.baselines.original import OriginalPolicyError
-    from sim.evaluate import EvalError, evaluate, load_player
+    from sim.errors import EvalError, OriginalPolicyError
+    from sim.evaluate import evaluate, load_player
 
     try:
         a = load_player(args.policy)
@@ -152,8 +151,8 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 
 
 def _cmd_play(args: argparse.Namespace) -> int:
-    from sim.baselines.original import OriginalPolicyError
-    from sim.evaluate import EvalError, load_player
+    from sim.errors import EvalError, OriginalPolicyError
+    from sim.evaluate import load_player
     from sim.replay import write_replay
 
     try:
@@ -231,8 +230,8 @@ def _add_dataset(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_dataset(args: argparse.Namespace) -> int:
     from jetson.errors import DatasetError
-    from sim.config import ConfigError
     from sim.dataset import DatasetConfig, write_dataset
+    from sim.errors import ConfigError
 
     try:
         robots = tuple(n.strip() for n in args.robots.split(",") if n.strip())

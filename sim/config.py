@@ -13,13 +13,10 @@ from dataclasses import field as dc_field
 from typing import Any, Literal, TypeVar
 
 from jetson.autonomy.geometry import INCH
+from sim.errors import ConfigError
 
 Fidelity = Literal["training", "high"]
 FIDELITIES: tuple[Fidelity, ...] = ("training", "high")
-
-
-class ConfigError(ValueError):
-    """A configuration value that cannot be used, named."""
 
 
 # Defaults from a real drivetrain: V5 Smart Motors with the 200 rpm (green) cartridge driving 4 in

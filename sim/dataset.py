@@ -40,7 +40,8 @@ import pybullet as p
 
 from jetson.autonomy.geometry import field_to_robot
 from sim.camera import projection_matrix, render_camera, view_matrix
-from sim.config import ROBOTS, CameraConfig, ConfigError, WorldConfig
+from sim.config import ROBOTS, CameraConfig, WorldConfig
+from sim.errors import ConfigError
 from sim.world import sensors
 from sim.world.physics import World
 

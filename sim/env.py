@@ -30,7 +30,7 @@ import pybullet as p
 from jetson.autonomy.geometry import other_alliance
 from jetson.autonomy.spec import ObservationSpec, observation_bounds
 from sim.baselines.scripted import GreedyChaser
-from sim.config import ConfigError
+from sim.errors import ConfigError
 from sim.match import EnvConfig, MatchCore, make_config
 from sim.render import top_down
 from sim.world.physics import World

@@ -34,7 +34,7 @@ import numpy as np
 from jetson.autonomy.geometry import other_alliance
 from jetson.autonomy.spec import ObservationSpec
 from sim.baselines.planner import Planner, PlannerConfig
-from sim.config import ConfigError
+from sim.errors import ConfigError, EvalError
 from sim.match import EnvConfig, MatchCore, make_config
 from sim.players import IdlePlayer, Player, PolicyPlayer, RandomPlayer, ScriptedPlayer
 
@@ -63,10 +63,6 @@ BUILTIN = (
     "idle",
 )
 FILL_TARGET = 10
-
-
-class EvalError(ValueError):
-    """A player that cannot be loaded or an evaluation that cannot run, named."""
 
 
 @dataclass

@@ -22,7 +22,8 @@ from jetson.autonomy.observation import FrameStack, RobotView, build_frame
 from jetson.autonomy.ring_memory import RingMemory
 from jetson.autonomy.skills import SkillConfig, SkillDriver
 from jetson.autonomy.spec import ObservationSpec
-from sim.config import CameraConfig, ConfigError, RewardConfig, RobotConfig, WorldConfig, merge
+from sim.config import CameraConfig, RewardConfig, RobotConfig, WorldConfig, merge
+from sim.errors import ConfigError
 from sim.field import FieldSpec
 from sim.world import rules, sensors
 from sim.world.physics import World

@@ -24,7 +24,7 @@ import pybullet as p
 from pettingzoo import ParallelEnv
 
 from jetson.autonomy.spec import observation_bounds
-from sim.config import ConfigError
+from sim.errors import ConfigError
 from sim.match import EnvConfig, MatchCore, make_config
 from sim.render import top_down
 from sim.world.physics import World

@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from sim.evaluate import EvalError, MatchRecord, PlayerSpec, eval_env, make_cores, play_match
+from sim.errors import EvalError
+from sim.evaluate import MatchRecord, PlayerSpec, eval_env, make_cores, play_match
 from sim.match import REWARD_COMPONENTS, MatchCore
 from sim.render import save_gif, top_down
 

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from jetson.autonomy.geometry import AllianceName, to_alliance_frame
+from sim.errors import OriginalPolicyError
 from sim.match import MatchCore
 from sim.world.state import DriveCommand
 
@@ -40,10 +41,6 @@ SPEED_MPS = 0.61
 TURN_RAD_S = math.radians(276.86)
 INPUT_NAME = "obs_0"
 DETERMINISTIC_OUTPUT = "deterministic_continuous_actions"
-
-
-class OriginalPolicyError(ValueError):
-    """The file is not the original policy (or not usable), named."""
 
 
 def original_observation(

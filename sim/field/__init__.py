@@ -17,16 +17,13 @@ from typing import Any
 import numpy as np
 
 from jetson.autonomy.geometry import INCH, AllianceName
+from sim.errors import FieldError
 
 FIELD_DIR = Path(__file__).resolve().parent
 DEFAULT_FIELD = "tipping_point"
 
 _UNITS = {"m": 1.0, "in": INCH, "mm": 0.001, "cm": 0.01}
 _GOAL_KINDS = ("alliance", "neutral", "neutral_tall")
-
-
-class FieldError(ValueError):
-    """A field file that cannot be used, with the file and key named."""
 
 
 RGB = tuple[int, int, int]

@@ -26,6 +26,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Literal
 
+from sim.errors import BrainHostError
+
 ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_BINARY = ROOT / "build" / "host" / "bin" / "brain_host"
 BINARY_ENV = "PETE_BRAIN_HOST"
@@ -36,10 +38,6 @@ CLAMP_UNKNOWN = 255  # the State's goal_clamped when no clamp sensor is fitted
 GPS_FAILURES = ("calibrating", "error", "absent")
 
 Phase = Literal["disabled", "autonomous", "driver"]
-
-
-class BrainHostError(RuntimeError):
-    """brain_host refused a command, died, or stopped answering; the message says which."""
 
 
 def find_binary(path: str | Path | None = None) -> Path:

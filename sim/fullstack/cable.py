@@ -34,12 +34,9 @@ from typing import Any
 import numpy as np
 
 from protocol.framing import DownlinkDecoder, Received, UplinkDecoder
+from sim.errors import CableError
 
 PUMP_TIMEOUT_S = 5.0
-
-
-class CableError(RuntimeError):
-    """Bytes a side said it wrote never arrived."""
 
 
 @dataclass

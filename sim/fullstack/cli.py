@@ -91,7 +91,8 @@ def add_match_command(sub: argparse._SubParsersAction) -> None:
 def cmd_match(args: argparse.Namespace) -> int:
     import json
 
-    from sim.fullstack.options import DEFAULT_POLICY, MatchError, MatchOptions
+    from sim.errors import MatchError
+    from sim.fullstack.options import DEFAULT_POLICY, MatchOptions
     from sim.fullstack.runner import run_match
 
     out = args.out

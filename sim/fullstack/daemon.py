@@ -30,12 +30,9 @@ from jetson.clock import Clock
 from jetson.service import build, make_camera
 from jetson.settings import Settings
 from protocol import messages
+from sim.errors import DaemonError
 
 RESULT_TIMEOUT_S = 10.0
-
-
-class DaemonError(RuntimeError):
-    """The in-process daemon could not be built or stopped keeping up."""
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from protocol import messages
-from sim.fullstack.options import LOOP_MS, MatchError, MatchOptions, RunningMatch
+from sim.errors import MatchError
+from sim.fullstack.options import LOOP_MS, MatchOptions, RunningMatch
 from sim.fullstack.report import Check
 
 if TYPE_CHECKING:

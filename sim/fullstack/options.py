@@ -13,6 +13,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
+from sim.errors import MatchError
+
 if TYPE_CHECKING:
     from jetson.clock import Clock
     from sim.fullstack.brain_host import BrainReport
@@ -25,10 +27,6 @@ DEFAULT_POLICY = ROOT / "models" / "policy" / "policy.onnx"
 DEFAULT_DETECTOR_MODEL = ROOT / "models" / "ringnet.onnx"
 STACKS = ("full", "sim")
 LOOP_MS = 10  # the Brain's loop period (brain_host reports it; checked at start)
-
-
-class MatchError(ValueError):
-    """Options that cannot make a match, or a stack that could not be started, named."""
 
 
 @dataclass(frozen=True)

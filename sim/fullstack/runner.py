@@ -37,7 +37,8 @@ from typing import Any
 import numpy as np
 
 from jetson.autonomy.geometry import field_to_robot
-from sim.fullstack.options import LOOP_MS, MatchError, MatchOptions
+from sim.errors import MatchError
+from sim.fullstack.options import LOOP_MS, MatchOptions
 from sim.fullstack.report import (
     MatchResult,
     PerceptionScore,
@@ -79,7 +80,8 @@ def run_match(options: MatchOptions, progress: Callable[[str], None] | None = No
 
 
 def _load_players(options: MatchOptions) -> tuple[Any, Any]:
-    from sim.evaluate import EvalError, load_player
+    from sim.errors import EvalError
+    from sim.evaluate import load_player
 
     try:
         a = load_player(str(options.policy))
@@ -95,7 +97,8 @@ def _load_players(options: MatchOptions) -> tuple[Any, Any]:
 
 
 def _env(options: MatchOptions, spec: Any, opponent: bool) -> Any:
-    from sim.evaluate import EvalError, eval_env
+    from sim.errors import EvalError
+    from sim.evaluate import eval_env
 
     try:
         env = eval_env(options.scenario, "training", spec)
@@ -260,9 +263,10 @@ class FullStackMatch:
         from jetson.autonomy.camera import CameraMount, Intrinsics
         from jetson.clock import ManualClock, MonotonicClock
         from jetson.perception.camera import CameraConfig as JetsonCamera
-        from sim.fullstack.brain_host import BrainHost, BrainHostError
+        from sim.errors import BrainHostError, DaemonError
+        from sim.fullstack.brain_host import BrainHost
         from sim.fullstack.cable import Cable
-        from sim.fullstack.daemon import DaemonError, DaemonHost, DaemonOptions
+        from sim.fullstack.daemon import DaemonHost, DaemonOptions
         from sim.fullstack.hardware import RobotHardware
         from sim.match import MatchCore
 

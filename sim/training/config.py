@@ -29,7 +29,8 @@ from dataclasses import asdict, dataclass, field, is_dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from sim.config import ConfigError, merge
+from sim.config import merge
+from sim.errors import ConfigError
 from sim.match import EnvConfig, make_config
 from sim.ppo import PPOConfig
 from sim.training.rollout import OPPONENT_KINDS, TEACHERS, RolloutConfig, check_route_teacher

@@ -49,7 +49,8 @@ import numpy as np
 from jetson.autonomy.geometry import field_to_robot, other_alliance
 from jetson.autonomy.skills import SkillConfig, SkillDriver, option_for
 from sim.baselines.planner import Planner, PlannerConfig
-from sim.config import ConfigError, RewardConfig, RobotConfig
+from sim.config import RewardConfig, RobotConfig
+from sim.errors import ConfigError, WorkerError
 from sim.match import REWARD_COMPONENTS, EnvConfig, MatchCore
 from sim.players import IdlePlayer, Player, RandomPlayer, ScriptedPlayer
 from sim.world.state import DriveCommand
@@ -499,10 +500,6 @@ def _merge(results: list[StepResult]) -> StepResult:
         np.concatenate([r.deciding for r in results if r.deciding is not None]),
         np.concatenate([r.uncapped for r in results if r.uncapped is not None]),
     )
-
-
-class WorkerError(RuntimeError):
-    """A rollout worker failed; the message carries its traceback."""
 
 
 class VecMatches:

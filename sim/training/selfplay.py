@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from sim.config import ConfigError
+from sim.errors import ConfigError
 
 
 @dataclass(frozen=True)

@@ -46,6 +46,7 @@ from jetson.autonomy.geometry import (
     yaw_to_heading,
 )
 from sim.config import RobotConfig, WorldConfig
+from sim.errors import WorldError
 from sim.field import FieldSpec, load_field
 from sim.world import rules
 from sim.world.state import (
@@ -62,10 +63,6 @@ from sim.world.state import (
 
 _PARK_Z = -5.0  # collected ring bodies wait here, under the floor and out of every ray
 _GOAL_DAMPING = 0.99  # training: stands in for floor friction (a pushed goal slides ~0.2 m)
-
-
-class WorldError(RuntimeError):
-    """Misuse of the world (wrong number of commands, stepping before reset, ...)."""
 
 
 class World:

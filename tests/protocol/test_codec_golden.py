@@ -10,7 +10,8 @@ from typing import Any
 import pytest
 
 from protocol import framing, messages
-from protocol.framing import ErrorKind, LinkError, Received
+from protocol.errors import ErrorKind
+from protocol.framing import LinkError, Received
 from protocol.generate import GOLDEN_VECTORS, golden_cpp, outputs, stale
 from protocol.schema import load_schema
 

@@ -16,7 +16,8 @@ from typing import Any
 import pytest
 
 from protocol import framing
-from protocol.framing import DownlinkDecoder, ErrorKind, FrameError, Received
+from protocol.errors import ErrorKind, FrameError
+from protocol.framing import DownlinkDecoder, Received
 from protocol.messages import (
     FINGERPRINT,
     Alliance,

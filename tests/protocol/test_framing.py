@@ -8,15 +8,13 @@ import struct
 import pytest
 
 from protocol import framing
+from protocol.errors import ErrorKind, FingerprintMismatch, FrameError
 from protocol.framing import (
     MAX_LINE,
     MAX_TEXT_LINE,
     MAX_UPLINK_FRAME,
     DownlinkDecoder,
-    ErrorKind,
     Event,
-    FingerprintMismatch,
-    FrameError,
     LinkError,
     Received,
     TextLine,

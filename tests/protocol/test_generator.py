@@ -20,7 +20,8 @@ from typing import Any
 import pytest
 
 from protocol import framing
-from protocol.framing import ErrorKind, FrameError, Received
+from protocol.errors import ErrorKind, FrameError
+from protocol.framing import Received
 from protocol.gen_cpp import generate_cpp
 from protocol.gen_python import generate_python
 from protocol.schema import PRIMITIVES, FieldDef, MessageDef, Schema, load_schema

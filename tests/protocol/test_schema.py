@@ -11,14 +11,8 @@ from typing import Any
 import pytest
 
 from protocol import messages
-from protocol.schema import (
-    DEFAULT_SCHEMA,
-    MAX_BODY,
-    SchemaError,
-    canonical_text,
-    load_schema,
-    parse_schema,
-)
+from protocol.errors import SchemaError
+from protocol.schema import DEFAULT_SCHEMA, MAX_BODY, canonical_text, load_schema, parse_schema
 
 Raw = dict[str, Any]
 

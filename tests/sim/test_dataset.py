@@ -15,8 +15,8 @@ from jetson.autonomy.camera import CameraMount
 from jetson.perception.dataset import RingDataset
 from sim.camera import rgb_to_hsv_opencv
 from sim.cli import main
-from sim.config import ConfigError
 from sim.dataset import DatasetConfig, iter_samples, write_dataset
+from sim.errors import ConfigError
 
 CFG = DatasetConfig(frames=4, seed=11, width=160, height=120)
 

@@ -13,7 +13,7 @@ from PIL import Image
 
 import sim.env
 from jetson.autonomy.geometry import INCH
-from sim.config import ConfigError
+from sim.errors import ConfigError
 from sim.match import REWARD_COMPONENTS, EnvConfig, MatchCore, make_config
 from sim.parallel_env import parallel_env
 from sim.world.state import DriveCommand

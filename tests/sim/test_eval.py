@@ -12,7 +12,8 @@ from PIL import Image
 
 from sim.baselines.planner import Planner
 from sim.cli import main
-from sim.evaluate import EvalError, evaluate, load_player, mean_ci, wilson
+from sim.errors import EvalError
+from sim.evaluate import evaluate, load_player, mean_ci, wilson
 from sim.training.config import parse_config
 from sim.training.trainer import train
 

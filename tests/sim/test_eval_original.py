@@ -19,11 +19,11 @@ from sim.baselines.original import (
     CUBE_M,
     SPEED_MPS,
     TURN_RAD_S,
-    OriginalPolicyError,
     looks_like_original,
     observe,
     original_observation,
 )
+from sim.errors import OriginalPolicyError
 from sim.match import MatchCore, make_config
 from sim.world import sensors
 

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from jetson.autonomy.geometry import INCH
-from sim.field import FieldError, load_field, parse_field, resolve_field_path
+from sim.errors import FieldError
+from sim.field import load_field, parse_field, resolve_field_path
 
 
 def test_tipping_point_counts_and_units() -> None:

@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 from jetson.autonomy.geometry import box_corners, field_to_robot
-from sim.config import ConfigError, WorldConfig
+from sim.config import WorldConfig
+from sim.errors import ConfigError, WorldError
 from sim.world import rules, sensors
-from sim.world.physics import World, WorldError
+from sim.world.physics import World
 from sim.world.state import RING_FLOOR, RING_HELD, RING_SCORED, DriveCommand
 
 

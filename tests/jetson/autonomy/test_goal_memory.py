@@ -139,7 +139,7 @@ def test_the_simulator_fills_the_layout_reports_the_clamp_and_rewards_it() -> No
 
 def test_goal_start_share_puts_the_robots_back_to_one_of_its_goals() -> None:
     pytest.importorskip("pybullet")
-    from sim.config import ConfigError
+    from sim.errors import ConfigError
     from sim.match import MatchCore, make_config
 
     with pytest.raises(ConfigError, match="goal_start_share"):
@@ -163,7 +163,7 @@ def test_goal_start_share_puts_the_robots_back_to_one_of_its_goals() -> None:
 
 def test_midgame_start_share_starts_part_way_into_a_match() -> None:
     pytest.importorskip("pybullet")
-    from sim.config import ConfigError
+    from sim.errors import ConfigError
     from sim.match import MatchCore, make_config
     from sim.world.state import RING_FLOOR, RING_HELD, DriveCommand
 

@@ -73,7 +73,7 @@ def test_the_route_plans_a_full_intake_when_the_intake_never_fills() -> None:
 
 def test_uncapped_share_gives_matches_whose_intakes_never_fill() -> None:
     pytest.importorskip("pybullet")
-    from sim.config import ConfigError
+    from sim.errors import ConfigError
     from sim.match import MatchCore, make_config
 
     with pytest.raises(ConfigError, match="uncapped_share"):
@@ -101,7 +101,7 @@ def test_uncapped_share_gives_matches_whose_intakes_never_fill() -> None:
 
 def test_uncapped_matches_take_their_own_reward() -> None:
     pytest.importorskip("pybullet")
-    from sim.config import ConfigError
+    from sim.errors import ConfigError
     from sim.match import MatchCore, make_config
     from sim.world.state import DriveCommand
 

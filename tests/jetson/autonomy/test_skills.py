@@ -11,7 +11,7 @@ import pytest
 from jetson.autonomy.observation import RobotView, build_frame
 from jetson.autonomy.skills import SkillConfig, SkillDriver, skill_config_from_dict
 from jetson.autonomy.spec import ObservationSpec
-from sim.config import ConfigError
+from sim.errors import ConfigError
 from sim.evaluate import eval_env, make_cores, play_match
 from sim.match import EnvConfig, make_config
 from sim.players import IdlePlayer, PolicyPlayer

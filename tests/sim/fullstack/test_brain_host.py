@@ -22,13 +22,8 @@ from protocol.messages import (
     Role,
     State,
 )
-from sim.fullstack.brain_host import (
-    DEFAULT_BINARY,
-    BrainHost,
-    BrainHostError,
-    BrainReport,
-    find_binary,
-)
+from sim.errors import BrainHostError
+from sim.fullstack.brain_host import DEFAULT_BINARY, BrainHost, BrainReport, find_binary
 
 pytestmark = pytest.mark.skipif(
     not DEFAULT_BINARY.exists(), reason="brain_host is not built: run `make build` first"

@@ -26,7 +26,8 @@ from protocol.messages import (
     Role,
     State,
 )
-from sim.fullstack.cable import Cable, CableError
+from sim.errors import CableError
+from sim.fullstack.cable import Cable
 
 
 class FakeBrainPort:

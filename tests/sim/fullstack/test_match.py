@@ -16,8 +16,9 @@ import numpy as np
 import pytest
 
 from sim import cli
+from sim.errors import MatchError
 from sim.fullstack.brain_host import DEFAULT_BINARY
-from sim.fullstack.options import MatchError, MatchOptions
+from sim.fullstack.options import MatchOptions
 from sim.fullstack.runner import run_match
 
 pytestmark = pytest.mark.skipif(

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from sim.config import ConfigError
+from sim.errors import ConfigError
 from sim.training.config import CONFIG_DIR, load_config, parse_config
 
 

@@ -215,7 +215,7 @@ def test_the_route_teacher_advises_the_route_skill_from_the_learners_own_observa
     import numpy as np
 
     from jetson.autonomy.skills import SkillConfig
-    from sim.config import ConfigError
+    from sim.errors import ConfigError
     from sim.match import make_config
     from sim.training.rollout import RolloutConfig, VecMatches, _Slot
 
@@ -252,7 +252,7 @@ def test_the_route_teacher_advises_the_route_skill_from_the_learners_own_observa
 
 
 def test_imitation_config_is_checked_and_its_weight_falls_to_zero() -> None:
-    from sim.config import ConfigError
+    from sim.errors import ConfigError
 
     data = {**EASY, "imitation": {"teacher": "planner", "coef": 2.0, "until_step": 1000}}
     im = parse_config(data).imitation
@@ -270,7 +270,7 @@ def test_imitation_config_is_checked_and_its_weight_falls_to_zero() -> None:
 
 
 def test_the_teacher_can_stay_longer_in_uncapped_matches() -> None:
-    from sim.config import ConfigError
+    from sim.errors import ConfigError
 
     kept = {"teacher": "planner", "coef": 2.0, "until_step": 1000, "uncapped_until_step": 0}
     im = parse_config({**EASY, "imitation": kept}).imitation
