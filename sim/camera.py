@@ -54,10 +54,6 @@ class CameraFrame:
     time_s: float
 
 
-def intrinsics(cam: CameraConfig) -> np.ndarray:
-    return np.array([[cam.fx, 0.0, cam.cx], [0.0, cam.fy, cam.cy], [0.0, 0.0, 1.0]])
-
-
 def projection_matrix(cam: CameraConfig) -> list[float]:
     """OpenGL projection equal to the pinhole model with these intrinsics.
 
@@ -116,7 +112,9 @@ def render_camera(world: World, index: int, cam: CameraConfig | None = None) -> 
     ring_ids[valid] = ring_lut[seg[valid]]
     vis = sensors.visible_rings(world, index)
     xy = field_to_robot(world.ring_xy[vis], robot.xy, robot.heading)
-    return CameraFrame(rgb, depth, labels, ring_ids, intrinsics(cam), pose, vis, xy, world.time_s)
+    return CameraFrame(
+        rgb, depth, labels, ring_ids, cam.intrinsics.matrix, pose, vis, xy, world.time_s
+    )
 
 
 def rgb_to_hsv_opencv(rgb: np.ndarray) -> np.ndarray:

@@ -12,6 +12,7 @@ from dataclasses import dataclass, fields, is_dataclass, replace
 from dataclasses import field as dc_field
 from typing import Any, Literal, TypeVar
 
+from jetson.autonomy.camera import CameraMount, Intrinsics
 from jetson.autonomy.geometry import INCH
 from sim.errors import ConfigError
 
@@ -64,18 +65,20 @@ class CameraConfig:
         if self.far_m <= self.near_m:
             raise ConfigError("camera far_m must exceed near_m")
 
+    @property
+    def intrinsics(self) -> Intrinsics:
+        """The pinhole model, as the robot's camera model (jetson.autonomy.camera) holds it."""
+        return Intrinsics(self.width, self.height, self.fx, self.fy, self.cx, self.cy)
+
+    @property
+    def mount(self) -> CameraMount:
+        """Where the camera sits on the robot, as jetson.autonomy.camera holds it."""
+        return CameraMount(self.forward_m, self.right_m, self.height_m, self.tilt_deg)
+
     def scaled(self, width: int, height: int) -> CameraConfig:
-        """The same camera at another resolution (intrinsics scale with the image)."""
-        sx, sy = width / self.width, height / self.height
-        return replace(
-            self,
-            width=width,
-            height=height,
-            fx=self.fx * sx,
-            fy=self.fy * sy,
-            cx=self.cx * sx,
-            cy=self.cy * sy,
-        )
+        """The same camera at another resolution (Intrinsics.scaled: they scale with the image)."""
+        k = self.intrinsics.scaled(width, height)
+        return replace(self, width=k.width, height=k.height, fx=k.fx, fy=k.fy, cx=k.cx, cy=k.cy)
 
     @property
     def hfov_deg(self) -> float:

@@ -192,11 +192,7 @@ def with_prior(spec: ObservationSpec, world: World) -> ObservationSpec:
 
 def memory_camera(cam: CameraConfig, ring_z_m: float) -> MemoryCamera:
     """What the ring memory needs of a simulated robot's camera (memory_view "camera")."""
-    return MemoryCamera(
-        fx=cam.fx, fy=cam.fy, cx=cam.cx, cy=cam.cy, width=cam.width, height=cam.height,
-        forward_m=cam.forward_m, right_m=cam.right_m, height_m=cam.height_m,
-        tilt_deg=cam.tilt_deg, near_m=cam.near_m, ring_z_m=ring_z_m,
-    )  # fmt: skip
+    return MemoryCamera.from_model(cam.intrinsics, cam.mount, near_m=cam.near_m, ring_z_m=ring_z_m)
 
 
 @dataclass

@@ -260,7 +260,6 @@ class FullStackMatch:
         return report.last_step_ms - PREROLL_MS
 
     def _setup(self, tmp: Path, realtime: bool) -> None:
-        from jetson.autonomy.camera import CameraMount, Intrinsics
         from jetson.clock import ManualClock, MonotonicClock
         from jetson.perception.camera import CameraConfig as JetsonCamera
         from sim.errors import BrainHostError, DaemonError
@@ -321,10 +320,7 @@ class FullStackMatch:
             self.server = FrameStreamServer(frames_address)
             c = self.cam_cfg
             camera_file = self.folder / "camera.json"
-            JetsonCamera(
-                Intrinsics(c.width, c.height, c.fx, c.fy, c.cx, c.cy),
-                CameraMount(c.forward_m, c.right_m, c.height_m, c.tilt_deg),
-            ).save(camera_file)
+            JetsonCamera(c.intrinsics, c.mount).save(camera_file)
         kind, model = o.detector_choice()
         self.detector = kind
         jopts = DaemonOptions(
@@ -463,7 +459,6 @@ class FullStackMatch:
         return self.opp_command
 
     def _send_frame(self, stamp_s: float) -> None:
-        from jetson.autonomy.camera import Intrinsics
         from jetson.perception.frame import Frame
         from sim.camera import render_camera
 
@@ -474,7 +469,7 @@ class FullStackMatch:
         frame = Frame(
             np.ascontiguousarray(f.rgb[:, :, ::-1]),
             f.depth,
-            Intrinsics(c.width, c.height, c.fx, c.fy, c.cx, c.cy),
+            c.intrinsics,
             stamp_s,
             k,
         )
