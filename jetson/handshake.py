@@ -18,7 +18,8 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 from protocol import messages
-from protocol.framing import FingerprintMismatch, check_hello
+from protocol.errors import FingerprintMismatch
+from protocol.framing import check_hello
 from protocol.messages import Hello, Role
 
 

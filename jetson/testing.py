@@ -47,6 +47,34 @@ from protocol.messages import (
 StateMaker = Callable[[int, float], dict[str, Any]]  # (state seq, seconds since start) -> fields
 
 
+def plug_pty(link: Path | None) -> tuple[int, int, str]:
+    """A raw pty, as a V5 Brain's CDC ACM port behaves (no echo, no CR/LF translation), with its
+    master end non-blocking and `link` (when given) swapped atomically to point at it, as the udev
+    rule's stable name points at a real port. Returns (master, slave, the pty's path)."""
+    master, slave = pty.openpty()
+    tty.setraw(slave)
+    os.set_blocking(master, False)
+    name = os.ttyname(slave)
+    if link is not None:
+        tmp = link.with_name(link.name + ".new")
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+        tmp.symlink_to(name)
+        os.replace(tmp, link)
+    return master, slave, name
+
+
+def unplug_pty(link: Path | None, *fds: int | None) -> None:
+    """The cable pulled: `link` removed and the pty's ends closed (whatever is already gone)."""
+    if link is not None:
+        with contextlib.suppress(FileNotFoundError):
+            link.unlink()
+    for fd in fds:
+        if fd is not None:
+            with contextlib.suppress(OSError):
+                os.close(fd)
+
+
 def default_state(seq: int, t: float) -> dict[str, Any]:
     """A robot in autonomous moving slowly; x encodes seq so an answer shows which State it
     answered (x = seq mm, within the field for 1800 States)."""
@@ -111,21 +139,11 @@ class FakeBrain:
 
     def open(self) -> str:
         """A new pty (and the symlink pointed at it): the Brain plugged in."""
-        master, slave = pty.openpty()
-        tty.setraw(slave)  # no echo, no CR/LF translation: what a CDC ACM port gives
-        os.set_blocking(master, False)
-        self._master, self._slave = master, slave
-        self.pty_path = os.ttyname(slave)
+        self._master, self._slave, self.pty_path = plug_pty(self.link_path)
         self.decoder = DownlinkDecoder()
         self.connected = False
         self.mismatch = False
         self._next_hello = 0.0
-        if self.link_path is not None:
-            tmp = self.link_path.with_name(self.link_path.name + ".new")
-            with contextlib.suppress(FileNotFoundError):
-                tmp.unlink()
-            tmp.symlink_to(self.pty_path)
-            os.replace(tmp, self.link_path)
         self.appeared_at = time.monotonic()
         self.first_hello_after_appearing = None
         return self.pty_path
@@ -137,13 +155,7 @@ class FakeBrain:
     def vanish(self) -> None:
         """Close the pty and remove the symlink: the cable pulled, the Brain powered off."""
         with self._lock:
-            if self.link_path is not None:
-                with contextlib.suppress(FileNotFoundError):
-                    self.link_path.unlink()
-            for fd in (self._master, self._slave):
-                if fd is not None:
-                    with contextlib.suppress(OSError):
-                        os.close(fd)
+            unplug_pty(self.link_path, self._master, self._slave)
             self._master = self._slave = None
             self.connected = False
 

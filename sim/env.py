@@ -8,7 +8,8 @@
 
 Observation: jetson.autonomy.spec's stacked vector (float32, ObservationSpec in `env.spec_obs`).
 Action: [linear, angular] in [-1, 1] (scaled to the robot's limits; angular > 0 turns clockwise),
-plus [intake] / [clamp] when configured; with `skills`, one score per skill (sim/skills.py).
+plus [intake] / [clamp] when configured; with `skills`, one score per skill
+(jetson/autonomy/skills.py).
 Reward: the sum of the weighted components; each component is in info["reward_components"] (this
 step) and info["episode_reward_components"].
 The episode terminates when the match ends (or on a pin, when end_on_pin) and is truncated at

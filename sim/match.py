@@ -58,13 +58,14 @@ class EnvConfig:
     with its back to one of its alliance's goals (clamp point 0.05-0.5 m from it, +-30 deg),
     so that a policy discovers the clamp, which an untrained robot driving forward never backs
     into. midgame_start_share is another: the share of episodes that start as the middle of a
-    match, where a learned policy loses most to the planner (sim/TRAINING.md, "Where the planner
-    still wins"): a random 20-60 % of the floor rings gone, each robot holding some of them
-    (up to a full intake) with its back to one of its goals. uncapped_share is the share of
-    episodes in which every robot's intake never fills (the uncapped scenario's robots), so
-    that a policy whose observation says whether its intake fills (spec intake_flag) learns
-    both games; uncapped_reward (RewardConfig keys) overrides the reward in those matches, for
-    the uncapped task is ring collection ("every ring collected counts"), not the goal game.
+    match, where a learned policy loses most to the planner
+    (docs/notes/2026-11-22-training-skills.md, "Where the planner still wins"): a random 20-60 % of
+    the floor rings gone, each robot holding some of them (up to a full intake) with its back to one
+    of its goals. uncapped_share is the share of episodes in which every robot's intake never fills
+    (the uncapped scenario's robots), so that a policy whose observation says whether its intake
+    fills (spec intake_flag) learns both games; uncapped_reward (RewardConfig keys) overrides the
+    reward in those matches, for the uncapped task is ring collection ("every ring collected
+    counts"), not the goal game.
     """
 
     world: WorldConfig = field(default_factory=WorldConfig)
@@ -75,7 +76,8 @@ class EnvConfig:
     end_on_pin: bool = True
     action_intake: bool = False
     action_clamp: bool = False
-    # A skill action space (sim/skills.py): one score per option, a controller drives the best.
+    # A skill action space (jetson/autonomy/skills.py): one score per option, a controller
+    # drives the best.
     skills: SkillConfig | None = None
     max_steps: int | None = None
     goal_start_share: float = 0.0

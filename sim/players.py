@@ -76,7 +76,7 @@ class ScriptedPlayer:
 
 class PolicyPlayer:
     """A policy that maps the stacked observation to an action in [-1, 1]^n, or, with
-    `skills`, to one score per skill that its own controller drives (sim/skills.py)."""
+    `skills`, to one score per skill that its own controller drives (jetson/autonomy/skills.py)."""
 
     def __init__(self, fn: ActionFn, name: str = "policy", skills: SkillConfig | None = None):
         self.fn = fn

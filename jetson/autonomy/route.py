@@ -1,7 +1,7 @@
 """Which rings are worth the trip: a short open tour over the rings a robot knows about.
 
-Shared by the planner (sim/planner.py), which drives it, and the observation's route slots
-(sim/observation.py, `route_slots`), which show a policy the same choice. numpy only: the Jetson
+Shared by the planner (sim/baselines/planner.py), which drives it, and the observation's route slots
+(ring_memory.py, `route_slots`), which show a policy the same choice. numpy only: the Jetson
 builds the observation.
 
 The tour: each of the `candidates` cheapest rings (distance plus a cost per radian the robot

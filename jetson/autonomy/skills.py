@@ -6,14 +6,14 @@ controller needs nothing the policy does not see (numpy only: the Jetson runs it
 policy, from the same observation):
 
     route       drive onto the first stop of the route slots (the planner's tour over the
-                rings the memory knows, sim/route.py), with `route_option`;
+                rings the memory knows, jetson/autonomy/route.py), with `route_option`;
     ring k      drive onto the ring in ring slot k (nearest first) with pure pursuit;
     goal j      back onto the goal in goal slot j until the clamp takes it;
     platform    drive onto the alliance's platform and stop there.
 
 An empty slot makes its option a slow turn in place (looking for something). Control follows
-sim.planner: targets far off the nose are turned to in place, a target beside the bumper is
-backed away from, a robot that stops moving while driving backs off.
+sim.baselines.planner: targets far off the nose are turned to in place, a target beside the
+bumper is backed away from, a robot that stops moving while driving backs off.
 """
 
 from __future__ import annotations
@@ -348,9 +348,9 @@ def option_for(
     config: SkillConfig,
     match_m: float = 0.3,
 ) -> int | None:
-    """The option that does what a planner intends (sim.planner.Planner.intent, its point in the
-    robot frame): the ring or goal slot nearest its target, or the platform; None when no option
-    does it (a target outside the slots, backing off, searching)."""
+    """The option that does what a planner intends (sim.baselines.planner.Planner.intent, its
+    point in the robot frame): the ring or goal slot nearest its target, or the platform; None
+    when no option does it (a target outside the slots, backing off, searching)."""
     f = np.asarray(obs, dtype=np.float64)[: spec.frame_size]
     unit = spec.length_unit_m
     if kind == "home":

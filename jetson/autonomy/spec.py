@@ -123,7 +123,7 @@ class ObservationSpec:
     goal_clamp_offset_m: float = 0.0
     goal_forget_m: float = 0.3
     # Version 4: the route slots. The first `route_slots` stops of the tour the planner would
-    # drive over the rings the memory knows (sim/route.py), in tour order, between the goal and
+    # drive over the rings the memory knows (route.py), in tour order, between the goal and
     # the ring slots: which rings are worth the trip, not only which are near. The tour has as
     # many stops as ring_capacity_norm minus the rings held (at least one), the intake's room.
     route_slots: int = 0

@@ -3,8 +3,9 @@
     spec = load_field("tipping_point")        # a file shipped in sim/field/
     spec = load_field("path/to/my_field.toml")
 
-Everything returned is in the GPS field frame (sim/geometry.py), in metres and degrees. Bad files
-raise FieldError naming the file and the key at fault. Only numpy and the standard library here.
+Everything returned is in the GPS field frame (jetson/autonomy/geometry.py), in metres and
+degrees. Bad files raise FieldError naming the file and the key at fault. Only numpy and the
+standard library here.
 """
 
 from __future__ import annotations

@@ -21,11 +21,9 @@ from __future__ import annotations
 
 import contextlib
 import os
-import pty
 import select
 import threading
 import time
-import tty
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from jetson.testing import plug_pty, unplug_pty
 from protocol.framing import DownlinkDecoder, Received, UplinkDecoder
 from sim.errors import CableError
 
@@ -226,16 +225,7 @@ class Cable:
     def _plug_in(self) -> str:
         if self._master is not None:
             raise CableError("the cable is already plugged in")
-        master, slave = pty.openpty()
-        tty.setraw(slave)  # what a CDC ACM port gives: no echo, no CR/LF translation
-        os.set_blocking(master, False)
-        self._master, self._slave = master, slave
-        name = os.ttyname(slave)
-        tmp = self.port_path.with_name(self.port_path.name + ".new")
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
-        tmp.symlink_to(name)
-        os.replace(tmp, self.port_path)
+        self._master, self._slave, name = plug_pty(self.port_path)
         self._conn_down_read = 0
         self._conn_up_delivered = 0
         self.plugs += 1
@@ -248,12 +238,7 @@ class Cable:
             self._unplug()
 
     def _unplug(self) -> None:
-        with contextlib.suppress(FileNotFoundError):
-            self.port_path.unlink()
-        for fd in (self._master, self._slave):
-            if fd is not None:
-                with contextlib.suppress(OSError):
-                    os.close(fd)
+        unplug_pty(self.port_path, self._master, self._slave)
         self._master = self._slave = None
         # The Brain's decoder sees a frame cut off mid-way at worst; it resynchronises itself.
 

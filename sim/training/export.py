@@ -63,7 +63,7 @@ def action_scale(env: EnvConfig) -> dict[str, Any]:
         return {
             "names": skills.option_names(),
             "scale": [1.0] * n,
-            "units": ["score: the highest option is driven (sim/skills.py)"] * n,
+            "units": ["score: the highest option is driven (jetson/autonomy/skills.py)"] * n,
             "range": [-1.0, 1.0],
             "skills": asdict(skills),
         }

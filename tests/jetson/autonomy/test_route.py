@@ -1,4 +1,5 @@
-"""The tour over known rings (sim/route.py) and the observation's route slots built from it."""
+"""The tour over known rings (jetson/autonomy/route.py) and the observation's route slots built
+from it."""
 
 from __future__ import annotations
 

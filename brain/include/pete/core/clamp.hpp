@@ -1,5 +1,5 @@
 // The mobile-goal clamp on the robot's back, run the way the simulator's auto clamp behaves
-// (sim/world.py, WorldConfig.auto_clamp): nobody commands it in a match.
+// (sim/world/physics.py, WorldConfig.auto_clamp): nobody commands it in a match.
 //
 //   - While the robot is enabled (autonomous or driver control) and the sensor at the back says a
 //     goal is there (for ClampConfig::confirm_ms without a break), an open clamp closes.
