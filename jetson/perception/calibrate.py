@@ -64,6 +64,29 @@ def board_points(board: tuple[int, int], square_m: float) -> NDArray[np.float32]
     return np.c_[grid * np.float32(square_m), np.zeros(len(grid), np.float32)]
 
 
+def as_points(points: NDArray[np.floating], what: str) -> NDArray[np.float64]:
+    """OpenCV's point arrays, (N, 1, 2) or (N, 2) depending on the function and the version,
+    as (N, 2)."""
+    arr = np.asarray(points, dtype=np.float64)
+    if arr.ndim not in (2, 3) or arr.shape[-1] != 2 or (arr.ndim == 3 and arr.shape[1] != 1):
+        raise CalibrationError(f"{what}: expected (N, 2) or (N, 1, 2) points, got {arr.shape}")
+    return arr.reshape(-1, 2)
+
+
+def reprojection_rms(projected: NDArray[np.floating], detected: NDArray[np.floating]) -> float:
+    """The RMS distance, in pixels, between each corner's projection and its detection: one
+    image's own error. Both arrays are taken to (N, 2) first, so that OpenCV's (N, 1, 2) and
+    (N, 2) never broadcast into an N x N table of every pair."""
+    proj = as_points(projected, "projected corners")
+    seen = as_points(detected, "detected corners")
+    if proj.shape != seen.shape:
+        raise CalibrationError(
+            f"{len(proj)} projected corners against {len(seen)} detected ones: the board's "
+            "corner count differs between the two"
+        )
+    return float(np.sqrt(np.mean(np.sum((proj - seen) ** 2, axis=1))))
+
+
 def find_corners(gray: NDArray[np.uint8], board: tuple[int, int]) -> NDArray[np.float32] | None:
     flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE
     found, corners = cv2.findChessboardCorners(gray, board, flags=flags)
@@ -116,7 +139,7 @@ def calibrate_images(paths: list[Path], board: tuple[int, int], square_m: float)
     per_image = {}
     for name, op, ip, rv, tv in zip(names, object_points, image_points, rvecs, tvecs, strict=True):
         proj, _ = cv2.projectPoints(op, rv, tv, k, dist)
-        per_image[name] = float(np.sqrt(np.mean(np.sum((proj - ip) ** 2, axis=-1))))
+        per_image[name] = reprojection_rms(proj, ip)
     d = tuple(float(v) for v in np.ravel(dist)[:5])
     intr = Intrinsics(
         size[0], size[1], float(k[0, 0]), float(k[1, 1]), float(k[0, 2]), float(k[1, 2]), d

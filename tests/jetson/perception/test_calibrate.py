@@ -11,7 +11,13 @@ import pytest
 
 from jetson.cli import main
 from jetson.errors import CalibrationError
-from jetson.perception.calibrate import board_points, calibrate_folder, parse_board
+from jetson.perception import calibrate
+from jetson.perception.calibrate import (
+    board_points,
+    calibrate_folder,
+    parse_board,
+    reprojection_rms,
+)
 
 BOARD = (9, 6)  # inner corners
 SQUARE_M = 0.025
@@ -35,7 +41,11 @@ def board_texture() -> tuple[np.ndarray, float]:
     return tex, margin + sq
 
 
-def render_views(folder: Path, n: int = 8, seed: int = 0) -> None:
+def render_views(
+    folder: Path, n: int = 8, seed: int = 0
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Write n views of the board; returns each file's true pose (rotation, translation)."""
+    poses = {}
     rng = np.random.default_rng(seed)
     tex, origin = board_texture()
     texture_to_board = np.array(
@@ -56,6 +66,8 @@ def render_views(folder: Path, n: int = 8, seed: int = 0) -> None:
         img = cv2.GaussianBlur(img, (0, 0), 0.7)
         noisy = img + rng.normal(0, 2.0, img.shape)
         cv2.imwrite(str(folder / f"view{k:02d}.png"), np.clip(noisy, 0, 255).astype(np.uint8))
+        poses[f"view{k:02d}.png"] = (rot, t)
+    return poses
 
 
 def test_calibration_recovers_a_known_camera_within_one_percent(tmp_path: Path) -> None:
@@ -68,6 +80,68 @@ def test_calibration_recovers_a_known_camera_within_one_percent(tmp_path: Path) 
     assert cal.rms_px < 0.5
     assert cal.skipped == ["blank.png"]
     assert len(cal.per_image_rms_px) == 8
+
+
+def true_corners(rot: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Where the inner corners really are in a view: the rendering camera's projection, (N, 2)."""
+    cam = board_points(BOARD, SQUARE_M).astype(np.float64) @ rot.T + t
+    uvw = cam @ TRUE_K.T
+    return uvw[:, :2] / uvw[:, 2:]
+
+
+@pytest.mark.parametrize("shape", ["N,2", "N,1,2"])
+def test_each_image_reports_its_own_error_and_a_perturbed_one_is_named_worst(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, shape: str
+) -> None:
+    """One view's corner detections are moved by a non-rigid pattern (alternate corners
+    +-1.5 px along x and y, which no pose can absorb): that view is named worst, with an error
+    close to its true one, measured against the rendering camera; the others stay sharp. Both
+    shapes OpenCV returns corners in are tried (OpenCV 5 gives (N, 2))."""
+    poses = render_views(tmp_path / "views", n=8, seed=2)
+    bad = "view05.png"
+    bad_gray = cv2.imread(str(tmp_path / "views" / bad), cv2.IMREAD_GRAYSCALE)
+    cols, rows = BOARD
+    c, r = np.meshgrid(np.arange(cols), np.arange(rows))  # row by row, as OpenCV orders them
+    sign = np.where((c + r).ravel() % 2 == 0, 1.0, -1.0)
+    shift = 1.5 * np.c_[sign, np.where(c.ravel() % 2 == 0, 1.0, -1.0)]
+    moved: list[np.ndarray] = []
+    real = calibrate.find_corners
+
+    def find(gray: np.ndarray, board: tuple[int, int]) -> np.ndarray | None:
+        corners = real(gray, board)
+        if corners is None:
+            return None
+        pts = corners.reshape(-1, 2).astype(np.float64)
+        if np.array_equal(gray, bad_gray):
+            pts = pts + shift
+            moved.append(pts)
+        out = pts.astype(np.float32)
+        return out if shape == "N,2" else out.reshape(-1, 1, 2)
+
+    monkeypatch.setattr(calibrate, "find_corners", find)
+    cal = calibrate_folder(tmp_path / "views", BOARD, SQUARE_M)
+    assert len(moved) == 1, "the perturbed view was read once"
+    true_error = reprojection_rms(true_corners(*poses[bad]), moved[0])
+    assert 2.0 < true_error < 2.3, "sqrt(1.5**2 + 1.5**2) plus the detector's own error"
+    errors = cal.per_image_rms_px
+    assert cal.summary()["worst_image"] == bad
+    assert errors[bad] == pytest.approx(true_error, rel=0.1)
+    assert all(e < 0.5 for name, e in errors.items() if name != bad), errors
+    # The overall RMS is the per-image errors pooled (every view has the same corners).
+    pooled = float(np.sqrt(np.mean(np.square(list(errors.values())))))
+    assert cal.rms_px == pytest.approx(pooled, rel=1e-3)
+
+
+def test_reprojection_error_takes_both_point_shapes_and_names_a_count_mismatch() -> None:
+    a = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]])
+    b = a + np.array([[3.0, 4.0], [0.0, 0.0], [0.0, 0.0]])
+    want = np.sqrt(25 / 3)
+    assert reprojection_rms(a.reshape(-1, 1, 2), b) == pytest.approx(want)
+    assert reprojection_rms(a, b.reshape(-1, 1, 2)) == pytest.approx(want)
+    with pytest.raises(CalibrationError, match="3 projected corners against 2 detected"):
+        reprojection_rms(a, b[:2])
+    with pytest.raises(CalibrationError, match=r"expected \(N, 2\) or \(N, 1, 2\)"):
+        reprojection_rms(a.reshape(1, 3, 2), b)
 
 
 def test_board_points_follow_opencvs_order() -> None:
