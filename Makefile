@@ -61,9 +61,13 @@ build: system-deps  ## configure and build the C++ host tree (tests run under AS
 generate: venv  ## rewrite the generated codecs from protocol/schema.toml
 	$(BIN)/pete-protocol generate
 
-check: venv  ## lint, format check and generated-file check (codecs, RESULTS.md)
+# The Jetson side runs on Python 3.10 (JetPack 6); CI has 3.11 only, so vermin checks it statically.
+JETSON_SIDE := protocol jetson
+
+check: venv  ## lint, format check, Python 3.10 check of the Jetson side, generated-file check
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	$(BIN)/vermin --quiet --target=3.10- --no-tips --violations --eval-annotations $(JETSON_SIDE)
 	$(BIN)/pete-protocol check
 	$(BIN)/python -m bench.report --check
 

@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import types
 from dataclasses import dataclass
-from enum import StrEnum
 
 from protocol import messages
+from protocol.compat import StrEnum
 from protocol.errors import FingerprintMismatch
 from protocol.framing import check_hello
 from protocol.messages import Hello, Role

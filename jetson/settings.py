@@ -8,12 +8,12 @@ Standard library only: `pete-jetson --help` must not load numpy, OpenCV or the s
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
 from jetson.errors import SettingsError
+from protocol.compat import tomllib
 
 PHASES = ("disabled", "autonomous", "driver")
 DEFAULT_POLICY = Path(__file__).resolve().parent.parent / "models" / "policy" / "policy.onnx"

@@ -7,7 +7,7 @@ or frame, RuntimeError for a refused peer or a failed demonstration), so `except
 
 from __future__ import annotations
 
-from enum import StrEnum
+from protocol.compat import StrEnum
 
 
 class ProtocolError(Exception):

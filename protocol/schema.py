@@ -7,11 +7,11 @@ once, with an error naming the message and field, before any code is written.
 from __future__ import annotations
 
 import re
-import tomllib
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
+from protocol.compat import tomllib
 from protocol.errors import SchemaError
 
 DEFAULT_SCHEMA = Path(__file__).with_name("schema.toml")

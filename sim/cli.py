@@ -333,9 +333,32 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+# What only the sim extra installs (import names): a command that misses one says so.
+_SIM_EXTRA = {"pybullet", "gymnasium", "pettingzoo", "torch", "tensorboard", "tqdm", "matplotlib",
+              "PIL", "onnx"}  # fmt: skip
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return args.func(args)
+    if sys.version_info < (3, 11) and args.func is not _cmd_versions:
+        print(
+            f"pete-sim: the simulator needs Python 3.11 or newer (this is "
+            f"{sys.version_info.major}.{sys.version_info.minor}); the Jetson side (pete-jetson) "
+            "runs on 3.10",
+            file=sys.stderr,
+        )
+        return 2
+    try:
+        return args.func(args)
+    except ModuleNotFoundError as exc:
+        if (exc.name or "").split(".")[0] not in _SIM_EXTRA:
+            raise
+        print(
+            f"pete-sim: {exc.name} is not installed: the simulator needs the sim extra "
+            "(pip install '.[sim]' in a checkout, or pip install 'pacman-pete[sim]')",
+            file=sys.stderr,
+        )
+        return 2
 
 
 if __name__ == "__main__":
