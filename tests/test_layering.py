@@ -34,7 +34,7 @@ RULES: dict[str, tuple[str, ...]] = {
 
 # package prefix -> outside libraries allowed at module level (None: any)
 THIRD_PARTY: dict[str, tuple[str, ...] | None] = {
-    "protocol": ("numpy", "cobs"),
+    "protocol": ("numpy", "cobs", "tomli"),  # tomli: tomllib on Python 3.10 (protocol.compat)
     "jetson": None,
     "jetson.autonomy": ("numpy",),
     "sim": None,
