@@ -2,8 +2,8 @@
 
     python -m bench.daemon [--cycles 10000] [--rate 250] [--policy PATH] [--nice N] [--strict]
 
-The daemon runs in its own process, as on the robot, with the policy (models/policy/ when it is
-shipped, else a stand-in of the same shape: 396 -> 128 -> 128 -> 2) and a perception result
+The daemon runs in its own process, as on the robot, with the policy (jetson/models/policy/ when it
+is shipped, else a stand-in of the same shape: 396 -> 128 -> 128 -> 2) and a perception result
 always ready (6 rings). This process plays the Brain (jetson.testing.FakeBrain) on the pty's
 other end: it writes a State, waits for the Command, and times the round trip; the daemon times
 its own part (State bytes read -> Command bytes written) and records it per cycle. States go at
@@ -33,9 +33,8 @@ from pathlib import Path
 from typing import Any
 
 from bench.common import Result
+from jetson.models import DEFAULT_POLICY as SHIPPED_POLICY
 
-ROOT = Path(__file__).resolve().parent.parent
-SHIPPED_POLICY = ROOT / "models" / "policy" / "policy.onnx"
 RINGS = [[0.1, 0.6], [-0.3, 0.9], [0.5, 1.2], [-0.8, 1.5], [0.2, 2.0], [1.0, 2.4]]
 TARGET_P99_MS = 5.0
 
@@ -191,7 +190,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cycles", type=int, default=10_000)
     parser.add_argument("--camera-cycles", type=int, default=3_000)
     parser.add_argument("--rate", type=float, default=250.0, help="States per second")
-    parser.add_argument("--policy", type=Path, help="default: models/policy/, else a stand-in")
+    parser.add_argument(
+        "--policy", type=Path, help="default: jetson/models/policy/, else a stand-in"
+    )
     parser.add_argument(
         "--nice",
         type=int,
@@ -214,7 +215,9 @@ def main(argv: list[str] | None = None) -> int:
             from jetson.testing import write_mlp_policy
 
             policy = write_mlp_policy(Path(tmp) / "standin")
-            print("models/policy/policy.onnx is not shipped yet: timing a same-shape stand-in")
+            print(
+                "jetson/models/policy/policy.onnx is not shipped yet: timing a same-shape stand-in"
+            )
         result.add("policy_shipped", int(policy == SHIPPED_POLICY))
         result.add("load_avg_1min_at_start", round(load, 2))
         result.add("nice", args.nice)

@@ -42,9 +42,10 @@ import numpy as np
 from bench.common import Result, median_ns, per_second
 from jetson.autonomy.camera import Intrinsics
 from jetson.errors import PerceptionError
+from jetson.models import DEFAULT_DETECTOR
 from jetson.perception.camera import CameraConfig
 from jetson.perception.classical import ClassicalDetector
-from jetson.perception.cnn.runtime import DEFAULT_MODEL, CnnDetector, metadata_path
+from jetson.perception.cnn.runtime import CnnDetector, metadata_path
 from jetson.perception.dataset import RingDataset
 from jetson.perception.detection import Detector
 from jetson.perception.evaluate import Counts, DatasetScore, heldout_of, match, trained_on
@@ -62,7 +63,7 @@ DIFFICULT_BELOW = 0.25  # visible fraction under which a ring is 'difficult' (re
 
 def detectors(camera: CameraConfig, model: Path | None) -> dict[str, Detector]:
     out: dict[str, Detector] = {"classical": ClassicalDetector(camera=camera)}
-    path = model or DEFAULT_MODEL
+    path = model or DEFAULT_DETECTOR
     try:
         out["cnn"] = CnnDetector(path, threads=1)
     except PerceptionError as exc:
@@ -253,7 +254,7 @@ def main(argv: list[str] | None = None) -> int:
         help="a YOLO folder of real labelled images (repeatable: scored per folder and pooled; "
         "default the shared BLRSAI set)",
     )
-    parser.add_argument("--model", type=Path, help="CNN model (default models/ringnet.onnx)")
+    parser.add_argument("--model", type=Path, help="CNN model (default jetson/models/ringnet.onnx)")
     parser.add_argument("--strict", action="store_true", help="exit 1 if a target is missed")
     args = parser.parse_args(argv)
 
@@ -262,7 +263,7 @@ def main(argv: list[str] | None = None) -> int:
     result = Result("perception")
     meta = None
     if "cnn" in dets:
-        meta = json.loads(metadata_path(args.model or DEFAULT_MODEL).read_text())
+        meta = json.loads(metadata_path(args.model or DEFAULT_DETECTOR).read_text())
         print(f"CNN model trained on: {', '.join(meta.get('trained_on', ['?']))}")
 
     if args.sim_data is None and not args.synthetic:

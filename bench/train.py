@@ -1,6 +1,6 @@
 """Benchmark of training and of the shipped policy (issue 5), deterministic evaluation only.
 
-    python -m bench.train [--config capped] [--policy models/policy/policy.onnx]
+    python -m bench.train [--config capped] [--policy jetson/models/policy/policy.onnx]
                           [--original PATH] [--matches 100] [--matches-h2h 40]
                           [--matches-high 10] [--matches-h2h-high N] [--skip-competence]
                           [--fidelity both|training|high] [--players ours,planner,...]
@@ -53,9 +53,9 @@ from pathlib import Path
 from typing import Any
 
 from bench.common import Result
+from jetson.models import DEFAULT_POLICY
 
 REPO = Path(__file__).resolve().parent.parent
-DEFAULT_POLICY = REPO / "models" / "policy" / "policy.onnx"
 DEFAULT_ORIGINAL = Path("/work/shared/anchors/blrsai-policy/4-29-22-1.0.onnx")
 EVAL_SEED = 2_000_000  # far from every seed a training run draws
 COMPETENCE_MATCHES = 20

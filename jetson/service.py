@@ -218,7 +218,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--config", type=Path, help="settings file (TOML)")
     p.add_argument("--port", help="the Brain's user port (default: found over USB)")
-    p.add_argument("--policy", help="policy.onnx or its folder (default models/policy/)")
+    p.add_argument("--policy", help="policy.onnx or its folder (default jetson/models/policy/)")
     p.add_argument("--camera-source", help="realsense[:SERIAL], unix:PATH, tcp:HOST:PORT, ...")
     p.add_argument("--camera-config", help="camera config JSON from `pete-jetson calibrate`")
     p.add_argument("--detector", choices=("cnn", "classical"))

@@ -13,10 +13,10 @@ from pathlib import Path
 from typing import Any
 
 from jetson.errors import SettingsError
+from jetson.models import DEFAULT_POLICY
 from protocol.compat import tomllib
 
 PHASES = ("disabled", "autonomous", "driver")
-DEFAULT_POLICY = Path(__file__).resolve().parent.parent / "models" / "policy" / "policy.onnx"
 
 
 def _from_dict(cls: type, data: dict[str, Any], where: str) -> Any:

@@ -1,7 +1,7 @@
 """`pete-sim play`: one seeded match as a top-down GIF with a score overlay, and a plot of every
 reward component over time.
 
-    pete-sim play --policy models/policy/policy.onnx --opponent planner --out match.gif
+    pete-sim play --policy jetson/models/policy/policy.onnx --opponent planner --out match.gif
 
 writes match.gif and match_rewards.png (cumulative reward per component, rings and match score,
 for both robots).

@@ -1,8 +1,8 @@
 """The one policy reader: an exported policy.onnx and its policy.json, run with onnxruntime.
 
-    policy = OnnxPolicy("models/policy/policy.onnx")   # or its folder; reads policy.json beside it
-    action = policy(obs)                              # one observation, or a batch (N, size)
-    linear_mps, angular_rad_s = policy.command(obs)   # scaled to the robot; angular clockwise
+    policy = OnnxPolicy("jetson/models/policy/policy.onnx")   # or its folder; policy.json beside
+    action = policy(obs)                                     # one observation, or a batch (N, size)
+    linear_mps, angular_rad_s = policy.command(obs)          # scaled to the robot; clockwise
 
 The files are what sim.training.export writes (format "pacman-pete-policy", version 1): the
 network takes the raw stacked observation (spec.py) and returns actions in [-1, 1]; policy.json

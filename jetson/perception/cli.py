@@ -29,7 +29,9 @@ def _camera(args: argparse.Namespace) -> CameraConfig:
 
 def _add_pipeline_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--detector", choices=DETECTORS, default="cnn", help="default: cnn")
-    p.add_argument("--model", type=Path, help="CNN weights (.onnx; default models/ringnet.onnx)")
+    p.add_argument(
+        "--model", type=Path, help="CNN weights (.onnx; default jetson/models/ringnet.onnx)"
+    )
     p.add_argument("--threshold", type=float, help="score threshold (default: the model's)")
     p.add_argument(
         "--prefilter",
@@ -399,7 +401,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         "--init",
         type=Path,
         help="start from these weights instead of from scratch (a .pt detector train wrote, "
-        "e.g. models/ringnet.pt): fine-tune the shipped detector on your own labelled photos",
+        "e.g. jetson/models/ringnet.pt): fine-tune the shipped detector on your own labelled "
+        "photos",
     )
     t.add_argument("--lr", type=float, default=3e-3, help="peak learning rate (3e-3)")
     t.add_argument("--seed", type=int, default=0)

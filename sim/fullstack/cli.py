@@ -39,7 +39,7 @@ def add_match_command(sub: argparse._SubParsersAction) -> None:
         "--policy",
         type=Path,
         default=None,
-        help="policy.onnx (policy.json beside it); default models/policy/policy.onnx",
+        help="policy.onnx (policy.json beside it); default jetson/models/policy/policy.onnx",
     )
     p.add_argument(
         "--opponent", default="planner", help="planner, scripted, idle, a policy.onnx, or none"
@@ -65,7 +65,7 @@ def add_match_command(sub: argparse._SubParsersAction) -> None:
         "--detector",
         choices=("auto", "cnn", "classical"),
         default="auto",
-        help="auto: the CNN when models/ringnet.onnx exists, else classical",
+        help="auto: the CNN when jetson/models/ringnet.onnx exists, else classical",
     )
     p.add_argument("--detector-model", type=Path, default=None)
     p.add_argument(

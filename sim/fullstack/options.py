@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
+from jetson.models import DEFAULT_DETECTOR, DEFAULT_POLICY
 from sim.errors import MatchError
 
 if TYPE_CHECKING:
@@ -22,9 +23,6 @@ if TYPE_CHECKING:
     from sim.fullstack.daemon import DaemonHost
     from sim.world.physics import World
 
-ROOT = Path(__file__).resolve().parents[2]
-DEFAULT_POLICY = ROOT / "models" / "policy" / "policy.onnx"
-DEFAULT_DETECTOR_MODEL = ROOT / "models" / "ringnet.onnx"
 STACKS = ("full", "sim")
 LOOP_MS = 10  # the Brain's loop period (brain_host reports it; checked at start)
 
@@ -91,7 +89,7 @@ class MatchOptions:
 
     def detector_choice(self) -> tuple[str, Path | None]:
         if self.detector == "auto":
-            model = self.detector_model or DEFAULT_DETECTOR_MODEL
+            model = self.detector_model or DEFAULT_DETECTOR
             return ("cnn", model) if model.is_file() else ("classical", None)
         return self.detector, self.detector_model
 

@@ -64,7 +64,7 @@ def run_match(options: MatchOptions, progress: Callable[[str], None] | None = No
     """Play one match and write its run folder (options.out); returns the result."""
     if not options.policy.is_file():
         raise MatchError(
-            f"no policy at {options.policy}: the shipped one is models/policy/policy.onnx "
+            f"no policy at {options.policy}: the shipped one is jetson/models/policy/policy.onnx "
             "(pete-sim train, then export), or pass --policy"
         )
     folder = options.out

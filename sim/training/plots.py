@@ -1,6 +1,6 @@
 """The training curve of a run (history.jsonl) as one PNG: what the README shows.
 
-python -m sim.training.plots runs/default models/policy/training_curve.png
+python -m sim.training.plots runs/default jetson/models/policy/training_curve.png
 """
 
 from __future__ import annotations

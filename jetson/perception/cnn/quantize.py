@@ -1,7 +1,7 @@
 """Int8 ring detector: static quantization of an exported RingNet with onnxruntime.
 
     pete-jetson detector quantize --model runs/a/ringnet.onnx --calib DIR [--calib DIR2] \
-        --out models/ringnet.onnx
+        --out jetson/models/ringnet.onnx
 
 Weights become int8 (one scale per output channel) and activations uint8, as QuantizeLinear /
 DequantizeLinear pairs around every convolution but the first and the last (quantize() says

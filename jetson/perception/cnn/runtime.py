@@ -24,17 +24,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from jetson.errors import ModelError
+from jetson.models import DEFAULT_DETECTOR
 from jetson.perception.detection import Detection, non_max_suppression
 
 MODEL_FORMAT = "pete-ringnet"
 MODEL_VERSION = 1
 MULTIPLE = 16
-REPO_ROOT = Path(__file__).resolve().parents[3]
 # Measured (docs/notes/2026-11-26-perception-cut-rings-and-larger-input.md): the 240x180
 # renders the full-stack match feeds the detector score as well blown up 2.27 times as 2.5, and
 # worse at 2.9 (twice the false rings).
 DEFAULT_MAX_UPSCALE = 2.25
-DEFAULT_MODEL = REPO_ROOT / "models" / "ringnet.onnx"
 
 
 @dataclass(frozen=True)
@@ -146,7 +145,7 @@ class CnnDetector:
         score_threshold: float | None = None,
         threads: int = 1,
     ) -> None:
-        path = Path(model) if model is not None else DEFAULT_MODEL
+        path = Path(model) if model is not None else DEFAULT_DETECTOR
         if not path.is_file():
             raise ModelError(
                 f"detector model {path} does not exist (train one with `pete-jetson detector "

@@ -1,6 +1,6 @@
 """Training RingNet from scratch on dataset folders and/or synthetic frames (needs torch).
 
-    pete-jetson detector train --data DIR [--data DIR2] [--synthetic N] --out models/ringnet.onnx
+    pete-jetson detector train --data DIR [--data DIR2] [--synthetic N] --out runs/ringnet.onnx
 
 Each source (a folder, or the synthetic frames) is drawn equally often, whatever its size, so a
 small real set is not drowned by thousands of renders. Every step takes a batch of random patches
@@ -70,8 +70,8 @@ class TrainConfig:
     strong_cast: float = 0.0  # share of samples lit by strongly coloured light (AugmentConfig)
     seed: int = 0
     threads: int = 2
-    # Start from these weights (a .pt that detector train wrote, e.g. models/ringnet.pt) instead
-    # of from scratch: fine-tuning on a team's own photos, or training on.
+    # Start from these weights (a .pt that detector train wrote, e.g. jetson/models/ringnet.pt)
+    # instead of from scratch: fine-tuning on a team's own photos, or training on.
     init: Path | None = None
     input_long_side: int = 320
     # Training images are stored at most this big, and never smaller than the network sees them

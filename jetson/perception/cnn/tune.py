@@ -1,6 +1,6 @@
 """Choose a trained detector's run-time input size and score threshold on held-out images.
 
-    pete-jetson detector tune --model models/ringnet.onnx --val DIR [--val DIR2] \
+    pete-jetson detector tune --model jetson/models/ringnet.onnx --val DIR [--val DIR2] \
         [--sizes 480,528,560] [--write]
 
 A fully convolutional detector runs at any input size. Run larger than it was trained at, its
