@@ -28,6 +28,10 @@ class WorkerError(SimError):
     """A rollout worker failed; the message carries its traceback."""
 
 
+class CheckpointError(SimError, ValueError):
+    """A checkpoint that cannot be written or is refused on loading (not ours, or unsafe), named."""
+
+
 class EvalError(SimError, ValueError):
     """A player that cannot be loaded or an evaluation that cannot run, named."""
 

@@ -1,6 +1,6 @@
 """Deterministic evaluation: seeded matches between two players, with honest statistics.
 
-    pete-sim eval --policy jetson/models/policy/ --opponent planner --matches 100 --seed 0
+    pete-sim eval --policy models/policy/policy.onnx --opponent planner --matches 100 --seed 0
 
 Players (`load_player`): a path to our policy.onnx (with policy.json beside it), a training
 checkpoint (.pt) or run folder, `original:PATH` (the original team's ONNX through
@@ -34,7 +34,7 @@ import numpy as np
 from jetson.autonomy.geometry import other_alliance
 from jetson.autonomy.spec import ObservationSpec
 from sim.baselines.planner import Planner, PlannerConfig
-from sim.errors import ConfigError, EvalError
+from sim.errors import CheckpointError, ConfigError, EvalError
 from sim.match import EnvConfig, MatchCore, make_config
 from sim.players import IdlePlayer, Player, PolicyPlayer, RandomPlayer, ScriptedPlayer
 
@@ -126,7 +126,10 @@ def load_player(text: str) -> PlayerSpec:
     if path.suffix == ".pt":
         from sim.training.checkpoint import load_policy_fn
 
-        fn, spec, skills = load_policy_fn(path)
+        try:
+            fn, spec, skills = load_policy_fn(path)
+        except CheckpointError as e:
+            raise EvalError(str(e)) from e
         return PlayerSpec(path.stem, lambda: PolicyPlayer(fn, "ours", skills), spec)
     raise EvalError(f"{path}: expected a .onnx policy or a .pt checkpoint")
 

@@ -56,7 +56,7 @@ def test_short_training_improves_reward_on_an_easy_task(tmp_path: Path) -> None:
 
 
 def _weights(run: Path) -> dict[str, torch.Tensor]:
-    state = torch.load(run / "checkpoints" / "latest.pt", weights_only=False)
+    state = torch.load(run / "checkpoints" / "latest.pt", weights_only=True)
     return state["agent"]
 
 
@@ -91,7 +91,7 @@ def test_self_play_on_two_workers_writes_run_files_and_resumes(tmp_path: Path) -
     info = json.loads((run / "run.json").read_text())
     assert info["seed"] == 5 and "torch" in info["starts"][0]["versions"]
     assert json.loads((run / "config.json").read_text())["rollout"]["workers"] == 2
-    state = torch.load(run / "checkpoints" / "latest.pt", weights_only=False)
+    state = torch.load(run / "checkpoints" / "latest.pt", weights_only=True)
     assert state["step"] == 256
     assert len(state["pool"]["snapshots"]) == 2, "snapshots every 128 steps, window 2"
 
@@ -113,7 +113,7 @@ def test_interrupt_keeps_a_checkpoint_and_an_export(tmp_path: Path) -> None:
     result = train(cfg, tmp_path / "run", progress=False, callback=stop)
     assert result.interrupted and result.steps == 1024
     assert (tmp_path / "run" / "policy.onnx").is_file()
-    state = torch.load(tmp_path / "run" / "checkpoints" / "latest.pt", weights_only=False)
+    state = torch.load(tmp_path / "run" / "checkpoints" / "latest.pt", weights_only=True)
     assert state["step"] == 1024
 
 
