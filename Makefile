@@ -20,7 +20,7 @@ ARM_CHECKS := /usr/bin/arm-none-eabi-g++:gcc-arm-none-eabi \
               /usr/lib/arm-none-eabi/newlib/libc.a:libnewlib-arm-none-eabi \
               /usr/lib/arm-none-eabi/include/c++:libstdc++-arm-none-eabi-newlib
 
-.PHONY: help venv system-deps build test test-python test-cpp lint format generate check demo bench results clean
+.PHONY: help venv system-deps build test test-python test-cpp lint format generate check demo bench results clean wheel-check
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | sed 's/:.*## /\t/' | expand -t 16
@@ -77,8 +77,11 @@ format: venv  ## apply ruff's formatting and fixable lints
 	$(BIN)/ruff format .
 	$(BIN)/ruff check --fix .
 
-test: venv build check firmware-check  ## everything: lint, C++ build, firmware check, all tests
+test: venv build check firmware-check wheel-check  ## everything: lint, C++ build, firmware check, wheel check, all tests
 	$(BIN)/pytest
+
+wheel-check: venv  ## build the wheel, install it with .[jetson] in a fresh venv, run detect and run elsewhere
+	PYTHON=$(PYTHON) BUILD_PYTHON=$(BIN)/python bash .ci/wheel-check
 
 demo: venv build  ## one full-stack match: Brain core + wire + Jetson daemon on the simulated field
 	$(BIN)/python -m protocol.demo --tool $(BUILD)/bin/pete_codec_tool
