@@ -77,6 +77,12 @@ SOURCES: dict[str, Source] = {
         "The Jetson daemon's State -> Command latency over a pty with the shipped policy: its "
         "own part and the round trip, without and with the camera thread beside the loop.",
     ),
+    "deploy": Source(
+        "python -m bench.deploy",
+        "How exposed the Jetson daemon's systemd unit (jetson/deploy/pete-jetson.service) leaves "
+        "the system, as `systemd-analyze security --offline=true` rates it: 0 locked down, 10 "
+        "nothing restricted; up to 4.0 systemd calls it OK.",
+    ),
     "match": Source(
         "python -m bench.match",
         "Full 105 s lockstep matches of the full stack (`brain_host`, the wire, the daemon with "
@@ -168,6 +174,11 @@ HEADLINES: tuple[Headline, ...] = (
         "State -> Command p99: the daemon, the round trip over a pty",
         "daemon",
         "{daemon_p99_ms} ms, {round_trip_p99_ms} ms",
+    ),
+    Headline(
+        "The daemon's systemd unit: exposure as systemd-analyze rates it (0 locked down, 10 open)",
+        "deploy",
+        "{systemd_exposure}",
     ),
     Headline(
         "Python State encode + decode on one core",
