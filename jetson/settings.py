@@ -1,17 +1,22 @@
 """Every setting of `pete-jetson run`, with defaults, checks, and the TOML file that holds them.
 
 The config file (jetson/deploy/pete-jetson.toml is the annotated example) has one table per
-group; a key it does not know is an error that names it. Command-line options override the file.
-Standard library only: `pete-jetson --help` must not load numpy, OpenCV or the simulator.
+group. Every value, from the file or a command-line option (which overrides the file), is checked
+against its field's type and range by jetson.config_check: an error names the file (or the
+command line), the key (`[link] port`), what it takes and what was found; a key or table it does
+not know is an error that names it and the known ones.
+No numpy: `pete-jetson --help` must not load numpy, OpenCV or the simulator (msgspec only).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from jetson import config_check
+from jetson.autonomy.providers import provider_names
 from jetson.errors import SettingsError
 from jetson.models import DEFAULT_POLICY
 from protocol.compat import tomllib
@@ -19,17 +24,19 @@ from protocol.compat import tomllib
 PHASES = ("disabled", "autonomous", "driver")
 
 
-def _from_dict(cls: type, data: dict[str, Any], where: str) -> Any:
-    if not isinstance(data, dict):
-        raise SettingsError(f"[{where}] must be a table")
-    known = {f.name for f in fields(cls)}
-    unknown = sorted(set(data) - known)
-    if unknown:
-        raise SettingsError(f"[{where}] has no setting {unknown[0]!r} (settings: {sorted(known)})")
-    try:
-        return cls(**data)
-    except TypeError as exc:
-        raise SettingsError(f"[{where}]: {exc}") from exc
+def _check_providers(settings: Any, table: str) -> None:
+    """[policy] / [camera] providers: tensorrt, cuda, cpu or onnxruntime's names, in order
+    (jetson.autonomy.providers); whether onnxruntime has them is checked when the model opens."""
+    if settings.providers is not None:
+        try:
+            provider_names(settings.providers)
+        except ValueError as exc:
+            raise SettingsError(f"{table} providers: {exc}") from None
+        object.__setattr__(settings, "providers", tuple(settings.providers))
+
+
+def _merge(base: Any, data: Any, table: str) -> Any:
+    return config_check.merge(base, data, table, error=SettingsError)
 
 
 @dataclass(frozen=True)
@@ -96,12 +103,16 @@ class DecisionConfig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> DecisionConfig:
-        return _from_dict(cls, data, "decision")
+        return _merge(cls(), data, "decision")
 
 
 @dataclass(frozen=True)
 class PolicySettings:
     path: str = str(DEFAULT_POLICY)  # policy.onnx (policy.json beside it) or its folder
+    providers: tuple[str, ...] | None = None  # onnxruntime's, in order; None: the best installed
+
+    def __post_init__(self) -> None:
+        _check_providers(self, "policy")
 
 
 @dataclass(frozen=True)
@@ -115,8 +126,10 @@ class CameraSettings:
     prefilter: bool = False
     retry_s: float = 1.0  # wait before reopening a failed camera
     frame_clock: bool = False  # frames are stamped on the daemon's clock (a lockstep simulator)
+    providers: tuple[str, ...] | None = None  # the CNN's onnxruntime providers; None: the best
 
     def __post_init__(self) -> None:
+        _check_providers(self, "camera")
         if self.detector not in ("cnn", "classical"):
             raise SettingsError(f"camera detector must be cnn or classical, not {self.detector!r}")
         if not self.retry_s > 0:
@@ -126,8 +139,14 @@ class CameraSettings:
 @dataclass(frozen=True)
 class RecordSettings:
     dir: str | None = "/var/lib/pete-jetson/sessions"  # None or "": do not record
-    keep_mb: float = 2000.0
+    keep_mb: float = 2000.0  # the recordings' disk budget: the oldest sessions go first
     compress: bool = True
+
+    def __post_init__(self) -> None:
+        if not self.keep_mb > 0:
+            raise SettingsError(
+                f"record keep_mb must be a positive number of MB, got {self.keep_mb}"
+            )
 
 
 @dataclass(frozen=True)
@@ -153,15 +172,8 @@ class Settings:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Settings:
-        groups = {f.name: f.type for f in fields(cls)}
-        unknown = sorted(set(data) - set(groups))
-        if unknown:
-            raise SettingsError(f"config has no table [{unknown[0]}] (tables: {sorted(groups)})")
-        kinds = {
-            "link": LinkConfig, "decision": DecisionConfig, "policy": PolicySettings,
-            "camera": CameraSettings, "record": RecordSettings, "log": LogSettings,
-        }  # fmt: skip
-        return cls(**{k: _from_dict(kinds[k], v, k) for k, v in data.items()})
+        """Settings from a config file's tables, every value checked (jetson.config_check)."""
+        return _merge(cls(), data, "")
 
     @classmethod
     def load(cls, path: str | Path) -> Settings:
@@ -171,14 +183,21 @@ class Settings:
             raise SettingsError(f"config file {path} does not exist") from exc
         except (OSError, tomllib.TOMLDecodeError) as exc:
             raise SettingsError(f"config file {path}: {exc}") from exc
-        return cls.from_dict(data)
+        try:
+            return cls.from_dict(data)
+        except SettingsError as exc:
+            raise SettingsError(f"config file {path}: {exc}") from exc
 
     def with_overrides(self, **groups: dict[str, Any]) -> Settings:
         """A copy with some settings replaced, e.g. with_overrides(link={"port": "/dev/x"});
-        None values are ignored (an option that was not given)."""
-        out = self
+        None values are ignored (an option that was not given). Every value is checked as the
+        file's are; an error names the command line and the key."""
+        data = {}
         for group, values in groups.items():
             values = {k: v for k, v in values.items() if v is not None}
             if values:
-                out = replace(out, **{group: replace(getattr(out, group), **values)})
-        return out
+                data[group] = values
+        try:
+            return _merge(self, data, "")
+        except SettingsError as exc:
+            raise SettingsError(f"command line: {exc}") from exc
