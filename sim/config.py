@@ -8,10 +8,11 @@ dataclasses.replace or the `from_dict` helpers, which reject unknown keys by nam
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, is_dataclass, replace
+from dataclasses import dataclass, fields, replace
 from dataclasses import field as dc_field
 from typing import Any, Literal, TypeVar
 
+from jetson import config_check
 from jetson.autonomy.camera import CameraMount, Intrinsics
 from jetson.autonomy.geometry import INCH
 from sim.errors import ConfigError
@@ -310,42 +311,16 @@ def from_dict(cls: type[T], data: dict[str, Any] | None, where: str | None = Non
 
 
 def merge(base: T, data: dict[str, Any] | None, where: str | None = None) -> T:
-    """A copy of config `base` with the values in `data` applied; nested tables merge into the
-    nested configs (so {"camera": {"tilt_deg": -20}} keeps the other camera values), and a dict
-    of configs (WorldConfig.robots) merges per entry."""
-    where = where or type(base).__name__
-    if data is None:
-        return base
-    if not isinstance(data, dict):
-        raise ConfigError(f"{where}: expected a table, got {type(data).__name__}")
-    known = {f.name for f in fields(base)}  # type: ignore[arg-type]
-    unknown = sorted(set(data) - known)
-    if unknown:
-        raise ConfigError(f"{where}: unknown keys {unknown} (known: {sorted(known)})")
-    kwargs: dict[str, Any] = {}
-    for key, value in data.items():
-        current = getattr(base, key)
-        at = f"{where}.{key}"
-        if is_dataclass(current) and isinstance(value, dict):
-            kwargs[key] = merge(current, value, at)
-        elif isinstance(current, dict) and isinstance(value, dict):
-            kwargs[key] = _merge_table(current, value, at)
-        elif isinstance(current, tuple) and isinstance(value, list):
-            kwargs[key] = tuple(value)
-        else:
-            kwargs[key] = value
-    try:
-        return replace(base, **kwargs)  # type: ignore[type-var]
-    except TypeError as e:
-        raise ConfigError(f"{where}: {e}") from e
+    """A copy of config `base` with the values in `data` applied, each checked against its
+    field's type (jetson.config_check: the one checker of every config table); nested tables
+    merge into the nested configs (so {"camera": {"tilt_deg": -20}} keeps the other camera
+    values), and a dict of configs (WorldConfig.robots) merges per entry, a new robot starting
+    from RobotConfig(name=...). `where` is the table's path in its file ("env.world")."""
+    return config_check.merge(
+        base, data, type(base).__name__ if where is None else where,
+        error=ConfigError, new_entry=_new_entry,
+    )  # fmt: skip
 
 
-def _merge_table(current: dict[str, Any], value: dict[str, Any], where: str) -> dict[str, Any]:
-    out = dict(current)
-    for name, entry in value.items():
-        if isinstance(entry, dict):
-            template = current.get(name, RobotConfig(name=name))
-            out[name] = merge(template, entry, f"{where}.{name}")
-        else:
-            out[name] = entry
-    return out
+def _new_entry(cls: type, name: str) -> Any:
+    return cls(name=name) if "name" in {f.name for f in fields(cls)} else cls()

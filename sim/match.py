@@ -127,27 +127,10 @@ def make_config(config: EnvConfig | dict[str, Any] | None = None, **overrides: A
     base = config if isinstance(config, EnvConfig) else EnvConfig()
     data = {} if isinstance(config, EnvConfig) else dict(config or {})
     data.update(overrides)
-    obs = data.pop("observation", None)
-    skills = data.pop("skills", None)
-    cfg = merge(base, data, "env")
-    if isinstance(skills, SkillConfig):
-        cfg = replace(cfg, skills=skills)
-    elif isinstance(skills, dict):
-        try:
-            cfg = replace(cfg, skills=merge(cfg.skills or SkillConfig(), skills, "env.skills"))
-        except ValueError as e:
-            raise ConfigError(str(e)) from e
-    elif skills is not None:
-        raise ConfigError(f"env.skills: expected a table, got {type(skills).__name__}")
-    if isinstance(obs, ObservationSpec):
-        cfg = replace(cfg, observation=obs)
-    elif obs is not None:
-        spec = cfg.observation or ObservationSpec()
-        try:
-            cfg = replace(cfg, observation=merge(spec, obs, "observation"))
-        except ValueError as e:
-            raise ConfigError(str(e)) from e
-    return cfg
+    for key in ("observation", "skills"):  # None keeps the base's (a derived spec, no skills)
+        if key in data and data[key] is None:
+            del data[key]
+    return merge(base, data, "env")
 
 
 def default_spec(world: World) -> ObservationSpec:

@@ -17,9 +17,11 @@
                                    # [phases.rollout] (short_share, short_steps, learner_side),
                                    # [phases.opponents], applied on top of what came before
 
-Unknown keys are errors naming the key. TOML has no null: in [env], the string "none" means
-None (ring_cap = "none" counts every ring). `load_config` returns the TrainConfig and the resolved
-EnvConfig comes from `env_config()`.
+Every value is checked against its field's type and range when the file loads
+(jetson.config_check), and an error names the file, the key (`[ppo] gamma`), what the key takes
+and what was found; unknown keys are errors naming the key and the known ones. TOML has no null:
+in [env], the string "none" means None (ring_cap = "none" counts every ring). `load_config`
+returns the TrainConfig and the resolved EnvConfig comes from `env_config()`.
 """
 
 from __future__ import annotations
@@ -27,8 +29,9 @@ from __future__ import annotations
 import tomllib
 from dataclasses import asdict, dataclass, field, is_dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, get_type_hints
 
+from jetson.config_check import check_value, error_at, key_label
 from sim.config import merge
 from sim.errors import ConfigError
 from sim.match import EnvConfig, make_config
@@ -149,9 +152,15 @@ class TrainConfig:
         self.env_config()  # fail on a bad env table now, not in a worker
         last = 0
         for k, phase in enumerate(self.phases):
-            unknown = sorted(set(phase) - {"from_step", "env", "rollout", "opponents"})
+            table = f"phases[{k}]"
+            unknown = sorted(set(phase) - set(_PHASE_KEYS))
             if unknown:
-                raise ConfigError(f"phases[{k}]: unknown keys {unknown}")
+                raise ConfigError(
+                    f"[{table}]: unknown keys {unknown} (known: {sorted(_PHASE_KEYS)})"
+                )
+            for key, hint in _PHASE_KEYS.items():
+                if key in phase:
+                    check_value(phase[key], hint, key_label(table, key), ConfigError)
             start = phase.get("from_step")
             if not isinstance(start, int) or start <= last:
                 raise ConfigError(f"phases[{k}].from_step must be an integer above {last}")
@@ -160,8 +169,13 @@ class TrainConfig:
             if fixed:
                 # The buffers are sized once: only how matches are played may change.
                 raise ConfigError(f"phases[{k}].rollout may set only {sorted(_PHASE_ROLLOUT)}")
-        if self.phases:
-            self.at_step(self.phases[-1]["from_step"])
+            try:
+                self.at_step(start)
+            except ConfigError as e:
+                if "phases[" in str(getattr(e, "config_key", "")):
+                    raise
+                label = key_label(table)
+                raise error_at(ConfigError, label, f"(merged on what came before) {e}") from e
 
     def at_step(self, step: int) -> TrainConfig:
         """The config in force at learner step `step`: the base with every phase that has
@@ -205,6 +219,12 @@ class TrainConfig:
 
 
 _PHASE_ROLLOUT = {"short_share", "short_steps", "learner_side"}
+_PHASE_KEYS: dict[str, Any] = {
+    "from_step": int,
+    "env": dict[str, Any],
+    "rollout": dict[str, Any],
+    "opponents": dict[str, float],
+}
 
 
 def _deep_merge(base: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
@@ -236,28 +256,26 @@ def _plain(value: Any) -> Any:
 
 
 def parse_config(data: dict[str, Any], where: str = "config") -> TrainConfig:
-    data = dict(data)
-    env = data.pop("env", {})
-    if not isinstance(env, dict):
-        raise ConfigError(f"{where}: [env] must be a table")
-    opponents = data.pop("opponents", None)
-    if opponents is not None and not isinstance(opponents, dict):
-        raise ConfigError(f"{where}: [opponents] must be a table")
-    phases = data.pop("phases", [])
-    if not isinstance(phases, list) or not all(isinstance(p, dict) for p in phases):
-        raise ConfigError(f"{where}: phases must be an array of tables ([[phases]])")
+    """A TrainConfig from a TOML document's tables, every value checked against its field's type
+    (jetson.config_check) and range; an error names `where` (the file) and the key."""
     try:
-        cfg = merge(TrainConfig(), data, where)
+        if not isinstance(data, dict):
+            raise ConfigError(f"expected a table, found {type(data).__name__}")
+        data = dict(data)
+        # [opponents] replaces the default shares ({"pool": 1.0}) instead of merging into them.
+        opponents = data.pop("opponents", None)
+        cfg = merge(TrainConfig(), data, "")
         if opponents is not None:
+            check_value(opponents, _HINTS["opponents"], key_label("", "opponents"), ConfigError)
             cfg = replace(cfg, opponents={str(k): float(v) for k, v in opponents.items()})
-        cfg = replace(cfg, env=env, phases=tuple(phases))
         if cfg.imitation.teacher == "route":
             check_route_teacher(cfg.env_config())
         return cfg
     except (TypeError, ValueError) as e:
-        if isinstance(e, ConfigError):
-            raise
         raise ConfigError(f"{where}: {e}") from e
+
+
+_HINTS = get_type_hints(TrainConfig)
 
 
 def load_config(path: str | Path) -> TrainConfig:

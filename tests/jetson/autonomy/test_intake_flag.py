@@ -105,7 +105,7 @@ def test_uncapped_matches_take_their_own_reward() -> None:
     from sim.match import MatchCore, make_config
     from sim.world.state import DriveCommand
 
-    with pytest.raises(ConfigError, match=r"env.uncapped_reward: unknown keys \['sore'\]"):
+    with pytest.raises(ConfigError, match=r"\[env.uncapped_reward\]: unknown keys \['sore'\]"):
         make_config(uncapped_reward={"sore": 0.0})
     cfg = make_config(uncapped_share=0.5, reward={"ring": 2.0}, uncapped_reward={"ring": 0.0})
     assert cfg.match_reward(False).ring == 2.0 and cfg.match_reward(True).ring == 0.0
