@@ -105,7 +105,8 @@ def build(
         human_stream = sys.stderr
     log = EventLog(log_stream, human_stream, clock, settings.log.level)
     if policy is None:
-        policy = OnnxPolicy(settings.policy.path)
+        policy = OnnxPolicy(settings.policy.path, providers=settings.policy.providers)
+        log.info("onnxruntime", f"policy runs on {policy.provider}", policy=policy.provider)
     # Only a policy whose ring memory looks through the camera reads [camera]'s mount here, so a
     # cone policy runs as before whatever that file holds.
     needs_camera = policy.spec.memory_needs_camera
@@ -164,7 +165,7 @@ def make_pipeline(camera_settings: Any) -> Any:
     cs = camera_settings
     camera = CameraConfig.load(Path(cs.config)) if cs.config else CameraConfig()
     model = Path(cs.model) if cs.model else None
-    detector = make_detector(cs.detector, camera, model, cs.threshold)
+    detector = make_detector(cs.detector, camera, model, cs.threshold, providers=cs.providers)
     return camera, Pipeline(detector, camera, PrefilterConfig(enabled=cs.prefilter))
 
 
@@ -191,6 +192,8 @@ def make_camera(settings: Settings, clock: Any, log: Any) -> Any:
 
     cs = settings.camera
     camera, pipeline = make_pipeline(cs)
+    if (provider := getattr(pipeline.detector, "provider", None)) is not None:
+        log.info("onnxruntime", f"ring detector runs on {provider}", detector=provider)
     return CameraWorker(
         lambda: open_source(cs.source, camera.intrinsics),
         pipeline.process,

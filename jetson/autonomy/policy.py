@@ -11,20 +11,22 @@ each action scales to the robot's units, or, for a skill policy, the settings of
 that drives its skills (skills.py). A file that does not say all of this consistently, or whose
 spec differs from the one the caller builds, is refused with the reason named, never run on the
 wrong inputs. The robot and the simulator both read policies here: numpy and onnxruntime only
-(imported when a policy is opened).
+(imported when a policy is opened). It runs on the best execution provider installed, or on those
+`providers` names (jetson.autonomy.providers); `.provider` says which one it got.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
+from jetson.autonomy.providers import open_session
 from jetson.autonomy.skills import SkillConfig, skill_config_from_dict
 from jetson.autonomy.spec import ObservationSpec
 from jetson.errors import ObservationError, PolicyError
@@ -77,10 +79,16 @@ class OnnxPolicy:
     """A deterministic policy from policy.onnx + policy.json: the network's clipped mean action.
 
     `expected_spec`: the observation the caller builds; a policy trained on another is refused
-    with the differing fields named.
+    with the differing fields named. `providers`: onnxruntime execution providers in order of
+    preference (jetson.autonomy.providers); None, the best one installed.
     """
 
-    def __init__(self, path: str | Path, expected_spec: ObservationSpec | None = None) -> None:
+    def __init__(
+        self,
+        path: str | Path,
+        expected_spec: ObservationSpec | None = None,
+        providers: Sequence[str] | None = None,
+    ) -> None:
         p = Path(path)
         if p.is_dir():
             p = p / "policy.onnx"
@@ -102,7 +110,7 @@ class OnnxPolicy:
         self._parse(meta, str(meta_file))
         if expected_spec is not None and expected_spec.fingerprint() != self.spec.fingerprint():
             raise PolicyError(_spec_difference(expected_spec, self.spec))
-        self._session = _open_session(p)
+        self._session, self.provider = _open_session(p, providers)
         names = [i.name for i in self._session.get_inputs()]
         if self._input not in names:
             raise PolicyError(f"{p}: no input named {self._input!r} (it has {names})")
@@ -177,15 +185,16 @@ class OnnxPolicy:
         return tuple(float(v) * s for v, s in zip(a, self.action_scale, strict=True))
 
 
-def _open_session(path: Path) -> Any:
-    import onnxruntime as ort
-
-    options = ort.SessionOptions()
-    # A batch-1 MLP is faster without thread hand-offs, and perception needs the other cores.
-    options.intra_op_num_threads = 1
-    options.inter_op_num_threads = 1
+def _open_session(path: Path, providers: Sequence[str] | None) -> tuple[Any, str]:
     try:
-        return ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+        # One thread: a batch-1 MLP is faster without thread hand-offs, and perception needs
+        # the other cores.
+        return open_session(path, threads=1, wanted=providers)
+    except ValueError as exc:  # providers that this onnxruntime does not have
+        raise PolicyError(f"{path}: {exc}") from exc
+    except ImportError as exc:
+        msg = f"onnxruntime cannot be imported ({exc}): pip install 'pacman-pete[jetson]'"
+        raise PolicyError(msg) from exc
     except Exception as exc:  # onnxruntime raises its own exception types
         raise PolicyError(f"{path}: onnxruntime cannot load it: {exc}") from exc
 

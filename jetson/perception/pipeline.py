@@ -15,6 +15,7 @@ uses it to pick the ring's own pixels.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -38,14 +39,16 @@ def make_detector(
     model: Path | None = None,
     score_threshold: float | None = None,
     classical: ClassicalConfig | None = None,
+    providers: Sequence[str] | None = None,
 ) -> Detector:
-    """A detector by name: "classical" or "cnn" (the shipped model unless `model` is given)."""
+    """A detector by name: "classical" or "cnn" (the shipped model unless `model` is given, on
+    `providers`, onnxruntime's execution providers: jetson.autonomy.providers)."""
     if name == "classical":
         return ClassicalDetector(classical, camera)
     if name == "cnn":
         from jetson.perception.cnn.runtime import CnnDetector
 
-        return CnnDetector(model, score_threshold)
+        return CnnDetector(model, score_threshold, providers=providers)
     raise CameraConfigError(f"unknown detector {name!r}; choose from {DETECTORS}")
 
 

@@ -15,6 +15,7 @@ blown up far past what it trained on takes its blur and resampling for rings.
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from jetson.autonomy.providers import open_session
 from jetson.errors import ModelError
 from jetson.models import DEFAULT_DETECTOR
 from jetson.perception.detection import Detection, non_max_suppression
@@ -144,6 +146,7 @@ class CnnDetector:
         model: Path | str | None = None,
         score_threshold: float | None = None,
         threads: int = 1,
+        providers: Sequence[str] | None = None,
     ) -> None:
         path = Path(model) if model is not None else DEFAULT_DETECTOR
         if not path.is_file():
@@ -156,16 +159,13 @@ class CnnDetector:
             score_threshold if score_threshold is not None else self.info.score_threshold
         )
         try:
-            import onnxruntime as ort
+            # One thread by default: the pipeline's budget is one core, the daemon owns the rest.
+            self.session, self.provider = open_session(path, threads, providers)
+        except ValueError as exc:  # providers that this onnxruntime does not have
+            raise ModelError(f"detector model {path}: {exc}") from exc
         except ImportError as exc:
-            msg = "onnxruntime is not installed: pip install 'pacman-pete[jetson]'"
+            msg = f"onnxruntime cannot be imported ({exc}): pip install 'pacman-pete[jetson]'"
             raise ModelError(msg) from exc
-        opts = ort.SessionOptions()
-        # One thread by default: the pipeline's budget is one core, and the daemon owns the rest.
-        opts.intra_op_num_threads = threads
-        opts.inter_op_num_threads = 1
-        try:
-            self.session = ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
         except Exception as exc:  # onnxruntime raises its own exception types
             raise ModelError(f"{path} is not a loadable ONNX model: {exc}") from exc
         self.path = path
@@ -185,15 +185,10 @@ class CnnDetector:
 
 
 def network_ms(model: Path, long_side: int, repeats: int = 30) -> float:
-    """Median milliseconds of one network run on a 640x480 frame's input, on one thread."""
+    """Median milliseconds of one network run on a 640x480 frame's input, on one CPU thread."""
     import time
 
-    import onnxruntime as ort
-
-    opts = ort.SessionOptions()
-    opts.intra_op_num_threads = 1
-    opts.inter_op_num_threads = 1
-    session = ort.InferenceSession(str(model), opts, providers=["CPUExecutionProvider"])
+    session, _ = open_session(model, threads=1, wanted=("cpu",))
     w, h = input_size(640, 480, long_side)
     x = np.random.default_rng(0).random((1, 3, h, w), dtype=np.float32)
     session.run(None, {"rgb": x})
