@@ -1,7 +1,7 @@
 #!/bin/sh
 # Install the Jetson daemon as a service on a Jetson (or any Linux machine with systemd).
-# Run from the repository checkout at /opt/pete, as root, after `pip install -e '.[jetson]'`
-# into /opt/pete/.venv (jetson/README.md, "A fresh Jetson", steps 1-4). Safe to run again.
+# Run from the repository checkout at /opt/pete, as root, after `pip install '.[jetson]'`
+# into /opt/pete/.venv (jetson/README.md, "A fresh Jetson", steps 1-5). Safe to run again.
 set -eu
 
 ROOT=$(CDPATH= cd -- "$(dirname -- "$0")/../.." && pwd)
