@@ -8,6 +8,7 @@ import sys
 from jetson.perception.cli import HELP as PERCEPTION_HELP
 from jetson.perception.cli import add_commands as add_perception_commands
 from jetson.service import HELP as DAEMON_HELP
+from protocol.cli_conventions import make_parser
 
 DESCRIPTION = (
     """\
@@ -33,11 +34,7 @@ def _cmd_ports(_: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="pete-jetson",
-        description=DESCRIPTION,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    parser = make_parser("pete-jetson", DESCRIPTION)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     p = sub.add_parser("ports", help="list V5 Brain serial ports, user port first")
     p.set_defaults(func=_cmd_ports)

@@ -212,20 +212,36 @@ def _settings_dict(settings: Settings) -> dict[str, Any]:
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
+    # The defaults the options show are the settings' own (an option overrides the file).
+    d = Settings()
     p = sub.add_parser(
         "run",
         help="the daemon: Brain link, perception, policy, Commands",
         description="Run the Jetson daemon until SIGTERM/SIGINT (then it sends a stop). "
         "Settings come from --config (TOML, see jetson/deploy/pete-jetson.toml) and these "
-        "options, which override it.",
+        "options, which override it; the defaults shown are those of a config without the key.",
     )
-    p.add_argument("--config", type=Path, help="settings file (TOML)")
+    p.add_argument("--config", type=Path, help="settings file (TOML) (default: none)")
     p.add_argument("--port", help="the Brain's user port (default: found over USB)")
-    p.add_argument("--policy", help="policy.onnx or its folder (default jetson/models/policy/)")
-    p.add_argument("--camera-source", help="realsense[:SERIAL], unix:PATH, tcp:HOST:PORT, ...")
-    p.add_argument("--camera-config", help="camera config JSON from `pete-jetson calibrate`")
-    p.add_argument("--detector", choices=("cnn", "classical"))
-    p.add_argument("--detector-model", help="ring detector weights (.onnx)")
+    p.add_argument(
+        "--policy", help="policy.onnx or its folder (default: the shipped jetson/models/policy/)"
+    )
+    p.add_argument(
+        "--camera-source",
+        help=f"realsense[:SERIAL], unix:PATH, tcp:HOST:PORT, ... (default: {d.camera.source})",
+    )
+    p.add_argument(
+        "--camera-config",
+        help="camera config JSON from `pete-jetson calibrate` (default: the built-in D435)",
+    )
+    p.add_argument(
+        "--detector",
+        choices=("cnn", "classical"),
+        help=f"ring detector (default: {d.camera.detector})",
+    )
+    p.add_argument(
+        "--detector-model", help="ring detector weights, .onnx (default: the shipped model)"
+    )
     p.add_argument(
         "--no-camera", action="store_true", help="run without perception (the policy sees no rings)"
     )
@@ -237,14 +253,30 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--drive-phases",
-        help="comma-separated phases the policy may drive in (default autonomous,driver)",
+        help="comma-separated phases the policy may drive in "
+        f"(default: {','.join(str(x) for x in d.decision.drive_phases)})",
     )
-    p.add_argument("--max-perception-age", type=float, help="seconds (default 0.3)")
-    p.add_argument("--valid-ms", type=int, help="Command validity window (default 250)")
-    p.add_argument("--record-dir", help="where session recordings go")
+    p.add_argument(
+        "--max-perception-age",
+        type=float,
+        help="older camera results count as no rings in view, seconds "
+        f"(default: {d.decision.perception_max_age_s})",
+    )
+    p.add_argument(
+        "--valid-ms",
+        type=int,
+        help=f"Command validity window, milliseconds (default: {d.decision.valid_ms})",
+    )
+    p.add_argument(
+        "--record-dir", help=f"where session recordings go (default: {d.record.dir or 'none'})"
+    )
     p.add_argument("--no-record", action="store_true", help="do not record sessions")
-    p.add_argument("--log", help="JSON-lines log file (default stdout)")
-    p.add_argument("--log-level", choices=("debug", "info", "warning", "error"))
+    p.add_argument("--log", help="JSON-lines log file (default: stdout)")
+    p.add_argument(
+        "--log-level",
+        choices=("debug", "info", "warning", "error"),
+        help=f"least severe level logged (default: {d.log.level})",
+    )
     p.add_argument("--quiet", action="store_true", help="no human summary line on stderr")
     p.set_defaults(func=cmd_run)
 
@@ -254,8 +286,13 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     )
     r.add_argument("file", type=Path, help="a session-*.jsonl[.gz] recording")
     r.add_argument("--policy", help="policy to replay with (default: the recorded path)")
-    r.add_argument("--tolerance", type=float, default=1e-6, help="m/s, rad/s (default 1e-6)")
-    r.add_argument("--show", type=int, default=10, help="differences to list (default 10)")
+    r.add_argument(
+        "--tolerance",
+        type=float,
+        default=1e-6,
+        help="largest difference that is not one, m/s, rad/s",
+    )
+    r.add_argument("--show", type=int, default=10, help="differences to list")
     r.add_argument("--json", action="store_true", help="print the report as JSON")
     r.set_defaults(func=cmd_replay)
 

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from protocol.cli_conventions import make_parser
 from protocol.errors import SchemaError
 from protocol.schema import DEFAULT_SCHEMA, load_schema
 
@@ -193,11 +194,7 @@ def _cmd_decode(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="pete-protocol",
-        description=DESCRIPTION,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    parser = make_parser("pete-protocol", DESCRIPTION)
     parser.add_argument(
         "--schema", type=Path, default=DEFAULT_SCHEMA, help="schema file (default: the shipped one)"
     )
@@ -244,7 +241,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--link",
         choices=("up", "down", "packet"),
         default="packet",
-        help="up: PROS stream frame; down: hex line; packet: the bare packet (default)",
+        help="up: PROS stream frame; down: hex line; packet: the bare packet",
     )
     p.add_argument("--raw", action="store_true", help="write raw bytes instead of hex")
     p.add_argument("--spaced", action="store_true", help="separate hex bytes with spaces")

@@ -5,10 +5,13 @@ from __future__ import annotations
 
 import argparse
 import importlib.metadata
+import shutil
 import signal
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from protocol.cli_conventions import add_no_progress, make_parser, progress_wanted
 
 if TYPE_CHECKING:
     from sim.evaluate import PlayerSpec
@@ -74,6 +77,25 @@ def _interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
+# What `train` writes into a run folder: a folder holding any of them holds a run.
+RUN_FILES = ("config.json", "run.json", "history.jsonl", "policy.onnx", "policy.json")
+RUN_FOLDERS = ("checkpoints", "tb", "best")
+
+
+def run_entries(run_dir: Path) -> list[Path]:
+    """The files and folders of an earlier training run in `run_dir`."""
+    return [run_dir / n for n in RUN_FILES + RUN_FOLDERS if (run_dir / n).exists()]
+
+
+def _clear_run(run_dir: Path) -> None:
+    """--force: remove what an earlier run wrote (only that: other files in the folder stay)."""
+    for path in run_entries(run_dir):
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path)
+        else:
+            path.unlink()
+
+
 def _cmd_train(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
@@ -88,9 +110,22 @@ def _cmd_train(args: argparse.Namespace) -> int:
         if args.seed is not None:
             cfg = replace(cfg, seed=args.seed)
         run_dir = args.run_dir or Path("runs") / cfg.name
+        if args.resume and args.force:
+            raise ConfigError(
+                "--resume continues the run in the folder, --force replaces it: not both"
+            )
+        if not args.resume and run_entries(run_dir):
+            if not args.force:
+                names = ", ".join(p.name for p in run_entries(run_dir))
+                raise ConfigError(
+                    f"{run_dir} already holds a training run ({names}): --resume continues it, "
+                    "--force starts a new one there (deleting those), or choose another --run-dir"
+                )
+            _clear_run(run_dir)
         # SIGTERM stops like Ctrl-C: a checkpoint and an export, then exit.
         signal.signal(signal.SIGTERM, _interrupt)
-        result = train(cfg, run_dir, resume=args.resume, progress=not args.no_progress)
+        progress = progress_wanted(args.no_progress)
+        result = train(cfg, run_dir, resume=args.resume, progress=progress)
     except (ConfigError, ValueError, FileNotFoundError, WorkerError) as e:
         print(f"pete-sim train: {e}", file=sys.stderr)
         return 2
@@ -136,9 +171,24 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     try:
         a = load_player(args.policy)
         b = _opponent(args.opponent)
-        summary = evaluate(
-            a, b, args.matches, args.seed, scenario=args.scenario, fidelity=args.fidelity
-        )
+        from tqdm import tqdm
+
+        with tqdm(
+            total=args.matches,
+            unit="match",
+            desc="pete-sim eval",
+            disable=not progress_wanted(args.no_progress),
+            dynamic_ncols=True,
+        ) as bar:
+            summary = evaluate(
+                a,
+                b,
+                args.matches,
+                args.seed,
+                scenario=args.scenario,
+                fidelity=args.fidelity,
+                progress=lambda done, total: bar.update(done - bar.n),
+            )
     except (EvalError, OriginalPolicyError) as e:
         print(f"pete-sim eval: {e}", file=sys.stderr)
         return 2
@@ -184,14 +234,16 @@ def _cmd_play(args: argparse.Namespace) -> int:
 
 
 def _add_match_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--seed", type=int, default=0, help="first match seed (default 0)")
+    p.add_argument("--seed", type=int, default=0, help="first match seed")
     p.add_argument(
         "--scenario",
         choices=("capped", "uncapped"),
         default="capped",
-        help="capped: the report's 10-ring task; uncapped: every ring counts (default capped)",
+        help="capped: the report's 10-ring task; uncapped: every ring counts",
     )
-    p.add_argument("--fidelity", choices=("training", "high"), default="training")
+    p.add_argument(
+        "--fidelity", choices=("training", "high"), default="training", help="physics fidelity"
+    )
 
 
 def _add_match(sub: argparse._SubParsersAction) -> None:
@@ -213,18 +265,18 @@ def _add_dataset(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--frames", type=int, required=True, help="how many frames")
     p.add_argument("--out", type=Path, required=True, help="an empty or new folder")
     p.add_argument("--seed", type=int, default=0, help="frame k is drawn from (seed, k)")
-    p.add_argument("--width", type=int, default=640)
-    p.add_argument("--height", type=int, default=480)
-    p.add_argument("--robots", default="15in,24in", help="observing robots, comma-separated (both)")
+    p.add_argument("--width", type=int, default=640, help="image width, pixels")
+    p.add_argument("--height", type=int, default=480, help="image height, pixels")
+    p.add_argument("--robots", default="15in,24in", help="observing robots, comma-separated")
     p.add_argument("--no-augment", action="store_true", help="no blur or noise on the images")
     p.add_argument(
         "--viewpoint",
         default="robot",
-        help="robot: each robot's own camera (default); spectator: photos of the field from "
+        help="robot: each robot's own camera; spectator: photos of the field from "
         "0.8-1.9 m up outside its walls, where far rings are a few pixels wide (training data "
         "for a detector that must also work on people's photos)",
     )
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_no_progress(p)
     p.set_defaults(func=_cmd_dataset)
 
 
@@ -244,7 +296,7 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
             augment=not args.no_augment,
             viewpoint=args.viewpoint,
         )
-        labels = write_dataset(cfg, args.out, progress=not args.no_progress)
+        labels = write_dataset(cfg, args.out, progress=progress_wanted(args.no_progress))
     except (ConfigError, OSError, DatasetError) as e:
         print(f"pete-sim dataset: {e}", file=sys.stderr)
         return 2
@@ -253,11 +305,7 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="pete-sim",
-        description=DESCRIPTION,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    parser = make_parser("pete-sim", DESCRIPTION)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     p = sub.add_parser("versions", help="print the installed simulation stack's versions")
     p.set_defaults(func=_cmd_versions)
@@ -268,9 +316,11 @@ def build_parser() -> argparse.ArgumentParser:
         description="Render the field for a seed (start.png, camera.png) and a scripted match "
         "between two greedy ring-chasers (match.gif).",
     )
-    p.add_argument("--seed", type=int, default=0, help="match seed (default 0)")
+    p.add_argument("--seed", type=int, default=0, help="match seed")
     p.add_argument("--out", type=Path, default=Path("sim-view"), help="output folder")
-    p.add_argument("--fidelity", choices=("training", "high"), default="training")
+    p.add_argument(
+        "--fidelity", choices=("training", "high"), default="training", help="physics fidelity"
+    )
     p.add_argument("--stride", type=int, default=4, help="control steps per GIF frame")
     p.add_argument("--size", type=int, default=480, help="image width in pixels")
     p.add_argument("--seconds", type=float, default=None, help="stop the match early")
@@ -282,20 +332,30 @@ def build_parser() -> argparse.ArgumentParser:
         "train",
         help="train a policy with PPO self-play from a TOML config",
         description="Train with PPO self-play. Writes config.json, run.json, TensorBoard logs "
-        "(tb/), checkpoints/ and the exported policy.onnx + policy.json to the run folder.",
+        "(tb/), checkpoints/ and the exported policy.onnx + policy.json to the run folder. A "
+        "folder that already holds a run is refused unless --resume (go on with it) or --force "
+        "(delete it and start again) says what to do.",
     )
     p.add_argument(
         "--config", required=True, help="a TOML file, or the name of one in sim/configs/"
     )
-    p.add_argument("--run-dir", type=Path, default=None, help="default runs/<config name>")
+    p.add_argument(
+        "--run-dir", type=Path, default=None, help="the run folder (default: runs/<config name>)"
+    )
     p.add_argument("--resume", action="store_true", help="continue from checkpoints/latest.pt")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="start a new run in a folder that holds one, deleting its checkpoints, logs and "
+        "policy",
+    )
     p.add_argument("--steps", type=int, default=None, help="override total_steps")
     p.add_argument("--seed", type=int, default=None, help="override the config's seed")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_no_progress(p)
     p.set_defaults(func=_cmd_train)
 
     p = sub.add_parser("export", help="export a checkpoint to policy.onnx + policy.json")
-    p.add_argument("--checkpoint", type=Path, required=True)
+    p.add_argument("--checkpoint", type=Path, required=True, help="a .pt checkpoint of a run")
     p.add_argument("--out", type=Path, required=True, help="an .onnx path or a folder")
     p.set_defaults(func=_cmd_export)
 
@@ -306,10 +366,11 @@ def build_parser() -> argparse.ArgumentParser:
         "interval of rings, score and pins, win rate by match score, fill time of 10 rings.",
     )
     p.add_argument("--policy", required=True, help="player A")
-    p.add_argument("--opponent", default="planner", help="player B, or none (default planner)")
-    p.add_argument("--matches", type=int, default=20)
+    p.add_argument("--opponent", default="planner", help="player B, or none")
+    p.add_argument("--matches", type=int, default=20, help="matches to play")
     _add_match_options(p)
     p.add_argument("--json", type=Path, default=None, help="also write the summary as JSON")
+    add_no_progress(p)
     p.set_defaults(func=_cmd_eval)
 
     p = sub.add_parser(
@@ -319,9 +380,11 @@ def build_parser() -> argparse.ArgumentParser:
         "a PNG of every reward component, the rings and the score over time.",
     )
     p.add_argument("--policy", required=True, help="player A")
-    p.add_argument("--opponent", default="planner", help="player B, or none (default planner)")
-    p.add_argument("--out", type=Path, default=Path("match.gif"))
-    p.add_argument("--plot", type=Path, default=None, help="default <out>_rewards.png")
+    p.add_argument("--opponent", default="planner", help="player B, or none")
+    p.add_argument("--out", type=Path, default=Path("match.gif"), help="the GIF to write")
+    p.add_argument(
+        "--plot", type=Path, default=None, help="the reward plot (default: <out>_rewards.png)"
+    )
     p.add_argument("--side", choices=("red", "blue"), default="red", help="A's alliance")
     p.add_argument("--stride", type=int, default=3, help="control steps per GIF frame")
     p.add_argument("--size", type=int, default=480, help="image width in pixels")

@@ -12,6 +12,7 @@ import numpy as np
 
 from jetson.errors import CameraConfigError
 from jetson.perception.camera import CameraConfig
+from protocol.cli_conventions import ProgressLine, add_no_progress, progress_wanted
 
 DETECTORS = ("classical", "cnn")  # as jetson.perception.pipeline, without importing OpenCV
 
@@ -28,9 +29,11 @@ def _camera(args: argparse.Namespace) -> CameraConfig:
 
 
 def _add_pipeline_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--detector", choices=DETECTORS, default="cnn", help="default: cnn")
+    p.add_argument("--detector", choices=DETECTORS, default="cnn", help="ring detector")
     p.add_argument(
-        "--model", type=Path, help="CNN weights (.onnx; default jetson/models/ringnet.onnx)"
+        "--model",
+        type=Path,
+        help="CNN weights, .onnx (default: the shipped jetson/models/ringnet.onnx)",
     )
     p.add_argument("--threshold", type=float, help="score threshold (default: the model's)")
     p.add_argument(
@@ -69,6 +72,12 @@ def cmd_detect(args: argparse.Namespace) -> int:
     with (
         open_source(str(args.source), camera.intrinsics) as source,
         (out / "rings.jsonl").open("w") as log,
+        ProgressLine(
+            "pete-jetson detect",
+            _frames_to_come(source, args.max_frames),
+            "frames",
+            enabled=progress_wanted(args.no_progress),
+        ) as bar,
     ):
         for frame in source:
             if args.max_frames is not None and n >= args.max_frames:
@@ -100,6 +109,7 @@ def cmd_detect(args: argparse.Namespace) -> int:
             }
             log.write(json.dumps(record) + "\n")
             n += 1
+            bar.update()
     for w in writers.values():
         w.release()
     if n == 0:
@@ -110,6 +120,18 @@ def cmd_detect(args: argparse.Namespace) -> int:
         f"{'annotated.mp4, topdown.mp4' if args.video else 'annotated/, topdown/'}, rings.jsonl"
     )
     return 0
+
+
+def _frames_to_come(source: object, max_frames: int | None) -> int | None:
+    """How many frames detect will read, where that is known (a folder or a recording has a
+    length; a camera or a stream does not)."""
+    try:
+        known: int | None = len(source)  # type: ignore[arg-type]
+    except TypeError:
+        known = None
+    if max_frames is None:
+        return known
+    return max_frames if known is None else min(known, max_frames)
 
 
 def _patch(text: str) -> tuple[int, int]:
@@ -232,7 +254,17 @@ def cmd_eval(args: argparse.Namespace) -> int:
         elif trained_on(meta, args.images):
             print("warning: the model was trained on these images; this score flatters it")
     t0 = time.perf_counter()
-    score = score_dataset(pipeline, dataset, args.iou, args.limit)
+    n = len(dataset) if args.limit is None else min(args.limit, len(dataset))
+    with ProgressLine(
+        "pete-jetson detector eval", n, "images", enabled=progress_wanted(args.no_progress)
+    ) as bar:
+        score = score_dataset(
+            pipeline,
+            dataset,
+            args.iou,
+            args.limit,
+            progress=lambda done, total: bar.update(done - bar.count),
+        )
     dt = time.perf_counter() - t0
     c = score.counts
     pre = "with" if args.prefilter else "without"
@@ -340,6 +372,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     p.add_argument("--max-frames", type=int, help="stop after this many frames")
     p.add_argument("--video", action="store_true", help="write .mp4 videos instead of PNGs")
     p.add_argument("--fps", type=float, default=30.0, help="frame rate of --video output")
+    add_no_progress(p)
     p.set_defaults(func=cmd_detect)
 
     d = sub.add_parser("detector", help="train or evaluate the ring detector")
@@ -352,29 +385,29 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     )
     t.add_argument("--data", type=Path, action="append", help="a dataset folder (repeatable)")
     t.add_argument("--val", type=Path, action="append", help="a validation folder (repeatable)")
-    t.add_argument("--synthetic", type=int, default=0, help="synthetic frames to add (0)")
+    t.add_argument("--synthetic", type=int, default=0, help="synthetic frames to add")
     t.add_argument(
         "--holdout",
         type=float,
         default=0.0,
-        help="fraction of each --data folder's source images to hold out for validation (0)",
+        help="fraction of each --data folder's source images to hold out for validation",
     )
     t.add_argument("--out", type=Path, required=True, help="the .onnx file to write")
-    t.add_argument("--steps", type=int, default=1500)
-    t.add_argument("--batch", type=int, default=16)
-    t.add_argument("--width", type=int, default=16, help="channels of the first stage (16)")
+    t.add_argument("--steps", type=int, default=1500, help="optimiser steps")
+    t.add_argument("--batch", type=int, default=16, help="training crops per step")
+    t.add_argument("--width", type=int, default=16, help="channels of the first stage")
     t.add_argument(
         "--blocks",
         type=int,
         default=1,
-        help="3x3 convolutions after the down-sampling in the two deepest stages (1); 2 widens "
+        help="3x3 convolutions after the down-sampling in the two deepest stages; 2 widens "
         "the receptive field for ~45 %% more network time",
     )
     t.add_argument(
         "--giou",
         type=float,
         default=0.0,
-        help="weight of a GIoU loss on the boxes (0: L1 on log sizes only); a match needs "
+        help="weight of a GIoU loss on the boxes, 0 for L1 on log sizes only; a match needs "
         "IoU >= 0.5, which L1 on sizes does not aim at",
     )
     t.add_argument(
@@ -382,19 +415,19 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         type=float,
         default=0.0,
         help="share of training samples lit by strongly coloured light, one colour channel "
-        "down to a sixth of the others (0); for photos taken under coloured stage or LED light",
+        "down to a sixth of the others; for photos taken under coloured stage or LED light",
     )
     t.add_argument(
         "--input-long-side",
         type=int,
         default=320,
-        help="the long side frames are resized to before the network (320); larger finds "
+        help="the long side frames are resized to before the network; larger finds "
         "smaller rings and costs frame rate",
     )
     t.add_argument(
         "--patch",
         default="192x160",
-        help="training crop WIDTHxHEIGHT at the input scale (192x160); a model trained at a "
+        help="training crop WIDTHxHEIGHT at the input scale; a model trained at a "
         "larger --input-long-side needs a larger patch to see as much of the scene around piles",
     )
     t.add_argument(
@@ -404,9 +437,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
         "e.g. jetson/models/ringnet.pt): fine-tune the shipped detector on your own labelled "
         "photos",
     )
-    t.add_argument("--lr", type=float, default=3e-3, help="peak learning rate (3e-3)")
-    t.add_argument("--seed", type=int, default=0)
-    t.add_argument("--threads", type=int, default=2, help="torch threads (2)")
+    t.add_argument("--lr", type=float, default=3e-3, help="peak learning rate")
+    t.add_argument("--seed", type=int, default=0, help="random seed")
+    t.add_argument("--threads", type=int, default=2, help="torch threads")
     t.set_defaults(func=cmd_train)
     q = dsub.add_parser(
         "quantize",
@@ -420,7 +453,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     q.add_argument(
         "--calib", type=Path, action="append", required=True, help="an image folder (repeatable)"
     )
-    q.add_argument("--frames", type=int, default=96, help="calibration images in all (96)")
+    q.add_argument("--frames", type=int, default=96, help="calibration images in all")
     q.add_argument("--out", type=Path, required=True, help="the int8 .onnx to write")
     q.add_argument(
         "--all-int8",
@@ -453,23 +486,24 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     )
     e.add_argument("--images", type=Path, required=True, help="the dataset folder")
     _add_pipeline_args(e)
-    e.add_argument("--iou", type=float, default=0.5, help="IoU for a match (0.5)")
+    e.add_argument("--iou", type=float, default=0.5, help="IoU for a match")
     e.add_argument("--limit", type=int, help="score only the first N images")
     e.add_argument(
         "--all-images",
         action="store_true",
         help="score every image even if the model trained on some (default: held-out only)",
     )
+    add_no_progress(e)
     e.set_defaults(func=cmd_eval)
     s = dsub.add_parser(
         "synth",
         help="write synthetic frames as a dataset folder (images, labels, depth, truth)",
     )
-    s.add_argument("--frames", type=int, required=True)
-    s.add_argument("--out", type=Path, required=True)
+    s.add_argument("--frames", type=int, required=True, help="how many frames")
+    s.add_argument("--out", type=Path, required=True, help="the dataset folder to write")
     s.add_argument("--seed", type=int, default=0, help="frame k uses seed SEED + k")
-    s.add_argument("--width", type=int, default=640)
-    s.add_argument("--height", type=int, default=480)
+    s.add_argument("--width", type=int, default=640, help="image width, pixels")
+    s.add_argument("--height", type=int, default=480, help="image height, pixels")
     s.add_argument("--camera", type=Path, help="camera config JSON (default: built-in D435)")
     s.set_defaults(func=cmd_synth)
 
@@ -480,11 +514,16 @@ def add_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-
     c.add_argument("--images", type=Path, required=True, help="folder of checkerboard images")
     c.add_argument("--board", required=True, help="INNER corners as COLSxROWS, e.g. 9x6")
     c.add_argument("--square-mm", type=float, required=True, help="square side, millimetres")
-    c.add_argument("--out", type=Path, default=Path("camera.json"), help="(camera.json)")
+    c.add_argument(
+        "--out",
+        type=Path,
+        default=Path("camera.json"),
+        help="the camera config to write (the mount already in it is kept)",
+    )
     c.set_defaults(func=cmd_calibrate)
 
     r = sub.add_parser("record", help="record a source to disk (colour PNG + 16-bit depth)")
-    r.add_argument("--source", default="realsense", help="what to record (realsense)")
+    r.add_argument("--source", default="realsense", help="what to record")
     r.add_argument("--out", type=Path, required=True, help="a new folder")
     r.add_argument("--frames", type=int, help="stop after this many frames")
     r.add_argument("--camera", type=Path, help="camera config for sources without intrinsics")

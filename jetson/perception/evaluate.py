@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -191,9 +192,10 @@ def score_dataset(
     dataset: RingDataset,
     iou_threshold: float = 0.5,
     limit: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> DatasetScore:
     """Run the pipeline over a dataset folder; count matches; measure localisation where the
-    folder has depth and ground-truth positions."""
+    folder has depth and ground-truth positions. `progress(done, total)` after each image."""
     counts = Counts()
     errors: list[tuple[float, float]] = []
     unplaced = 0
@@ -226,6 +228,8 @@ def score_dataset(
             result = pipeline.process(frame, localiser=localisers[mount])
         pairs = match(result.detections, truth, iou_threshold)
         counts.add(len(result.detections), len(truth), len(pairs))
+        if progress is not None:
+            progress(i + 1, n)
         true_xy = dataset.truth(i)
         if true_xy is not None and len(true_xy) != len(truth):
             raise DatasetError(

@@ -33,13 +33,15 @@ def add_match_command(sub: argparse._SubParsersAction) -> None:
         "simulator. Writes summary.txt/json, replay.gif (camera inset), plots.png, timeline.csv "
         "and the daemon's log to --out.",
     )
-    p.add_argument("--stack", choices=("full", "sim"), default="full")
-    p.add_argument("--seed", type=int, default=0, help="match seed (default 0)")
+    p.add_argument(
+        "--stack", choices=("full", "sim"), default="full", help="the whole stack, or the policy"
+    )
+    p.add_argument("--seed", type=int, default=0, help="match seed")
     p.add_argument(
         "--policy",
         type=Path,
         default=None,
-        help="policy.onnx (policy.json beside it); default jetson/models/policy/policy.onnx",
+        help="policy.onnx (policy.json beside it) (default: jetson/models/policy/policy.onnx)",
     )
     p.add_argument(
         "--opponent", default="planner", help="planner, scripted, idle, a policy.onnx, or none"
@@ -50,7 +52,12 @@ def add_match_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--fault-at", type=float, default=None, help="match time of the fault, s (default: 1/3)"
     )
-    p.add_argument("--scenario", choices=("capped", "uncapped"), default="capped")
+    p.add_argument(
+        "--scenario",
+        choices=("capped", "uncapped"),
+        default="capped",
+        help="capped: the report's 10-ring task; uncapped: every ring counts",
+    )
     p.add_argument("--no-camera", action="store_true", help="no frames: the policy sees no rings")
     p.add_argument(
         "--no-ring-counter",
@@ -58,30 +65,32 @@ def add_match_command(sub: argparse._SubParsersAction) -> None:
         help="a robot without an intake ring counter (the State says 255; the daemon assumes 0)",
     )
     p.add_argument(
-        "--camera-size", type=_size, default=(240, 180), help="rendered frames (default 240x180)"
+        "--camera-size", type=_size, default=(240, 180), help="rendered frames (default: 240x180)"
     )
-    p.add_argument("--camera-hz", type=float, default=10.0, help="frames per second (default 10)")
+    p.add_argument("--camera-hz", type=float, default=10.0, help="frames per second")
     p.add_argument(
         "--detector",
         choices=("auto", "cnn", "classical"),
         default="auto",
         help="auto: the CNN when jetson/models/ringnet.onnx exists, else classical",
     )
-    p.add_argument("--detector-model", type=Path, default=None)
+    p.add_argument(
+        "--detector-model", type=Path, default=None, help="CNN weights, .onnx (default: shipped)"
+    )
     p.add_argument(
         "--perception-latency",
         type=float,
         default=0.05,
-        help="s from a frame to its result reaching the policy (lockstep; default 0.05)",
+        help="s from a frame to its result reaching the policy (in lockstep)",
     )
-    p.add_argument("--no-gif", action="store_true")
+    p.add_argument("--no-gif", action="store_true", help="no replay.gif")
     p.add_argument("--gif-every", type=float, default=0.5, help="match seconds per GIF frame")
-    p.add_argument("--gif-size", type=int, default=400)
-    p.add_argument("--no-plots", action="store_true")
+    p.add_argument("--gif-size", type=int, default=400, help="GIF width in pixels")
+    p.add_argument("--no-plots", action="store_true", help="no plots.png")
     p.add_argument(
         "--record", action="store_true", help="keep the daemon's session (pete-jetson replay)"
     )
-    p.add_argument("--out", type=Path, default=None, help="run folder (default runs/match-...)")
+    p.add_argument("--out", type=Path, default=None, help="run folder (default: runs/match-...)")
     p.add_argument("--brain-host", type=Path, default=None, help="the brain_host binary")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
