@@ -44,8 +44,8 @@ def test_systemd_rates_the_unit_ok(tmp_path: Path) -> None:
 def test_the_bench_names_a_missing_systemd_analyze(monkeypatch, capsys, tmp_path) -> None:
     monkeypatch.setattr(deploy.shutil, "which", lambda name: None)
     monkeypatch.setattr(deploy.Result, "save", lambda *a, **k: pytest.fail("wrote a result"))
-    assert deploy.main([]) == 2
-    assert "systemd-analyze is not installed" in capsys.readouterr().err
+    assert deploy.main([]) == 0, "make bench goes on without it"
+    assert "skipped: systemd-analyze is not installed" in capsys.readouterr().err
     assert deploy.main(["--unit", str(tmp_path / "none.service")]) == 2
     assert "no unit file" in capsys.readouterr().err
 
