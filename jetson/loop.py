@@ -12,17 +12,24 @@ newest.
 `Daemon.service()` is one turn of the loop; `run()` turns it until asked to stop and then sends a
 stop Command. A lockstep simulator can instead call `service()` / `pump_until()` itself with a
 ManualClock, so that it decides when the daemon reads (see jetson/README.md, "In a simulator").
+
+A port that opens but fails (no Brain behind it, a link that drops before its handshake) is
+retried with exponential backoff (`reconnect_poll_s` doubling to `reconnect_max_s`, back to the
+start when a link comes up); a port that is absent is looked for every turn. The decision keeps
+its memories across a reconnect to the same Brain boot (the Hello's boot id), and so does the
+session's recording; a new boot id starts both afresh (a new match is the decider's own call).
 """
 
 from __future__ import annotations
 
+import math
 import secrets
-import threading
+import signal
 import time
 import traceback
 from collections import Counter
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
 from jetson.camera_feed import PerceptionFeed
 from jetson.clock import Clock
@@ -38,6 +45,40 @@ from protocol.framing import LinkError, Received, TextLine, UplinkDecoder
 from protocol.messages import Command, Hello, Log, State
 
 _LOG_LEVELS = {0: "debug", 1: "info", 2: "warning", 3: "error"}
+
+
+class StopRequest(Protocol):
+    """What run() is stopped by: a threading.Event, or jetson.service.StopFlag (which a signal
+    handler sets, and which names the signal in `signum`)."""
+
+    def is_set(self) -> bool: ...
+
+    def wait(self, timeout: float) -> bool: ...
+
+
+class Backoff:
+    """When to try the Brain's port again: at once at first, then after `first_s` doubling on
+    every failure up to `max_s`; succeeded() (a link came up) starts again from `first_s`."""
+
+    def __init__(self, first_s: float, max_s: float) -> None:
+        self.first_s = first_s
+        self.max_s = max(max_s, first_s)
+        self.delay_s = first_s
+        self.next_s = -math.inf
+        self.failures = 0  # in a row
+
+    def ready(self, now: float) -> bool:
+        return now >= self.next_s
+
+    def failed(self, now: float) -> None:
+        self.failures += 1
+        self.next_s = now + self.delay_s
+        self.delay_s = min(self.delay_s * 2.0, self.max_s)
+
+    def succeeded(self) -> None:
+        self.failures = 0
+        self.delay_s = self.first_s
+        self.next_s = -math.inf
 
 
 def software_version() -> str:
@@ -102,6 +143,10 @@ class Daemon:
         self._rx_total = 0
         self._tx_total = 0
         self._shut_down = False
+        self.backoff = Backoff(self.config.reconnect_poll_s, self.config.reconnect_max_s)
+        # The Brain boot whose match the decider's memories (and the recording) belong to.
+        self._memory_boot: int | None = None
+        self._record_failure_logged = False
 
     # --- public state ---------------------------------------------------------------------------
 
@@ -128,7 +173,7 @@ class Daemon:
 
     # --- running --------------------------------------------------------------------------------
 
-    def run(self, stop: threading.Event) -> None:
+    def run(self, stop: StopRequest) -> None:
         """Serve until `stop` is set (SIGTERM/SIGINT set it), then send a stop and close."""
         self.log.info(
             "start",
@@ -145,7 +190,12 @@ class Daemon:
                     self._internal_error("loop", exc)
                     stop.wait(0.1)
         finally:
-            self.shutdown("stop requested")
+            signum = getattr(stop, "signum", None)
+            reason = "stop requested"
+            if signum is not None:
+                reason = signal.Signals(signum).name
+                self.log.info("signal", f"{reason}: stopping", signal=reason)
+            self.shutdown(reason)
 
     def pump_until(self, done: Callable[[], bool], timeout_s: float = 5.0) -> bool:
         """Serve until done() (e.g. every byte a lockstep Brain wrote has been read)."""
@@ -186,9 +236,10 @@ class Daemon:
             return
         self._maybe_summary(now)
 
-    def shutdown(self, reason: str) -> None:
-        """Send a stop (when the link is up), close the port and the recording, log the totals.
-        Only once: a second call does nothing."""
+    def shutdown(self, reason: str, record_wait_s: float = 0.4) -> None:
+        """Send a stop (when the link is up), close the port and the recording (waiting at most
+        record_wait_s for its writer: the process must exit within a second of SIGTERM), log the
+        totals. Only once: a second call does nothing."""
         if self._shut_down:
             return
         self._shut_down = True
@@ -200,7 +251,8 @@ class Daemon:
                 self.log.warning("stop_failed", f"could not send the final stop: {exc}")
         self._summary(self.clock.now())  # the last partial second, while the link is still up
         self._close_link()
-        self._end_recording()
+        self._end_recording(record_wait_s)
+        self.log.close()  # the repeats not written yet
         overall = LatencyStats.summary_ms(self.latency.recent)
         self.log.info(
             "exit",
@@ -213,6 +265,8 @@ class Daemon:
     # --- connection -----------------------------------------------------------------------------
 
     def _connect(self, now: float) -> bool:
+        if not self.backoff.ready(now):
+            return False
         try:
             path = self.locator.find()
         except RuntimeError as exc:
@@ -228,12 +282,12 @@ class Daemon:
         except LinkClosed:
             return False  # it vanished between looking and opening
         except LinkOpenError as exc:
+            self.backoff.failed(now)
             self._error_once("open", f"cannot open the Brain's port: {exc}")
             return False
         self.link = link
         self.decoder = UplinkDecoder()
         self.handshake.reset()
-        self.decider.reset()
         self.counters.connects += 1
         self._last_rx_s = now
         self._waiting_since = None
@@ -247,12 +301,16 @@ class Daemon:
         return True
 
     def _disconnect(self, reason: str) -> None:
+        """The port closed. The decider and the recording stay as they are: if the same Brain
+        boot comes back, its match goes on (a new boot id starts both afresh)."""
+        now = self.clock.now()
         self.counters.disconnects += 1
         was = self.handshake.state
         self._close_link()
-        self._end_recording()
         self.handshake.reset()
-        self.decider.reset()
+        self.backoff.failed(now)
+        if self.recorder is not None:
+            self.recorder.event(now, "link_down", reason=reason)
         self.log.warning(
             "link_down", f"link down ({reason}); waiting for the Brain to come back",
             was=was.value, disconnects=self.counters.disconnects,
@@ -348,13 +406,24 @@ class Daemon:
                 )
             return False
         elif out.kind in ("up", "restart"):
+            self.backoff.succeeded()
+            # Memories belong to a Brain boot: the same boot back (a cable pulled and returned)
+            # is the same match going on; a new boot id is a new start.
+            same_boot = hello.boot_id == self._memory_boot
             level = "warning" if out.kind == "restart" else "info"
+            kept = "; the same boot: the decision keeps its memories" if same_boot else ""
             self.log.event(
-                level, "link_up" if out.kind == "up" else "brain_restart", out.message,
+                level, "link_up" if out.kind == "up" else "brain_restart", out.message + kept,
                 brain_boot_id=f"{hello.boot_id:08X}", brain_software=hello.software_version,
+                memories="kept" if same_boot else "fresh",
             )  # fmt: skip
-            self.decider.reset()
-            self._start_recording(hello)
+            if same_boot:
+                if self.recorder is not None:
+                    self.recorder.event(now, "link_up", brain_boot_id=f"{hello.boot_id:08X}")
+            else:
+                self._memory_boot = hello.boot_id
+                self.decider.reset()
+                self._start_recording(hello)
             return out.kind == "up"
         return True
 
@@ -452,17 +521,36 @@ class Daemon:
         except OSError as exc:
             self._error_once("record", f"cannot record the session: {exc}")
             return
+        self._record_failure_logged = False
         self.recorder.reset(self.clock.now())
         self.log.info(
             "recording", f"recording to {self.recorder.path}", path=str(self.recorder.path)
         )
 
-    def _end_recording(self) -> None:
+    def _end_recording(self, wait_s: float = 0.0) -> None:
+        """Close the recording; its writer finishes on its own thread (the loop does not wait
+        for a disk, except for wait_s)."""
         if self.recorder is not None:
             rec, self.recorder = self.recorder, None
-            rec.close()
-            if rec.failed:
-                self.log.error("record", f"recording {rec.path} stopped early: {rec.failed}")
+            rec.close(wait_s)
+            self._report_record_failure(rec)
+
+    def _check_recording(self) -> None:
+        """A recording that failed (a full disk, its budget) is paused: one line says so, and
+        the robot drives on. Recording starts again with the next Brain boot's session."""
+        rec = self.recorder
+        if rec is not None and rec.failed:
+            self._end_recording()
+
+    def _report_record_failure(self, rec: Recorder) -> None:
+        if rec.failed and not self._record_failure_logged:
+            self._record_failure_logged = True
+            self.log.error(
+                "record_paused",
+                f"recording paused: {rec.failed}; the robot drives on, and recording starts "
+                f"again with the next Brain session ({rec.records} records in {rec.path})",
+                path=str(rec.path),
+            )
 
     # --- logging --------------------------------------------------------------------------------
 
@@ -489,6 +577,8 @@ class Daemon:
 
     def _maybe_summary(self, now: float) -> None:
         if now >= self._next_summary:
+            self._check_recording()
+            self.log.flush_repeats()
             self._summary(now)
             self._next_summary += self._summary_period
             if self._next_summary <= now:

@@ -2,6 +2,7 @@
 
     build(settings)     -> Service: the policy, the camera thread, the recorder, the Daemon
     Service.run()       serves until SIGTERM/SIGINT (or stop()), then sends a stop and exits
+                        (within a second: the handlers only set a flag the loop looks at)
     add_commands(sub)   registers `run` and `replay` with pete-jetson's argument parser
 
 The heavy imports (numpy, onnxruntime, OpenCV, jetson.autonomy.spec) happen inside these functions,
@@ -14,7 +15,7 @@ import argparse
 import json
 import signal
 import sys
-import threading
+import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from types import FrameType
@@ -27,11 +28,42 @@ from jetson.settings import Settings
 # camera thread runs Python code could wait that long. 1 ms bounds the wait at a small cost to
 # the camera thread.
 SWITCH_INTERVAL_S = 0.001
+# After SIGTERM the stop Command goes first; then the recording's writer (Daemon.shutdown) and
+# the camera thread get a few tenths of a second each to finish (both are daemon threads: the
+# process exits regardless), so that the daemon is gone within a second of the signal.
+CAMERA_WAIT_S = 0.3
 
 HELP = """\
   pete-jetson run          the daemon: talk to the Brain, see rings, drive (jetson/README.md)
   pete-jetson replay       re-run a recorded session through the decision code, report changes
 """
+
+
+class StopFlag:
+    """A request to stop that a signal handler may make: set() writes two attributes and takes no
+    lock (threading.Event.set takes one, which the interrupted thread may be holding). The loop
+    looks at it every turn (at most ~0.1 s apart)."""
+
+    def __init__(self) -> None:
+        self.signum: int | None = None  # the signal that asked, if one did
+        self._set = False
+
+    def set(self, signum: int | None = None) -> None:
+        if signum is not None:
+            self.signum = signum
+        self._set = True
+
+    def is_set(self) -> bool:
+        return self._set
+
+    def wait(self, timeout: float) -> bool:
+        deadline = time.monotonic() + timeout
+        while not self._set:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                break
+            time.sleep(min(left, 0.01))
+        return self._set
 
 
 @dataclass
@@ -40,7 +72,7 @@ class Service:
 
     daemon: Any  # jetson.loop.Daemon
     camera: Any | None = None  # jetson.camera_feed.CameraWorker
-    stop_event: threading.Event = field(default_factory=threading.Event)
+    stop_event: StopFlag = field(default_factory=StopFlag)
     _files: list[TextIO] = field(default_factory=list)
 
     def stop(self) -> None:
@@ -48,26 +80,33 @@ class Service:
 
     def run(self) -> int:
         sys.setswitchinterval(SWITCH_INTERVAL_S)
-        if self.camera is not None:
+        if self.camera is not None and not self.stop_event.is_set():
             self.camera.start()
         try:
             self.daemon.run(self.stop_event)
         finally:
             if self.camera is not None:
-                self.camera.stop()
+                self.camera.stop(CAMERA_WAIT_S)
             for f in self._files:
                 f.close()
         return 0
 
     def install_signal_handlers(self) -> None:
         """SIGTERM (systemd stop) and SIGINT (Ctrl-C) end the loop, which sends a stop first."""
+        install_signal_handlers(self.stop_event)
 
-        def handler(signum: int, _frame: FrameType | None) -> None:
-            self.daemon.log.info("signal", f"{signal.Signals(signum).name}: stopping")
-            self.stop_event.set()
 
-        signal.signal(signal.SIGTERM, handler)
-        signal.signal(signal.SIGINT, handler)
+def install_signal_handlers(flag: StopFlag) -> None:
+    """SIGTERM and SIGINT set `flag`, and do nothing else: a handler runs between two bytecodes
+    of the main thread, which may hold the log's lock (or any other), so logging or taking a
+    lock there can hang the process for good. The loop sees the flag, logs the signal, sends a
+    stop and exits."""
+
+    def handler(signum: int, _frame: FrameType | None) -> None:
+        flag.set(signum)
+
+    signal.signal(signal.SIGTERM, handler)
+    signal.signal(signal.SIGINT, handler)
 
 
 def build(
@@ -334,6 +373,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         service = build(settings)
     except (SettingsError, ValueError) as exc:
         raise RuntimeError(str(exc)) from exc
+    # Until here a signal has its default effect (SIGTERM ends the process at once): no Brain
+    # has been talked to yet.
     service.install_signal_handlers()
     return service.run()
 

@@ -47,6 +47,8 @@ class LinkConfig:
     mismatch_hello_period_s: float = 1.0
     silence_timeout_s: float = 2.0  # a connected Brain sends 50 States a second
     reconnect_poll_s: float = 0.05  # how often to look for a port that went away
+    # A port that opens but fails is retried after reconnect_poll_s, doubling up to this.
+    reconnect_max_s: float = 1.0
     exclusive: bool = True  # no second program may open the port while we hold it
 
     def __post_init__(self) -> None:
@@ -55,6 +57,11 @@ class LinkConfig:
                 raise SettingsError(f"link {name} must be positive")
         if not 0 < self.reconnect_poll_s <= 0.5:
             raise SettingsError("link reconnect_poll_s must be in (0, 0.5] s: reconnect within 1 s")
+        if not self.reconnect_poll_s <= self.reconnect_max_s <= 1.0:
+            raise SettingsError(
+                "link reconnect_max_s must be in [reconnect_poll_s, 1] s: a Brain that comes back "
+                f"is found within it (got {self.reconnect_max_s})"
+            )
 
 
 @dataclass(frozen=True)
