@@ -5,12 +5,17 @@ fresh Decider built from the recording's header (same settings, same control rat
 policy (the recorded path, or --policy; its sha256 is compared with the recorded one). Every
 Command field and the decision's reason are compared with what was sent. A difference means the
 decision code, the policy or the libraries under them behave differently from the robot's.
+
+A recording cut off at any byte (power lost while it was written, a full disk) replays up to the
+cut: every whole record before it is used, and the report says where it ends (`cut`).
 """
 
 from __future__ import annotations
 
 import json
 import math
+import zlib
+from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -22,7 +27,7 @@ from jetson.autonomy.policy import OnnxPolicy, Policy
 from jetson.decide import Decider, PerceptionInput
 from jetson.errors import ReplayError
 from jetson.log import LatencyStats
-from jetson.recorder import FORMAT, VERSION, open_recording
+from jetson.recorder import FORMAT, READABLE_VERSIONS
 from jetson.settings import DecisionConfig
 from protocol.framing import message_from_dict
 from protocol.messages import State
@@ -49,6 +54,7 @@ class ReplayReport:
     warnings: list[str] = field(default_factory=list)
     latency: dict[str, float] = field(default_factory=dict)
     reasons: dict[str, int] = field(default_factory=dict)
+    cut: str | None = None  # where and how a cut-off recording ends (None: it is whole)
 
     @property
     def ok(self) -> bool:
@@ -57,6 +63,11 @@ class ReplayReport:
     def text(self, show: int = 10) -> str:
         lines = [f"replayed {self.path} with {self.policy}"]
         lines += [f"warning: {w}" for w in self.warnings]
+        if self.cut is not None:
+            lines.append(
+                f"the recording is cut off ({self.cut}): the {self.cycles} whole cycles before "
+                "the cut were replayed"
+            )
         lines.append(
             f"{self.cycles} cycles: {self.identical} identical, {self.differing_cycles} differ"
         )
@@ -92,23 +103,98 @@ class ReplayReport:
             "warnings": self.warnings,
             "latency": self.latency,
             "reasons": self.reasons,
+            "cut": self.cut,
             "ok": self.ok,
         }
 
 
-def _records(path: Path):
-    try:
-        with open_recording(path) as f:
-            for n, line in enumerate(f, 1):
-                if not line.strip():
-                    continue
-                try:
-                    yield json.loads(line)
-                except json.JSONDecodeError as exc:
-                    # The daemon may have been killed mid-line: the last line can be cut.
-                    raise ReplayError(f"{path}:{n}: not a JSON line ({exc})") from exc
-    except (OSError, EOFError) as exc:
-        raise ReplayError(f"{path}: cannot be read: {exc}") from exc
+_CHUNK = 1 << 16
+
+
+class Records:
+    """A recording's records, as far as they are whole. Iterating yields each record (a dict);
+    afterwards `cut` says where a cut-off recording ends, or is None when it is whole.
+
+    A cut is the end of the file inside a line (the daemon lost power, or was killed, mid-write),
+    a gzip stream without its end marker, or bytes that do not decompress (a crash can leave a
+    file's tail zeroed). A line that is not JSON before the last one is damage, not a cut: a
+    ReplayError."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.cut: str | None = None
+        self.lines = 0
+
+    def __iter__(self) -> Iterator[dict[str, Any]]:
+        pending = b""
+        try:
+            for data in self._data():
+                pending += data
+                *whole, pending = pending.split(b"\n")
+                for line in whole:
+                    record = self._parse(line)
+                    if record is not None:
+                        yield record
+        except OSError as exc:
+            raise ReplayError(f"{self.path}: cannot be read: {exc}") from exc
+        if pending.strip():
+            # The last line has no newline: a whole record whose newline was lost, or the cut.
+            try:
+                record = json.loads(pending.decode("utf-8"))
+            except (UnicodeDecodeError, json.JSONDecodeError):
+                record = None
+            if isinstance(record, dict):
+                self.lines += 1
+                yield record
+            else:
+                self._cut(f"line {self.lines + 1} ends after {len(pending)} bytes")
+
+    def _cut(self, what: str) -> None:
+        self.cut = what if self.cut is None else f"{what}; {self.cut}"
+
+    def _parse(self, line: bytes) -> dict[str, Any] | None:
+        self.lines += 1
+        if not line.strip():
+            return None
+        try:
+            record = json.loads(line.decode("utf-8"))
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ReplayError(f"{self.path}:{self.lines}: not a JSON line ({exc})") from exc
+        if not isinstance(record, dict):
+            raise ReplayError(f"{self.path}:{self.lines}: not a record (a JSON object)")
+        return record
+
+    def _data(self) -> Iterator[bytes]:
+        """The file's bytes, decompressed when it is gzip: as far as they go."""
+        with self.path.open("rb") as f:
+            if self.path.suffix != ".gz":
+                empty = True
+                while chunk := f.read(_CHUNK):
+                    empty = False
+                    yield chunk
+                if empty:
+                    self._cut("the file is empty")
+                return
+            d = zlib.decompressobj(wbits=31)  # gzip
+            fed = False  # d has been given bytes
+            read = 0
+            while chunk := f.read(_CHUNK):
+                read += len(chunk)
+                while chunk:
+                    try:
+                        out = d.decompress(chunk)
+                    except zlib.error as exc:
+                        self._cut(f"the data is damaged within its first {read} bytes ({exc})")
+                        return
+                    fed = True
+                    yield out
+                    chunk = b""
+                    if d.eof:  # another gzip member may follow
+                        chunk, d, fed = d.unused_data, zlib.decompressobj(wbits=31), False
+            if not read:
+                self._cut("the file is empty")
+            elif fed and not d.eof:
+                self._cut("the gzip stream stops without its end marker")
 
 
 def recorded_decision(header: dict[str, Any]) -> DecisionConfig:
@@ -121,12 +207,18 @@ def recorded_decision(header: dict[str, Any]) -> DecisionConfig:
 
 def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e-6) -> ReplayReport:
     path = Path(path)
-    records = _records(path)
+    reader = Records(path)
+    records = iter(reader)
     header = next(records, None)
     if not header or header.get("kind") != "header" or header.get("format") != FORMAT:
+        if header is None and reader.cut is not None:
+            raise ReplayError(f"{path}: cut off before its header was whole ({reader.cut})")
         raise ReplayError(f"{path}: not a pete-jetson session recording (no header)")
-    if header.get("version") != VERSION:
-        raise ReplayError(f"{path}: recording version {header.get('version')}, need {VERSION}")
+    version = header.get("version")
+    if version not in READABLE_VERSIONS:
+        raise ReplayError(
+            f"{path}: recording version {version}, this replay reads {list(READABLE_VERSIONS)}"
+        )
     warnings = []
     recorded_policy = header.get("policy") or {}
     if policy is None:
@@ -156,9 +248,12 @@ def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e
     report.warnings = warnings
     rings: dict[int, tuple[np.ndarray, str | None]] = {}
     latencies = []
+    end = None
     for rec in records:
         kind = rec.get("kind")
-        if kind == "reset":
+        if kind == "end":
+            end = rec
+        elif kind == "reset":
             decider.reset()
         elif kind == "perception":
             xy = np.asarray(rec["rings"], dtype=np.float64).reshape(-1, 2)
@@ -167,6 +262,12 @@ def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e
             _compare(report, decider, rec, rings, tolerance, path)
             latencies.append(float(rec.get("latency_ms", math.nan)) / 1e3)
     report.latency = LatencyStats.summary_ms(x for x in latencies if math.isfinite(x))
+    report.cut = reader.cut
+    if end is None and version != 1 and report.cut is None:
+        # Cut exactly between two lines: every line is whole, but the file was never closed.
+        report.cut = f"it stops after line {reader.lines} without its end record"
+    if end is not None and end.get("stopped"):
+        report.warnings.append(f"the recording stopped early: {end['stopped']}")
     return report
 
 
