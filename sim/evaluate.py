@@ -1,6 +1,6 @@
 """Deterministic evaluation: seeded matches between two players, with honest statistics.
 
-    pete-sim eval --policy models/policy/policy.onnx --opponent planner --matches 100 --seed 0
+    pete-sim eval --policy jetson/models/policy/ --opponent planner --matches 100 --seed 0
 
 Players (`load_player`): a path to our policy.onnx (with policy.json beside it), a training
 checkpoint (.pt) or run folder, `original:PATH` (the original team's ONNX through
