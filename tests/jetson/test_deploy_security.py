@@ -72,7 +72,8 @@ def test_the_unit_takes_away_what_the_daemon_does_not_use() -> None:
     assert {"char-ttyACM", "char-video4linux", "char-usb_device"} <= devices
     families = u["RestrictAddressFamilies"][0].split()
     assert "AF_UNIX" in families and not {"AF_INET", "AF_INET6", "AF_PACKET"} & set(families)
-    assert "ReadWritePaths" not in u, "the writable places are StateDirectory and LogsDirectory"
+    assert "ReadWritePaths" not in u, "the writable places are the State/Logs/Cache directories"
+    assert u["CacheDirectory"] == ["pete-jetson"], "TensorRT's engine cache ($CACHE_DIRECTORY)"
 
 
 def test_the_installed_settings_stay_inside_what_the_unit_allows() -> None:
