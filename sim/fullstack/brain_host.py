@@ -22,7 +22,7 @@ import select
 import subprocess
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import IO, Literal
 
@@ -120,6 +120,21 @@ class BrainReport:
         """The motors were told to turn (not stopped, and some wheel speed)."""
         return not self.stopped and (abs(self.left_mps) > 1e-6 or abs(self.right_mps) > 1e-6)
 
+    def shifted(self, offset_ms: int) -> BrainReport:
+        """The same report with its times moved by offset_ms (a brain_host started later than
+        the match: its clock starts at zero)."""
+        return replace(self, t_ms=self.t_ms + offset_ms, last_step_ms=self.last_step_ms + offset_ms)
+
+    @classmethod
+    def off(cls, t_ms: int) -> BrainReport:
+        """A Brain that is not running (rebooting): nobody drives, the motors are off."""
+        return cls(
+            t_ms=t_ms, last_step_ms=t_ms, phase="disabled", phase_ms=0, link="off",
+            source="none", stopped=True, left_rpm=0.0, right_rpm=0.0, left_mps=0.0,
+            right_mps=0.0, linear=0.0, angular=0.0, intake=False, gps="off", faults=(),
+            last_command_seq=0, steps=0, timeouts=0, rx=0, tx=0,
+        )  # fmt: skip
+
 
 @dataclass(frozen=True)
 class Ready:
@@ -167,8 +182,10 @@ class BrainHost:
         binary: str | Path | None = None,
         stderr_path: Path | None = None,
         extra_args: Sequence[str] = (),
+        append_stderr: bool = False,
     ) -> BrainHost:
-        """Start brain_host with its link on a new pty and its side channel on pipes."""
+        """Start brain_host with its link on a new pty and its side channel on pipes
+        (`append_stderr`: add to stderr_path, as a restarted one does)."""
         exe = find_binary(binary)
         args = [str(exe), "--link", "pty", "--lockstep" if lockstep else "--realtime"]
         args += ["--alliance", alliance]
@@ -184,7 +201,7 @@ class BrainHost:
         err: IO[bytes]
         if stderr_path is not None:
             stderr_path.parent.mkdir(parents=True, exist_ok=True)
-            err = stderr_path.open("wb")
+            err = stderr_path.open("ab" if append_stderr else "wb")
         else:
             err = open(os.devnull, "wb")  # noqa: SIM115 - closed by close()
         proc = subprocess.Popen(

@@ -10,7 +10,10 @@ wrote and brain_host exactly what the daemon wrote. Standing in the middle, it c
   receiver refused) and "lost" (sent, never received) are measured, not estimated;
 - corrupt bytes (a random bit of each byte, with a probability per byte), per direction;
 - be unplugged and plugged back in: the daemon's pty vanishes (its reads fail as on a real USB
-  disconnect) and a new one appears behind the same path.
+  disconnect) and a new one appears behind the same path;
+- lose its reader (the daemon process died: bytes for it are dropped, as a tty nobody holds open
+  discards them) and get a new one (the restarted daemon opens the same port afresh);
+- be moved to a new Brain (brain_host restarted: a rebooted Brain's new port).
 
 In lockstep everything happens in the caller's thread: pump_up(n) forwards until brain_host's
 first n uplink bytes have passed, pump_down(n) until the daemon's first n bytes (on this
@@ -22,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import os
 import select
+import termios
 import threading
 import time
 from collections import Counter
@@ -157,12 +161,17 @@ class _Wire:
         self._gap_base = self.stats.seq_gaps
         self._rx = type(self._rx)()
 
+    def sender_restarted(self) -> None:
+        """A new sender (a rebooted Brain): its stream starts afresh; a frame the old one was
+        writing is cut off."""
+        self._tx = type(self._tx)()
+
 
 class Cable:
     """brain_host's pty on one end; on the other a pty behind `port_path` for the daemon."""
 
     def __init__(self, brain_pty: str, port_path: Path, seed: int = 0) -> None:
-        self._brain = os.open(brain_pty, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+        self._brain: int | None = os.open(brain_pty, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
         self.port_path = Path(port_path)
         self._up = _Wire("up", True, np.random.default_rng((seed, 1)))
         self._down = _Wire("down", False, np.random.default_rng((seed, 2)))
@@ -170,8 +179,13 @@ class Cable:
         self._slave: int | None = None
         self._conn_down_read = 0  # daemon bytes read on this connection
         self._conn_up_delivered = 0  # bytes put into the daemon's pty on this connection
+        # This Brain's share of the totals: brain_host counts its tx and rx from its own start.
+        self._brain_in_base = 0
+        self._brain_out_base = 0
+        self._reader = True  # a daemon holds the port open (False: it died, bytes are dropped)
         self._lock = threading.RLock()  # realtime: the forwarding thread against (un)plugging
         self.plugs = 0
+        self.brains = 1
         self.plug_in()
 
     # --- state ----------------------------------------------------------------------------------
@@ -195,8 +209,8 @@ class Cable:
 
     @property
     def delivered_down(self) -> int:
-        """Bytes delivered to brain_host in total: its `rx=`."""
-        return self._down.stats.bytes_out
+        """Bytes delivered to this brain_host since it started: its `rx=`."""
+        return self._down.stats.bytes_out - self._brain_out_base
 
     def set_corruption(self, up: float = 0.0, down: float = 0.0) -> None:
         for p in (up, down):
@@ -242,30 +256,75 @@ class Cable:
         self._master = self._slave = None
         # The Brain's decoder sees a frame cut off mid-way at worst; it resynchronises itself.
 
+    # --- the daemon's process and the Brain -----------------------------------------------------
+
+    def reader_gone(self) -> None:
+        """The daemon's process died: nobody holds its port open, so what the Brain sends now is
+        lost (a tty discards input while no program has it open)."""
+        with self._lock:
+            self._reader = False
+
+    def new_reader(self) -> None:
+        """A new daemon process is about to open the port: it starts with an empty input queue
+        and its own byte counts."""
+        with self._lock:
+            if self._slave is not None:
+                with contextlib.suppress(OSError, termios.error):
+                    termios.tcflush(self._slave, termios.TCIFLUSH)
+            self._conn_down_read = 0
+            self._conn_up_delivered = 0
+            self._up.receiver_restarted()
+            self._reader = True
+
+    def brain_off(self) -> None:
+        """The Brain went down (brain_host ended): what the daemon sends meanwhile is lost."""
+        with self._lock:
+            if self._brain is not None:
+                with contextlib.suppress(OSError):
+                    os.close(self._brain)
+            self._brain = None
+
+    def new_brain(self, brain_pty: str) -> None:
+        """The Brain rebooted: brain_host's new pty replaces the old one. Bytes in flight to or
+        from the old Brain are lost; the new one counts its bytes from zero."""
+        with self._lock:
+            self.brain_off()
+            self._brain = os.open(brain_pty, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+            self._brain_in_base = self._up.stats.bytes_in
+            self._brain_out_base = self._down.stats.bytes_out
+            self._up.sender_restarted()
+            self._down.receiver_restarted()
+            self.brains += 1
+
     # --- forwarding -----------------------------------------------------------------------------
 
     def pump_up(self, brain_tx_total: int, timeout_s: float = PUMP_TIMEOUT_S) -> None:
-        """Forward brain_host's bytes until its first `brain_tx_total` have passed."""
+        """Forward this brain_host's bytes until its first `brain_tx_total` have passed."""
         deadline = time.monotonic() + timeout_s
-        while self._up.stats.bytes_in < brain_tx_total:
+        want = self._brain_in_base + brain_tx_total
+        brain = self._brain
+        if brain is None:
+            raise CableError("the Brain is off: no bytes to pump")
+        while self._up.stats.bytes_in < want:
             left = deadline - time.monotonic()
             if left <= 0:
                 raise CableError(
                     f"brain_host reported {brain_tx_total} uplink bytes, only "
-                    f"{self._up.stats.bytes_in} arrived within {timeout_s:g} s"
+                    f"{self._up.stats.bytes_in - self._brain_in_base} arrived within "
+                    f"{timeout_s:g} s"
                 )
-            ready, _, _ = select.select([self._brain], [], [], left)
+            ready, _, _ = select.select([brain], [], [], left)
             if not ready:
                 continue
             try:
-                data = os.read(self._brain, 65536)
+                data = os.read(brain, 65536)
             except BlockingIOError:
                 continue
             self._up.sent(data)
             self._to_jetson(self._up.corrupt(data))
 
     def _to_jetson(self, data: bytes) -> None:
-        if self._master is None:
+        if self._master is None or not self._reader:
             self._up.stats.bytes_dropped += len(data)
             return
         view = memoryview(data)
@@ -305,36 +364,63 @@ class Cable:
             except OSError:
                 break
             self._conn_down_read += len(data)
-            self._down.sent(data)
-            data = self._down.corrupt(data)
-            view = memoryview(data)
-            while view:
-                try:
-                    n = os.write(self._brain, view)
-                except BlockingIOError:
-                    select.select([], [self._brain], [], 0.1)
-                    continue
-                self._down.delivered(bytes(view[:n]))
-                view = view[n:]
+            self._to_brain(data)
         return self.delivered_down
+
+    def drain_down(self) -> int:
+        """Forward whatever the daemon wrote that is still in its pty (it has exited: all it
+        wrote is there); returns `delivered_down`."""
+        while self._master is not None:
+            ready, _, _ = select.select([self._master], [], [], 0)
+            if not ready:
+                break
+            try:
+                data = os.read(self._master, 65536)
+            except (BlockingIOError, OSError):
+                break
+            if not data:
+                break
+            self._conn_down_read += len(data)
+            self._to_brain(data)
+        return self.delivered_down
+
+    def _to_brain(self, data: bytes) -> None:
+        self._down.sent(data)
+        if self._brain is None:
+            self._down.stats.bytes_dropped += len(data)
+            return
+        data = self._down.corrupt(data)
+        view = memoryview(data)
+        while view:
+            try:
+                n = os.write(self._brain, view)
+            except BlockingIOError:
+                select.select([], [self._brain], [], 0.1)
+                continue
+            self._down.delivered(bytes(view[:n]))
+            view = view[n:]
 
     # --- realtime -------------------------------------------------------------------------------
 
     def start_forwarding(self, stop: threading.Event) -> threading.Thread:
         """Realtime: forward both ways in a thread, as fast as bytes come, until `stop`."""
 
+        brain = self._brain
+        if brain is None:
+            raise CableError("the Brain is off: nothing to forward")
+
         def loop() -> None:
             while not stop.is_set():
                 with self._lock:
-                    fds = [self._brain] + ([self._master] if self._master is not None else [])
+                    fds = [brain] + ([self._master] if self._master is not None else [])
                 try:
                     ready, _, _ = select.select(fds, [], [], 0.02)
                 except (OSError, ValueError):
                     continue  # unplugged under us
                 with self._lock:
-                    if self._brain in ready:
+                    if brain in ready:
                         with contextlib.suppress(BlockingIOError, OSError):
-                            data = os.read(self._brain, 65536)
+                            data = os.read(brain, 65536)
                             self._up.sent(data)
                             self._to_jetson(self._up.corrupt(data))
                     if self._master is not None and self._master in ready:
@@ -345,7 +431,7 @@ class Cable:
                         self._down.sent(data)
                         data = self._down.corrupt(data)
                         with contextlib.suppress(OSError):
-                            os.write(self._brain, data)
+                            os.write(brain, data)
                             self._down.delivered(data)
 
         th = threading.Thread(target=loop, name="pete-cable", daemon=True)
@@ -354,8 +440,10 @@ class Cable:
 
     def close(self) -> None:
         self.unplug()
-        with contextlib.suppress(OSError):
-            os.close(self._brain)
+        self.brain_off()
 
     def as_dict(self) -> dict[str, Any]:
-        return {"up": self.up.as_dict(), "down": self.down.as_dict(), "plugs": self.plugs}
+        return {
+            "up": self.up.as_dict(), "down": self.down.as_dict(), "plugs": self.plugs,
+            "brains": self.brains,
+        }  # fmt: skip

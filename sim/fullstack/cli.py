@@ -9,7 +9,10 @@ import argparse
 import sys
 from pathlib import Path
 
-FAULT_NAMES = ("link-cut", "corruption", "jetson-killed", "schema-mismatch", "camera-stops")
+FAULT_NAMES = (
+    "link-cut", "corruption", "jetson-killed", "schema-mismatch", "camera-stops",
+    "jetson-sigterm", "jetson-sigkill", "disk-full", "brain-reboot",
+)  # fmt: skip
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -51,6 +54,19 @@ def add_match_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--fault", choices=FAULT_NAMES, default=None, help="a fault scenario")
     p.add_argument(
         "--fault-at", type=float, default=None, help="match time of the fault, s (default: 1/3)"
+    )
+    p.add_argument(
+        "--faults",
+        default=None,
+        metavar="NAME@S,...",
+        help="several faults in one match, e.g. link-cut@10,jetson-sigterm@25 (instead of --fault)",
+    )
+    p.add_argument(
+        "--daemon",
+        choices=("inprocess", "process"),
+        default=None,
+        help="the Jetson daemon in this process, or as its own process (real signals) "
+        "(default: its own process for the faults that need one)",
     )
     p.add_argument(
         "--scenario",
@@ -101,14 +117,17 @@ def cmd_match(args: argparse.Namespace) -> int:
     import json
 
     from sim.errors import MatchError
+    from sim.fullstack.faults import parse_schedule
     from sim.fullstack.options import DEFAULT_POLICY, MatchOptions
     from sim.fullstack.runner import run_match
 
     out = args.out
     if out is None:
-        tag = args.stack + (f"-{args.fault}" if args.fault else "") + f"-seed{args.seed}"
+        fault = args.fault or ("faults" if args.faults else None)
+        tag = args.stack + (f"-{fault}" if fault else "") + f"-seed{args.seed}"
         out = Path("runs") / f"match-{tag}"
     try:
+        faults = parse_schedule(args.faults) if args.faults else ()
         options = MatchOptions(
             stack=args.stack,
             seed=args.seed,
@@ -118,6 +137,8 @@ def cmd_match(args: argparse.Namespace) -> int:
             realtime=args.realtime,
             fault=args.fault,
             fault_at_s=args.fault_at,
+            faults=faults,
+            daemon=args.daemon,
             scenario=args.scenario,
             camera=not args.no_camera,
             ring_counter=not args.no_ring_counter,

@@ -13,7 +13,9 @@ jetson.perception serves, the detector and the localiser). Only two things diffe
   Jetson's perception takes tens of ms). The simulator waits for the result before that moment,
   so no result is ever early or late by the wall clock.
 
-`kill()` stops it dead, as SIGKILL would: no stop Command, its port closed.
+`kill()` stops it dead, as SIGKILL would: no stop Command, its port closed. A daemon that must
+get real signals (SIGTERM, SIGKILL) or a full disk runs as its own process instead:
+sim/fullstack/daemon_process.py hosts this same class there.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from jetson.camera_feed import Perceived
 from jetson.clock import Clock
 from jetson.service import build, make_camera
 from jetson.settings import Settings
+from jetson.stats import Counters
 from protocol import messages
 from sim.errors import DaemonError
 
@@ -144,6 +147,7 @@ class DaemonHost:
         except Exception as exc:  # PolicyError, SettingsError, onnxruntime's own
             raise DaemonError(f"the daemon cannot start: {exc}") from exc
         self.daemon = self.service_.daemon
+        self._turn = self.daemon.service  # one turn of the daemon's loop
         self.log = self.daemon.log
         self.camera: Any = None
         if options.camera:
@@ -154,6 +158,7 @@ class DaemonHost:
             if isinstance(self.feed, RecordingFeed):
                 self.feed.camera = self.camera
         self.alive = True
+        self.exits: list[Any] = []  # a process's ends (DaemonProcess); none in this process
         self._shut = False
         self._thread: threading.Thread | None = None
         # (frame index, frame time, camera errors when it was sent)
@@ -190,16 +195,19 @@ class DaemonHost:
             return
         self._release_results()
         d = self.daemon
-        d.service(0.0)
-
-        def caught_up() -> bool:
-            return d.link is None or d.link.rx_bytes >= rx_total
-
-        if not d.pump_until(caught_up, timeout_s):
-            raise DaemonError(
-                f"the daemon read {d.link.rx_bytes if d.link else 0} of {rx_total} bytes "
-                f"within {timeout_s:g} s"
-            )
+        turn = self._turn
+        turn(0.0)
+        # Daemon.pump_until's loop, through _turn (the daemon's own service(), captured when
+        # built: the daemon process replaces the instance's with its lockstep turn).
+        deadline = time.monotonic() + timeout_s
+        while not (d.link is None or d.link.rx_bytes >= rx_total):
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise DaemonError(
+                    f"the daemon read {d.link.rx_bytes if d.link else 0} of {rx_total} bytes "
+                    f"within {timeout_s:g} s"
+                )
+            turn(min(left, 0.02))
 
     @property
     def tx_on_connection(self) -> int:
@@ -209,6 +217,29 @@ class DaemonHost:
     @property
     def connected(self) -> bool:
         return self.daemon.link is not None
+
+    # What the match reads of the daemon (sim.fullstack.daemon_process.DaemonProcess has the same).
+
+    @property
+    def last_command_seq(self) -> int:
+        cmd = self.daemon.last_command
+        return 0 if cmd is None else int(cmd.seq)
+
+    @property
+    def counters(self) -> Counters:
+        return self.daemon.counters
+
+    @property
+    def latencies(self) -> list[float]:
+        """Every State -> Command latency so far, seconds."""
+        return list(self.daemon.latency.recent)
+
+    def link_errors(self) -> dict[str, int]:
+        return self.daemon.link_errors()
+
+    @property
+    def link_state(self) -> str:
+        return self.daemon.state
 
     # --- camera ---------------------------------------------------------------------------------
 
@@ -263,8 +294,14 @@ class DaemonHost:
         if self.camera is not None:
             self.camera.stop(0.0)  # told to stop; nobody waits for it (nor reads it any more)
 
+    def sigterm(self, delay_s: float = 0.0) -> None:
+        raise DaemonError("a real SIGTERM needs the daemon as its own process (--daemon process)")
+
+    def set_disk_full(self, full: bool) -> None:
+        raise DaemonError("a full disk needs the daemon as its own process (--daemon process)")
+
     def shutdown(self) -> None:
-        """A clean exit (SIGTERM): the daemon sends a stop and logs its totals."""
+        """A clean exit at the end of the match: the daemon sends a stop and logs its totals."""
         if self.alive:
             self.alive = False
             if self._thread is not None:

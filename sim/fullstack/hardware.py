@@ -79,6 +79,10 @@ class RobotHardware:
         self._sent_goal: bool | None = None
         self.last_command = DriveCommand(0.0, 0.0, intake=False)
 
+    def forget_sent(self) -> None:
+        """A new Brain (rebooted) knows nothing yet: send the phase, ring count and clamp again."""
+        self._sent_phase = self._sent_rings = self._sent_goal = None
+
     @property
     def robot(self) -> RobotState:
         return self.world.robots[self.index]

@@ -20,10 +20,10 @@ if TYPE_CHECKING:
     from jetson.clock import Clock
     from sim.fullstack.brain_host import BrainReport
     from sim.fullstack.cable import Cable
-    from sim.fullstack.daemon import DaemonHost
     from sim.world.physics import World
 
 STACKS = ("full", "sim")
+DAEMON_MODES = (None, "inprocess", "process")
 LOOP_MS = 10  # the Brain's loop period (brain_host reports it; checked at start)
 
 
@@ -55,6 +55,12 @@ class MatchOptions:
     record: bool = False  # keep the daemon's session recording (sessions/ in the run folder)
     out: Path = Path("runs/match")
     brain_host: Path | None = None
+    # Where the daemon runs: "inprocess" (a thread's worth of it in this process), "process"
+    # (its own process, so that it gets real signals); None: a process only for the faults that
+    # need one (sim.fullstack.faults).
+    daemon: str | None = None
+    # Several faults in one match, (name, match time s) each; instead of fault / fault_at_s.
+    faults: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         if self.stack not in STACKS:
@@ -80,8 +86,12 @@ class MatchOptions:
             )
         if not self.gif_every_s > 0 or not 64 <= self.gif_size <= 2048:
             raise MatchError("gif_every_s must be > 0 and gif_size within 64..2048")
-        if self.fault is not None and self.stack != "full":
+        if (self.fault is not None or self.faults) and self.stack != "full":
             raise MatchError("faults are scenarios of the full stack: use --stack full")
+        if self.daemon not in DAEMON_MODES:
+            raise MatchError(f"daemon must be one of {DAEMON_MODES[1:]}, got {self.daemon!r}")
+        if self.daemon == "process" and self.realtime:
+            raise MatchError("the daemon as a process runs in lockstep only: drop --realtime")
 
     @property
     def frame_period_ms(self) -> int:
@@ -92,6 +102,24 @@ class MatchOptions:
             model = self.detector_model or DEFAULT_DETECTOR
             return ("cnn", model) if model.is_file() else ("classical", None)
         return self.detector, self.detector_model
+
+
+class DaemonLike(Protocol):
+    """What a fault scenario uses of the hosted daemon (sim.fullstack.daemon.DaemonHost, or
+    sim.fullstack.daemon_process.DaemonProcess, which adds signals and a full disk)."""
+
+    alive: bool
+    results: dict[int, Any]
+    exits: list[Any]
+
+    @property
+    def counters(self) -> Any: ...
+
+    def kill(self) -> None: ...
+
+    def sigterm(self, delay_s: float = 0.0) -> None: ...
+
+    def set_disk_full(self, full: bool) -> None: ...
 
 
 class MatchEvents(Protocol):
@@ -106,6 +134,14 @@ class BrainRecord(Protocol):
     applied: int  # distinct Commands that drove the motors
     faults_seen: set[str]
     link_states: set[str]
+    ledger: bool  # lockstep: each step the Jetson drove is checked against its Command
+    valid_ms: int
+    jetson_steps: int
+    invalid_steps: int
+    invalid_examples: list[str]
+    max_command_age_ms: int
+
+    def age_ms(self, report: BrainReport) -> int | None: ...
 
 
 class RunningMatch(Protocol):
@@ -119,7 +155,7 @@ class RunningMatch(Protocol):
     extra_lines: list[str]  # side-channel commands for brain_host's next step
     camera_stopped: bool
     cable: Cable
-    jetson: DaemonHost
+    jetson: DaemonLike
     server: Any  # the frame stream (jetson.perception.sources.stream), None without a camera
     clock: Clock  # the daemon's clock
     replay: MatchEvents
@@ -131,3 +167,13 @@ class RunningMatch(Protocol):
     def brain_now_ms(self) -> int: ...
 
     def step_match_ms(self, report: BrainReport) -> int: ...
+
+    def restart_daemon(self) -> None: ...
+
+    def power_off_brain(self) -> None: ...
+
+    def boot_brain(self, boot_id: int) -> None: ...
+
+    def stop_camera(self) -> None: ...
+
+    def start_camera(self) -> None: ...

@@ -169,6 +169,8 @@ class MatchResult:
     settings: dict[str, Any] = field(default_factory=dict)
     checks: list[Check] = field(default_factory=list)
     files: dict[str, str] = field(default_factory=dict)
+    # Each fault injected: what happened and what was measured (sim.fullstack.faults).
+    faults: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def passed(self) -> bool:

@@ -30,7 +30,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -182,6 +182,32 @@ class BrainTrack:
     ages_ms: list[float] = field(default_factory=list)
     moved_ms: int = 0  # match time with the motors driven
     last: Any = None
+    # Lockstep: every Command the Brain received (this boot), seq -> the step that read it, so
+    # that each step the Jetson drove is checked against the Command it drove by.
+    ledger: bool = False
+    valid_ms: int = 250
+    delivered: dict[int, int] = field(default_factory=dict)
+    jetson_steps: int = 0
+    invalid_steps: int = 0  # driven by a Command never delivered as sent, or past its validity
+    invalid_examples: list[str] = field(default_factory=list)
+    max_command_age_ms: int = 0
+    brains: int = 1
+
+    def command_delivered(self, seq: int, t_ms: int) -> None:
+        """A Command's bytes reached brain_host after its step at t_ms: it reads them at its
+        next step, where the Command's validity starts."""
+        self.delivered[int(seq)] = t_ms + LOOP_MS
+
+    def age_ms(self, report: Any) -> int | None:
+        """How old the Command the Brain applied at this step was (None: not one it read)."""
+        at = self.delivered.get(int(report.last_command_seq))
+        return None if at is None else report.last_step_ms - at
+
+    def new_brain(self) -> None:
+        """A rebooted Brain: it holds none of the Commands the old one received."""
+        self.delivered.clear()
+        self.last_seq = 0
+        self.brains += 1
 
     def note(self, report: Any, in_match: bool) -> None:
         self.last = report
@@ -189,6 +215,8 @@ class BrainTrack:
             self.source_ms[report.source] = self.source_ms.get(report.source, 0) + LOOP_MS
             if report.moving:
                 self.moved_ms += LOOP_MS
+        if self.ledger and report.source == "jetson":
+            self._check_command(report)
         self.faults_seen.update(report.faults)
         self.link_states.add(report.link)
         if report.last_command_seq != self.last_seq and report.last_command_seq != 0:
@@ -197,6 +225,22 @@ class BrainTrack:
             answered = self.answered_at.pop(report.last_command_seq, None)
             if answered is not None:
                 self.ages_ms.append(report.last_step_ms - answered)
+
+    def _check_command(self, report: Any) -> None:
+        """A step the Jetson drove: by a Command the Brain received, within its validity?"""
+        self.jetson_steps += 1
+        age = self.age_ms(report)
+        why = None
+        if age is None:
+            why = f"Command {report.last_command_seq} was never delivered as sent"
+        else:
+            self.max_command_age_ms = max(self.max_command_age_ms, age)
+            if age > self.valid_ms:
+                why = f"Command {report.last_command_seq} was {age} ms old"
+        if why is not None:
+            self.invalid_steps += 1
+            if len(self.invalid_examples) < 5:
+                self.invalid_examples.append(f"step {report.last_step_ms} ms: {why}")
 
     def as_dict(self) -> dict[str, Any]:
         last = self.last
@@ -209,6 +253,16 @@ class BrainTrack:
             "source_s": {k: v / 1000 for k, v in sorted(self.source_ms.items())},
             "driven_s": self.moved_ms / 1000,
             "command_age": percentiles_ms([a / 1000 for a in self.ages_ms]),
+            "brains": self.brains,
+            **(
+                {
+                    "jetson_steps": self.jetson_steps,
+                    "invalid_command_steps": self.invalid_steps,
+                    "max_command_age_ms": self.max_command_age_ms,
+                }
+                if self.ledger
+                else {}
+            ),
         }
 
 
@@ -233,13 +287,18 @@ class FullStackMatch:
         # The last few frames' images by index: the GIF shows the one the policy's rings came
         # from (the newest may still be in perception).
         self.camera_rgb: dict[int, np.ndarray] = {}
-        self.camera_stopped = False
+        self.camera_stopped = False  # a fault stopped the camera
         self.realtime = False
         self.server: Any = None
+        self.frames_address: str | None = None
         self.jetson: Any = None
+        self.daemon_mode = self.scenario.daemon_mode(options)
         self.brain: Any = None
+        self.brain_offset_ms = 0  # the simulator's clock when this brain_host started
+        self.brain_statuses: list[int | None] = []
         self.cable: Any = None
         self._sent_seq = 0
+        self._jetson_alive = False
 
     # --- setup ----------------------------------------------------------------------------------
 
@@ -262,8 +321,7 @@ class FullStackMatch:
     def _setup(self, tmp: Path, realtime: bool) -> None:
         from jetson.clock import ManualClock, MonotonicClock
         from jetson.perception.camera import CameraConfig as JetsonCamera
-        from sim.errors import BrainHostError, DaemonError
-        from sim.fullstack.brain_host import BrainHost
+        from sim.errors import DaemonError
         from sim.fullstack.cable import Cable
         from sim.fullstack.daemon import DaemonHost, DaemonOptions
         from sim.fullstack.hardware import RobotHardware
@@ -294,22 +352,11 @@ class FullStackMatch:
             o.camera_width, o.camera_height
         )
 
-        try:
-            self.brain = BrainHost.start(
-                lockstep=not realtime,
-                alliance="red",
-                boot_id=0x5EED0000 + (o.seed & 0xFFFF),
-                phase="disabled",
-                binary=o.brain_host,
-                stderr_path=self.folder / "brain_host.stderr",
-            )
-        except BrainHostError as exc:
-            raise MatchError(str(exc)) from exc
-        if self.brain.period_ms != LOOP_MS:
-            raise MatchError(
-                f"brain_host's loop period is {self.brain.period_ms} ms, not {LOOP_MS}"
-            )
+        self._start_brain(0x5EED0000 + (o.seed & 0xFFFF), realtime)
         self.cable = Cable(self.brain.pty_path, tmp / "brain-usb", seed=o.seed)
+        if not realtime:
+            self.cable.keep_received(down=True)  # the Command ledger (BrainTrack)
+            self.brain_track.ledger = True
 
         frames_address = None
         camera_file = None
@@ -317,6 +364,7 @@ class FullStackMatch:
             from jetson.perception.sources.stream import FrameStreamServer
 
             frames_address = f"unix:{tmp / 'frames.sock'}"
+            self.frames_address = frames_address
             self.server = FrameStreamServer(frames_address)
             c = self.cam_cfg
             camera_file = self.folder / "camera.json"
@@ -334,18 +382,111 @@ class FullStackMatch:
             fingerprint=self.scenario.jetson_fingerprint(),
             record_dir=self.folder / "sessions" if o.record else None,
         )
+        self.brain_track.valid_ms = jopts.valid_ms
         self.clock = MonotonicClock() if realtime else ManualClock(0.0)
         self.daemon_log = (self.folder / "daemon.jsonl").open("w")
         try:
-            self.jetson = DaemonHost(
-                jopts, self.clock, self.cable.port_path, frames_address, self.daemon_log,
-                realtime=realtime,
-            )  # fmt: skip
+            if self.daemon_mode == "process":
+                from sim.fullstack.daemon_process import DaemonProcess
+
+                (self.folder / "daemon.stderr").unlink(missing_ok=True)
+                self.jetson = DaemonProcess(
+                    jopts, self.clock, self.cable.port_path, frames_address, self.daemon_log,
+                    self.folder / "daemon.stderr", realtime=realtime,
+                )  # fmt: skip
+            else:
+                self.jetson = DaemonHost(
+                    jopts, self.clock, self.cable.port_path, frames_address, self.daemon_log,
+                    realtime=realtime,
+                )  # fmt: skip
         except DaemonError as exc:
             raise MatchError(str(exc)) from exc
         self.jetson.start()
+        self._jetson_alive = True
+        self._accept_camera()
+
+    def _start_brain(self, boot_id: int, realtime: bool, append_stderr: bool = False) -> None:
+        from sim.errors import BrainHostError
+        from sim.fullstack.brain_host import BrainHost
+
+        try:
+            self.brain = BrainHost.start(
+                lockstep=not realtime,
+                alliance="red",
+                boot_id=boot_id,
+                phase="disabled",
+                binary=self.options.brain_host,
+                stderr_path=self.folder / "brain_host.stderr",
+                append_stderr=append_stderr,
+            )
+        except BrainHostError as exc:
+            raise MatchError(str(exc)) from exc
+        if self.brain.period_ms != LOOP_MS:
+            raise MatchError(
+                f"brain_host's loop period is {self.brain.period_ms} ms, not {LOOP_MS}"
+            )
+
+    def _accept_camera(self) -> None:
+        """The daemon's camera thread connects to the frame stream (at start, after a restart,
+        when the camera comes back)."""
         if self.server is not None and not self.server.wait_for_client(10.0):
             raise MatchError("the daemon's camera thread never connected to the frame stream")
+
+    # --- what faults do (sim.fullstack.faults) --------------------------------------------------
+
+    def restart_daemon(self) -> None:
+        """A new daemon process on the same port, as systemd's Restart=always starts one."""
+        from sim.errors import DaemonError
+
+        if self.daemon_mode != "process":
+            raise MatchError("restarting the daemon needs it as a process (--daemon process)")
+        self.cable.new_reader()
+        try:
+            self.jetson.restart()
+        except DaemonError as exc:
+            raise MatchError(str(exc)) from exc
+        self._jetson_alive = True
+        if not self.camera_stopped:
+            self._accept_camera()
+
+    def power_off_brain(self) -> None:
+        """The Brain goes down (a reboot): brain_host ends; its motors stop."""
+        if self.realtime:
+            raise MatchError("rebooting the Brain is a lockstep fault")
+        if self.brain is not None:
+            self.brain_statuses.append(self.brain.close())
+            self.brain = None
+        self.cable.brain_off()
+
+    def boot_brain(self, boot_id: int) -> None:
+        """The Brain comes back with a new boot id: a new brain_host, its clock from zero, on a
+        new pty the cable moves to (the USB port the daemon holds stays)."""
+        self._start_brain(boot_id, realtime=False, append_stderr=True)
+        self.brain_offset_ms = self.t_ms
+        self.cable.new_brain(self.brain.pty_path)
+        self.hardware.forget_sent()
+        self.brain_track.new_brain()
+
+    def stop_camera(self) -> None:
+        """The camera stops delivering frames (unplugged): the frame stream closes."""
+        if self.server is None or self.camera_stopped:
+            return
+        self.camera_stopped = True
+        self.server.close()
+        self.server = None
+        self.jetson.drop_pending_frames()
+
+    def start_camera(self) -> None:
+        """The camera is back: a new frame stream on the same address, the daemon's camera
+        thread reconnects to it."""
+        from jetson.perception.sources.stream import FrameStreamServer
+
+        if not self.camera_stopped or self.frames_address is None:
+            return
+        self.server = FrameStreamServer(self.frames_address)
+        self.camera_stopped = False
+        if self.jetson.alive:
+            self._accept_camera()
 
     def _teardown(self) -> None:
         # The stream first: the camera thread is blocked reading it and ends at its close.
@@ -355,10 +496,14 @@ class FullStackMatch:
         if self.jetson is not None:
             with contextlib.suppress(Exception):
                 self.jetson.shutdown()
+            if hasattr(self.jetson, "close"):
+                self.jetson.close()
         if self.cable is not None:
             self.cable.close()
         if self.brain is not None:
-            self.brain_status = self.brain.close()
+            self.brain_statuses.append(self.brain.close())
+            self.brain = None
+        self.brain_status = self.brain_statuses[-1] if self.brain_statuses else None
         if getattr(self, "daemon_log", None) is not None:
             self.daemon_log.close()
         if getattr(self, "core", None) is not None:
@@ -398,27 +543,50 @@ class FullStackMatch:
         over = started and self.match_ms >= self.match_len_ms
         phase = competition_phase(w.time_s, w.isolation_s, started, over or w.over)
         reading = self.hardware.read(phase)
-        lines = self.hardware.sensor_lines(reading) + self.extra_lines
-        self.extra_lines = []
-        lines.append(self.brain.step_line("until", t + LOOP_MS, self.cable.delivered_down))
-        report = BrainReport.parse(self.brain.run_batch(lines)[-1])
-        self.cable.pump_up(report.tx)
+        if self.brain is not None:
+            lines = self.hardware.sensor_lines(reading) + self.extra_lines
+            self.extra_lines = []
+            until = t + LOOP_MS - self.brain_offset_ms
+            lines.append(self.brain.step_line("until", until, self.cable.delivered_down))
+            report = BrainReport.parse(self.brain.run_batch(lines)[-1])
+            self.cable.pump_up(report.tx)
+            if self.brain_offset_ms:
+                report = report.shifted(self.brain_offset_ms)
+        else:
+            report = BrainReport.off(t)  # rebooting: nothing runs, the motors are off
         self.clock.set(t / 1000.0)
         j = self.jetson
+        self._notice_daemon_exit()
         if j.alive:
             j.service(self.cable.delivered_up_on_connection)
-            cmd = j.daemon.last_command
-            if cmd is not None and cmd.seq != self._sent_seq:
-                self._sent_seq = cmd.seq
-                self.brain_track.answered_at[cmd.seq] = t
-            if j.connected and self.cable.plugged:
+            seq = j.last_command_seq
+            if seq and seq != self._sent_seq:
+                self._sent_seq = seq
+                self.brain_track.answered_at[seq] = t
+            if j.alive and j.connected and self.cable.plugged:
                 self.cable.pump_down(j.tx_on_connection)
+            self._notice_daemon_exit()
+        if self.brain_track.ledger:
+            from protocol.messages import Command
+
+            for msg in self.cable.take_received("down"):
+                if isinstance(msg, Command):
+                    self.brain_track.command_delivered(msg.seq, t)
         self.brain_track.note(report, started)
         self.scenario.after_tick(self, report)
         if started and not w.over:
-            if w.steps == 0 and self.options.camera:
+            if w.steps == 0 and self.server is not None and self.server.connected:
                 self._send_frame(t / 1000.0)  # the camera is on when the match starts
             self._step_world(report)
+
+    def _notice_daemon_exit(self) -> None:
+        """The daemon died (killed, or it exited at a SIGTERM): what it wrote before goes to the
+        Brain, and the port has no reader until a new daemon opens it."""
+        if self._jetson_alive and not self.jetson.alive:
+            self._jetson_alive = False
+            if self.cable.plugged:
+                self.cable.drain_down()
+            self.cable.reader_gone()
 
     def _step_world(self, report: Any) -> None:
         w = self.world
@@ -429,8 +597,8 @@ class FullStackMatch:
         t_s = w.time_s
         world_ms = round(t_s * 1000)
         if (
-            self.options.camera
-            and not self.camera_stopped
+            self.server is not None
+            and self.server.connected
             and world_ms % self.options.frame_period_ms == 0
         ):
             self._send_frame((self.t_ms + LOOP_MS) / 1000.0)
@@ -474,7 +642,6 @@ class FullStackMatch:
             k,
         )
         if not self.server.send(frame):
-            self.camera_stopped = True
             self.replay.event(self.match_ms / 1000, "camera stream: the daemon hung up")
             return
         self.jetson.frame_sent(k, stamp_s)
@@ -621,13 +788,18 @@ class FullStackMatch:
             perception["detector"] = self.detector
             perception["resolution"] = f"{o.camera_width}x{o.camera_height}"
             perception["rate_hz"] = o.camera_hz
-        d = self.jetson.daemon
-        latencies = list(d.latency.recent)
-        daemon = {
-            "counters": d.counters.as_dict(),
-            "link_errors": d.link_errors(),
-            "handshake": d.state,
+        j = self.jetson
+        latencies = j.latencies
+        daemon: dict[str, Any] = {
+            "mode": self.daemon_mode,
+            "counters": j.counters.as_dict(),
+            "link_errors": j.link_errors(),
+            "handshake": j.link_state,
         }
+        if self.daemon_mode == "process":
+            daemon["processes"] = len(j.start_wall_s)
+            daemon["start_wall_s"] = [round(x, 3) for x in j.start_wall_s]
+            daemon["exits"] = [asdict(e) for e in j.exits]
         result = MatchResult(
             stack="full",
             seed=o.seed,
@@ -652,6 +824,7 @@ class FullStackMatch:
             settings=_settings(o, self.detector),
         )
         result.checks = self.scenario.checks(self)
+        result.faults = self.scenario.records(self)
         title = f"full stack, seed {o.seed}" + (f", fault {o.fault}" if o.fault else "")
         result.files = self.replay.write(self.folder, latencies, title)
         lat_file = self.folder / "latencies_ms.json"
