@@ -110,6 +110,16 @@ SOURCES: dict[str, Source] = {
         "in training and high fidelity, with and without a rendered camera frame, the bare "
         "world, and several processes at once.",
     ),
+    "soak": Source(
+        "python -m bench.soak",
+        "Lockstep full-stack matches with hundreds of faults at random moments (the cable pulled, "
+        "SIGTERM and SIGKILL to the daemon's process and systemd's restart, the camera stopped, "
+        "1 % corrupted bytes, a full disk, the Brain rebooted; these matches render a 96x72 "
+        "camera at 5 Hz), and per seed the fault-free match against the same with the cable "
+        "pulled for 2 s (default options): Commands driving that were stale or not as sent, "
+        "stop and exit times, reconnects, the log's rate, rings lost "
+        "(sim/fullstack/README.md, The fault soak).",
+    ),
     "train": Source(
         "python -m bench.train",
         "Training and the shipped policy: the capped task learned from scratch (competence), "
