@@ -161,6 +161,18 @@ def test_disk_full_pauses_the_recording_not_the_robot(policy: Path, tmp_path: Pa
     assert any((tmp_path / "sessions").glob("session-*"))
 
 
+def test_a_second_full_disk_finds_the_recording_paused(policy: Path, tmp_path: Path) -> None:
+    """The first full disk pauses the recording (one line); it starts again only with the next
+    Brain session, so the second has nothing to fail and says nothing."""
+    schedule = (("disk-full", 1.0), ("disk-full", 7.5))
+    r = play(policy, tmp_path, None, seconds=13.0, faults=schedule, record=True, **SMALL_CAMERA)
+    first, second = r.faults
+    assert first["was_recording"] and first["log_lines"] == 1
+    assert not second["was_recording"] and second["log_lines"] == 0
+    log = read_log(tmp_path / "daemon.jsonl")
+    assert [e["event"] for e in log].count("record_paused") == 1
+
+
 def test_disk_full_needs_a_recording(policy: Path, tmp_path: Path) -> None:
     with pytest.raises(MatchError, match="add --record"):
         run_match(MatchOptions(policy=policy, out=tmp_path, fault="disk-full", seconds=2.0))
@@ -243,3 +255,31 @@ def test_schedules_and_options_are_checked(policy: Path) -> None:
     s = scenario(faults=(("jetson-sigkill", 3.0), ("link-cut", 7.0)))
     assert s.daemon_mode(MatchOptions(policy=policy)) == "process"
     assert [p.label for p in s.parts] == ["jetson-sigkill@3s", "link-cut@7s"]
+
+
+def test_restart_sec_follows_the_unit(tmp_path: Path) -> None:
+    from sim.fullstack.faults import UNIT, restart_sec
+
+    assert "RestartSec=" in UNIT.read_text(), "the shipped unit restarts the daemon"
+    unit = tmp_path / "pete-jetson.service"
+    unit.write_text("[Service]\nRestart=always\nRestartSec=2s\n")
+    assert restart_sec(unit) == 2.0
+    assert restart_sec(tmp_path / "none.service") == 1.0
+
+
+def test_the_command_line_plays_a_schedule(
+    policy: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from sim import cli as sim_cli
+
+    args = ["match", "--policy", str(policy), "--seconds", "4", "--opponent", "none", "--quiet"]
+    args += ["--no-gif", "--no-plots", "--camera-size", "96x72", "--camera-hz", "5"]
+    args += ["--detector", "classical"]
+    code = sim_cli.main([*args, "--faults", "link-cut@1", "--out", str(tmp_path / "ok")])
+    out = capsys.readouterr().out
+    assert code == 0 and "check link-cut@1s back_in_time" in out
+    assert sim_cli.main([*args, "--faults", "link-cut", "--out", str(tmp_path / "bad")]) == 2
+    assert "NAME@SECONDS" in capsys.readouterr().err
+    bad = ["--fault", "jetson-sigterm", "--daemon", "inprocess", "--out", str(tmp_path / "bad")]
+    assert sim_cli.main([*args, *bad]) == 2
+    assert "needs the daemon as its own process" in capsys.readouterr().err
