@@ -20,6 +20,21 @@ ARM_CHECKS := /usr/bin/arm-none-eabi-g++:gcc-arm-none-eabi \
               /usr/lib/arm-none-eabi/newlib/libc.a:libnewlib-arm-none-eabi \
               /usr/lib/arm-none-eabi/include/c++:libstdc++-arm-none-eabi-newlib
 
+# Headless Chromium for the dashboard's browser test and benchmark (driven by Selenium through
+# Debian's own chromedriver: no browser download).
+BROWSER_CHECKS := /usr/bin/chromium:chromium \
+                  /usr/bin/chromedriver:chromium-driver
+
+.PHONY: browser-deps
+browser-deps:  ## apt-get Debian's chromium and chromium-driver (the dashboard's checks), if missing
+	@missing=""; for pair in $(BROWSER_CHECKS); do \
+	  [ -e "$${pair%%:*}" ] || missing="$$missing $${pair##*:}"; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages:$$missing"; \
+	  $(SUDO) apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+
 .PHONY: help venv system-deps build test test-python test-cpp lint format generate check demo bench results clean wheel-check
 
 help:  ## list the targets
@@ -77,7 +92,7 @@ format: venv  ## apply ruff's formatting and fixable lints
 	$(BIN)/ruff format .
 	$(BIN)/ruff check --fix .
 
-test: venv build check firmware-check wheel-check  ## everything: lint, C++ build, firmware check, wheel check, all tests
+test: venv build browser-deps check firmware-check wheel-check  ## everything: lint, C++ build, firmware check, wheel check, all tests
 	$(BIN)/pytest
 
 wheel-check: venv  ## build the wheel, install it with .[jetson] in a fresh venv, run detect and run elsewhere
@@ -87,7 +102,7 @@ demo: venv build  ## one full-stack match: Brain core + wire + Jetson daemon on 
 	$(BIN)/python -m protocol.demo --tool $(BUILD)/bin/pete_codec_tool
 	$(BIN)/pete-sim match --stack full --seed 0 --brain-host $(BUILD)/bin/brain_host --out runs/demo
 
-bench: venv build  ## run every benchmark; results land in bench/results/
+bench: venv build browser-deps  ## run every benchmark; results land in bench/results/
 	@for b in bench/*.py; do \
 	  name=$$(basename $$b .py); [ "$$name" = "__init__" ] && continue; \
 	  [ "$$name" = "common" ] && continue; [ "$$name" = "report" ] && continue; \

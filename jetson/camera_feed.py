@@ -105,6 +105,10 @@ class CameraWorker:
         self.frames = 0
         self.errors = 0
         self.opens = 0
+        # Small copies of the frames for the recording and the dashboard (jetson.frames), when
+        # the daemon has either; offered after the result is published.
+        self.tap: Any = None
+        self.tap_errors = 0
 
     def latest(self) -> Perceived | None:
         return self._latest
@@ -193,7 +197,7 @@ class CameraWorker:
             )  # fmt: skip
             return
         self.frames += 1
-        self._latest = Perceived(
+        self._latest = latest = Perceived(
             self._ids(),
             stamp,
             rings,
@@ -201,6 +205,13 @@ class CameraWorker:
             len(getattr(result, "detections", ()) or ()),
             (time.perf_counter() - t0) * 1e3,
         )
+        if self.tap is not None:
+            try:
+                self.tap.offer(latest.id, stamp, frame, result)
+            except Exception as exc:  # pictures for people must never cost the robot its rings
+                self.tap_errors += 1
+                if self.tap_errors == 1:
+                    self._log.error("camera_tap", f"cannot keep a copy of the frame: {exc!r}")
 
     @staticmethod
     def _close(source: SourceLike | None) -> None:

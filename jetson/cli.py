@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from jetson.dashboard.cli import HELP as DASHBOARD_HELP
+from jetson.dashboard.cli import add_commands as add_dashboard_commands
 from jetson.perception.cli import HELP as PERCEPTION_HELP
 from jetson.perception.cli import add_commands as add_perception_commands
 from jetson.service import HELP as DAEMON_HELP
@@ -17,6 +19,7 @@ The Jetson side of Pac-Man Pete: finds the V5 Brain, talks the wire protocol, se
   pete-jetson ports        list V5 Brain serial ports (the user port is the one to talk on)
 """
     + DAEMON_HELP
+    + DASHBOARD_HELP
     + PERCEPTION_HELP
 )
 
@@ -39,6 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("ports", help="list V5 Brain serial ports, user port first")
     p.set_defaults(func=_cmd_ports)
     add_daemon_commands(sub)
+    add_dashboard_commands(sub)
     add_perception_commands(sub)
     return parser
 

@@ -137,7 +137,23 @@ class Decider:
         self._scale = np.asarray(policy.action_scale[:2], dtype=np.float64)
         self._intake_index = names.index("intake") if "intake" in names else None
         self._drive_phases = {MatchPhase[p.upper()] for p in self.config.drive_phases}
+        # The last observation and policy output (None after a stop without one): what the
+        # dashboard shows of the decision (jetson/dashboard/snapshot.py).
+        self.last_obs: NDArray[np.float32] | None = None
+        self.last_action: NDArray[np.float64] | None = None
         self.reset()
+
+    @property
+    def ring_memory(self) -> RingMemory:
+        return self._memory
+
+    @property
+    def goal_memory(self) -> GoalMemory:
+        return self._goals
+
+    @property
+    def skill_driver(self) -> SkillDriver | None:
+        return self._driver
 
     def reset(self) -> None:
         """Forget the history: a new connection or a new match."""
@@ -151,6 +167,7 @@ class Decider:
         self._phase_ms = 0
 
     def decide(self, state: State, perception: PerceptionInput | None) -> Decision:
+        self.last_obs = self.last_action = None
         phase = state.phase
         restarted = phase != self._phase or state.phase_ms < self._phase_ms
         entering = restarted and not (
@@ -189,6 +206,7 @@ class Decider:
             )
         if action.size < 2 or not np.all(np.isfinite(action)):
             return Decision(0.0, 0.0, False, "policy output not finite", seen, len(rings))
+        self.last_obs, self.last_action = obs, action
         if self._driver is not None:
             # A skill policy: its highest-scored skill, driven from the same observation.
             try:

@@ -61,6 +61,7 @@ class Handshake:
         )
         self.state = LinkState.WAITING
         self.brain_boot_id: int | None = None
+        self.brain_fingerprint: int | None = None  # the schema fingerprint of the Brain's Hello
         self.brain_software = ""
         self.last_sent_s: float | None = None
         self.mismatch_message = ""
@@ -69,6 +70,7 @@ class Handshake:
         """A new connection: nothing is known about whoever is at the other end."""
         self.state = LinkState.WAITING
         self.brain_boot_id = None
+        self.brain_fingerprint = None
         self.brain_software = ""
         self.last_sent_s = None
         self.mismatch_message = ""
@@ -105,6 +107,7 @@ class Handshake:
         new_boot = hello.boot_id != self.brain_boot_id
         old_state = self.state
         self.brain_boot_id = hello.boot_id
+        self.brain_fingerprint = hello.fingerprint
         self.brain_software = hello.software_version
         stale_ours = self.last_sent_s is None or now_s - self.last_sent_s >= self.hello_period_s / 2
         try:

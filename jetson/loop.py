@@ -147,6 +147,14 @@ class Daemon:
         # The Brain boot whose match the decider's memories (and the recording) belong to.
         self._memory_boot: int | None = None
         self._record_failure_logged = False
+        # The dashboard (jetson.dashboard.snapshot.Observer): told of each turn and each line the
+        # Brain prints, it builds a snapshot on this thread only when its server asked for one.
+        # None without a dashboard.
+        self.observer: Any = None
+        # Small copies of the camera's frames (jetson.frames.FrameTap) for the recording and the
+        # dashboard; None without a camera.
+        self.frames: Any = None
+        self.last_perceived: Any = None  # the perception result the last State was answered with
 
     # --- public state ---------------------------------------------------------------------------
 
@@ -208,7 +216,13 @@ class Daemon:
         return True
 
     def service(self, timeout_s: float) -> None:
-        """One turn: connect if needed, say Hello when due, read and answer, summarise."""
+        """One turn: connect if needed, say Hello when due, read and answer, summarise (and,
+        with a dashboard, hand it a snapshot when it asked for one)."""
+        self._service(timeout_s)
+        if self.observer is not None:
+            self.observer.turn(self)
+
+    def _service(self, timeout_s: float) -> None:
         now = self.clock.now()
         if self.link is None and not self._connect(now):
             self._maybe_summary(now)
@@ -375,8 +389,12 @@ class Daemon:
                     self.log.event(
                         level, "brain_log", f"brain: {msg.text}", brain_time_ms=msg.time_ms
                     )
+                    if self.observer is not None:
+                        self.observer.brain_line(self.clock.now(), level, msg.text)
             elif isinstance(ev, TextLine):
                 self.log.info("brain_text", f"brain {ev.stream}: {ev.text}", stream=ev.stream)
+                if self.observer is not None:
+                    self.observer.brain_line(self.clock.now(), ev.stream, ev.text)
             elif isinstance(ev, LinkError):
                 self.log.debug(
                     "link_error", f"dropped a frame: {ev.kind}: {ev.detail}", kind=ev.kind
@@ -457,9 +475,12 @@ class Daemon:
         self._window_counts.states += 1
         self._note_decision(decision)
         self.last_state = state
+        self.last_perceived = p
         if self.recorder is not None:
             if p is not None:
                 self.recorder.perception(p)
+                if self.frames is not None:
+                    self.recorder.frame(self.frames.get(p.id))
             self.recorder.cycle(
                 CycleRecord(
                     now,

@@ -10,6 +10,9 @@ gzip-compressed when the name ends in .gz (the default). Records, each with "kin
     perception  a perception result the first time a State used it: id, time, rings (robot frame)
     cycle       one State and its answer: clock time, the State's fields, the perception id and
                 age used, the Command, the decision's reason, and the latency (ms)
+    frame       a downscaled camera frame (JPEG colour and depth, base64) with its detection
+                boxes, a few a second (`[record] frames_hz`): what the camera saw, for
+                `pete-jetson dashboard --recording` (ignored by replay)
     event       link events (link_down, link_up), for context (ignored by replay)
     end         the last record of a file closed whole: how many records, and why it stopped
                 early if it did ("stopped"); a file without one was cut off (version 2 on)
@@ -30,6 +33,7 @@ import errno
 import gzip
 import io
 import json
+import math
 import queue
 import threading
 import time
@@ -38,6 +42,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from jetson.frames import FrameView, view_record
 from protocol.framing import message_to_dict
 
 FORMAT = "pete-jetson-session"
@@ -93,8 +98,15 @@ class Recorder:
         header: dict[str, Any],
         flush_s: float = 1.0,
         budget: Callable[[], str | None] | None = None,
+        frames_hz: float = 0.0,
+        frame_width: int = 160,
     ) -> None:
         self.path = path
+        self.frame_period_s = 1.0 / frames_hz if frames_hz > 0 else math.inf
+        self.frame_width = frame_width
+        self._last_frame_s = -math.inf
+        self.frames = 0
+        self.frames_failed = 0
         path.parent.mkdir(parents=True, exist_ok=True)
         self._file = _open(path)
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
@@ -140,6 +152,17 @@ class Recorder:
     def cycle(self, rec: CycleRecord) -> None:
         self._put(rec)
 
+    def frame(self, view: FrameView | None) -> None:
+        """Keep a camera frame (jetson.frames.FrameView), at most frames_hz a second; it is
+        encoded on the writer thread."""
+        if view is None or self.frame_period_s == math.inf:
+            return
+        if 0 <= view.stamp_s - self._last_frame_s < self.frame_period_s:
+            return
+        self._last_frame_s = view.stamp_s
+        self.frames += 1
+        self._put(view)
+
     @staticmethod
     def _cycle_dict(r: CycleRecord) -> dict[str, Any]:
         return {
@@ -157,6 +180,13 @@ class Recorder:
             "decide_ms": round(r.decide_ms, 4),
         }
 
+    def _frame_dict(self, view: FrameView) -> dict[str, Any] | None:
+        try:
+            return {"kind": "frame", **view_record(view, self.frame_width)}
+        except Exception:  # a picture that cannot be encoded is left out, the session goes on
+            self.frames_failed += 1
+            return None
+
     def _run(self) -> None:
         last_flush = time.monotonic()
         while True:
@@ -168,9 +198,15 @@ class Recorder:
                 break
             if item is not None and self.failed is None:
                 try:
-                    record = self._cycle_dict(item) if isinstance(item, CycleRecord) else item
-                    self._file.write(json.dumps(record, separators=(",", ":")) + "\n")
-                    self.records += 1
+                    if isinstance(item, CycleRecord):
+                        record = self._cycle_dict(item)
+                    elif isinstance(item, FrameView):
+                        record = self._frame_dict(item)
+                    else:
+                        record = item
+                    if record is not None:
+                        self._file.write(json.dumps(record, separators=(",", ":")) + "\n")
+                        self.records += 1
                 except (OSError, ValueError, TypeError) as exc:
                     # A full disk must not stop the robot: stop recording, say why (once).
                     self._stop(write_failure(exc))
@@ -233,8 +269,12 @@ class RecordingDir:
         keep_bytes: int = 2_000_000_000,
         compress: bool = True,
         flush_s: float = 1.0,
+        frames_hz: float = 0.0,
+        frame_width: int = 160,
     ) -> None:
         self.directory = Path(directory)
+        self.frames_hz = frames_hz  # camera frames kept a second (0: none)
+        self.frame_width = frame_width
         self.keep_bytes = keep_bytes
         self.compress = compress
         self.flush_s = flush_s  # how often a session is flushed and the budget looked at
@@ -302,4 +342,7 @@ class RecordingDir:
         self.directory.mkdir(parents=True, exist_ok=True)
         self.prune()
         path = self.new_path()
-        return Recorder(path, header, self.flush_s, budget=lambda: self.enforce(path))
+        return Recorder(
+            path, header, self.flush_s, budget=lambda: self.enforce(path),
+            frames_hz=self.frames_hz, frame_width=self.frame_width,
+        )  # fmt: skip

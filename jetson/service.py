@@ -32,6 +32,7 @@ SWITCH_INTERVAL_S = 0.001
 # the camera thread get a few tenths of a second each to finish (both are daemon threads: the
 # process exits regardless), so that the daemon is gone within a second of the signal.
 CAMERA_WAIT_S = 0.3
+DASHBOARD_WAIT_S = 0.2
 
 HELP = """\
   pete-jetson run          the daemon: talk to the Brain, see rings, drive (jetson/README.md)
@@ -74,6 +75,7 @@ class Service:
     camera: Any | None = None  # jetson.camera_feed.CameraWorker
     stop_event: StopFlag = field(default_factory=StopFlag)
     _files: list[TextIO] = field(default_factory=list)
+    dashboard: Any | None = None  # jetson.dashboard.server.DashboardServer, not started yet
 
     def stop(self) -> None:
         self.stop_event.set()
@@ -82,14 +84,34 @@ class Service:
         sys.setswitchinterval(SWITCH_INTERVAL_S)
         if self.camera is not None and not self.stop_event.is_set():
             self.camera.start()
+        self.start_dashboard()
         try:
             self.daemon.run(self.stop_event)
         finally:
             if self.camera is not None:
                 self.camera.stop(CAMERA_WAIT_S)
+            if self.dashboard is not None:
+                self.dashboard.stop(DASHBOARD_WAIT_S)
             for f in self._files:
                 f.close()
         return 0
+
+    def start_dashboard(self) -> None:
+        """Start the dashboard's server (on its own thread), if there is one. One that cannot
+        listen is logged and left off: the robot drives without it."""
+        if self.dashboard is None:
+            return
+        log = self.daemon.log
+        try:
+            self.dashboard.start()
+        except OSError as exc:
+            log.error("dashboard", f"no dashboard: {exc}")
+            self.daemon.observer = None
+            self.dashboard = None
+            return
+        log.info(
+            "dashboard", f"dashboard (read-only) at {self.dashboard.url}", url=self.dashboard.url
+        )
 
     def install_signal_handlers(self) -> None:
         """SIGTERM (systemd stop) and SIGINT (Ctrl-C) end the loop, which sends a stop first."""
@@ -159,7 +181,10 @@ def build(
     recordings = None
     if settings.record.dir:
         keep = int(settings.record.keep_mb * 1e6)
-        recordings = RecordingDir(Path(settings.record.dir), keep, settings.record.compress)
+        recordings = RecordingDir(
+            Path(settings.record.dir), keep, settings.record.compress,
+            frames_hz=settings.record.frames_hz, frame_width=settings.record.frame_width,
+        )  # fmt: skip
     header = {
         "policy": {
             "path": str(Path(getattr(policy, "path", "")).resolve())
@@ -185,13 +210,31 @@ def build(
         summary_period_s=settings.log.summary_period_s,
         **({} if fingerprint is None else {"fingerprint": fingerprint}),
     )
+    # The camera thread, ours or the caller's (a CameraWorker given as `perception`), hands
+    # small copies of its frames to the recording and the dashboard.
+    camera_thread = camera if camera is not None else perception
+    if not hasattr(camera_thread, "tap"):
+        camera_thread = None
+    if camera_thread is not None and recordings is not None and settings.record.frames_hz > 0:
+        from jetson.frames import FrameTap
+
+        daemon.frames = FrameTap(1.0 / settings.record.frames_hz, settings.record.frame_width)
+        camera_thread.tap = daemon.frames
+    dashboard = None
+    if settings.dashboard.address:
+        from jetson.dashboard.server import live_server
+
+        dashboard = live_server(
+            daemon, camera_thread, settings.dashboard, settings.record.dir or None,
+            "pete-jetson run",
+        )  # fmt: skip
     log.info(
         "config",
         f"policy {header['policy']['description']}, decisions at {decider.decision_hz:g} Hz, "
         f"drives in {', '.join(settings.decision.drive_phases) or 'no phase'}",
         settings=_settings_dict(settings),
     )
-    return Service(daemon, camera, _files=files)
+    return Service(daemon, camera, _files=files, dashboard=dashboard)
 
 
 def make_pipeline(camera_settings: Any) -> Any:
@@ -317,6 +360,12 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         help=f"least severe level logged (default: {d.log.level})",
     )
     p.add_argument("--quiet", action="store_true", help="no human summary line on stderr")
+    p.add_argument(
+        "--dashboard",
+        metavar="[HOST:]PORT",
+        help="serve the read-only dashboard here (a port alone: 127.0.0.1 only; at a field the "
+        "Jetson's hotspot or Ethernet address) (default: off)",
+    )
     p.set_defaults(func=cmd_run)
 
     r = sub.add_parser(
@@ -363,6 +412,7 @@ def settings_from_args(args: argparse.Namespace) -> Settings:
             "level": args.log_level,
             "summary": False if args.quiet else None,
         },
+        dashboard={"address": getattr(args, "dashboard", None)},
     )
     return settings
 

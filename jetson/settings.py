@@ -148,11 +148,46 @@ class RecordSettings:
     dir: str | None = "/var/lib/pete-jetson/sessions"  # None or "": do not record
     keep_mb: float = 2000.0  # the recordings' disk budget: the oldest sessions go first
     compress: bool = True
+    # Downscaled camera frames kept a second (JPEG, with their detections), for the dashboard's
+    # replay; 0 keeps none.
+    frames_hz: float = 3.0
+    frame_width: int = 160  # pixels
 
     def __post_init__(self) -> None:
         if not self.keep_mb > 0:
             raise SettingsError(
                 f"record keep_mb must be a positive number of MB, got {self.keep_mb}"
+            )
+        if not (math.isfinite(self.frames_hz) and 0 <= self.frames_hz <= 30):
+            raise SettingsError(f"record frames_hz must be in [0, 30], got {self.frames_hz}")
+        if not 32 <= self.frame_width <= 640:
+            raise SettingsError(f"record frame_width must be in [32, 640], got {self.frame_width}")
+
+
+@dataclass(frozen=True)
+class DashboardSettings:
+    # "[HOST:]PORT" to serve the dashboard on (jetson/dashboard/README.md); "" is off. A port
+    # alone listens on 127.0.0.1 only: at a field give the Jetson's hotspot or Ethernet address.
+    address: str = ""
+    state_hz: float = 20.0  # snapshots a second to each browser
+    camera_hz: float = 10.0  # camera frames a second to each browser
+    frame_width: int = 320  # the camera picture's width, pixels
+
+    def __post_init__(self) -> None:
+        if self.address:
+            from jetson.dashboard.address import parse_address
+
+            try:
+                parse_address(self.address)
+            except ValueError as exc:
+                raise SettingsError(str(exc)) from None
+        for name in ("state_hz", "camera_hz"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and 0.5 <= v <= 60):
+                raise SettingsError(f"dashboard {name} must be in [0.5, 60], got {v}")
+        if not 64 <= self.frame_width <= 1280:
+            raise SettingsError(
+                f"dashboard frame_width must be in [64, 1280], got {self.frame_width}"
             )
 
 
@@ -176,6 +211,7 @@ class Settings:
     camera: CameraSettings = field(default_factory=CameraSettings)
     record: RecordSettings = field(default_factory=RecordSettings)
     log: LogSettings = field(default_factory=LogSettings)
+    dashboard: DashboardSettings = field(default_factory=DashboardSettings)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Settings:

@@ -1,0 +1,366 @@
+"""What the dashboard shows, taken on the daemon's own thread and handed over without a lock.
+
+The daemon (jetson.loop.Daemon) calls `Observer.turn()` at the end of every turn of its loop and
+`Observer.brain_line()` for each line the Brain prints. A turn costs one attribute test unless
+the dashboard's server has asked for a snapshot (`wanted`, set at the page's update rate while a
+browser is connected): then the daemon builds one plain dict (JSON-ready) from its own state,
+after its Command is on the wire, and publishes it by replacing one reference (`snapshot`). The
+server's thread only ever reads that reference: nothing is shared that either side changes.
+
+`state_snapshot()` and `field_view()` are also what `pete-jetson dashboard --recording` uses to
+turn a recording's cycles into the same snapshots (jetson/dashboard/replay.py).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from collections import deque
+from typing import Any
+
+import numpy as np
+
+from jetson.autonomy.geometry import robot_to_field, to_alliance_frame
+from protocol import messages
+from protocol.messages import Alliance, Fault, GpsStatus, MatchPhase
+
+FIELD_HALF_M = 1.8288  # half of the 12 ft field's side
+LATENCY_WINDOW = 500  # the latest latencies the p50/p99 and the histogram are of (10 s at 50 Hz)
+# The latency histogram's bin edges, ms (the last bin is "above 10 ms").
+LATENCY_EDGES_MS = (0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 5.0, 10.0)
+FORGOTTEN_KEEP_S = 5.0  # how long a forgotten ring stays on the field view
+BRAIN_LINES = 30  # the Brain's last lines in each snapshot
+
+
+def _r(v: float, nd: int = 4) -> float | None:
+    v = float(v)
+    return round(v, nd) if math.isfinite(v) else None
+
+
+def _points(xy: Any) -> list[list[float]]:
+    a = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    return [[round(float(x), 4), round(float(y), 4)] for x, y in a]
+
+
+def percentile(sorted_values: list[float], q: float) -> float:
+    if not sorted_values:
+        return math.nan
+    k = (len(sorted_values) - 1) * q / 100.0
+    lo = math.floor(k)
+    hi = min(lo + 1, len(sorted_values) - 1)
+    return sorted_values[lo] + (sorted_values[hi] - sorted_values[lo]) * (k - lo)
+
+
+def latency_view(latencies_s: list[float]) -> dict[str, Any]:
+    """p50, p99, max (ms) and a histogram over LATENCY_EDGES_MS of the given latencies."""
+    ms = sorted(x * 1e3 for x in latencies_s)
+    counts = [0] * len(LATENCY_EDGES_MS)
+    for v in ms:
+        i = 0
+        while i + 1 < len(LATENCY_EDGES_MS) and v >= LATENCY_EDGES_MS[i + 1]:
+            i += 1
+        counts[i] += 1
+    return {
+        "n": len(ms),
+        "p50_ms": _r(percentile(ms, 50)),
+        "p99_ms": _r(percentile(ms, 99)),
+        "max_ms": _r(ms[-1]) if ms else None,
+        "edges_ms": list(LATENCY_EDGES_MS),
+        "hist": counts,
+    }
+
+
+def alliance_name(state: Any) -> str | None:
+    if state is None:
+        return None
+    return {Alliance.RED: "red", Alliance.BLUE: "blue"}.get(state.alliance)
+
+
+def who_drives(state: Any, command: Any) -> str:
+    """Who the Brain lets drive, as far as its State tells (brain/README.md, "What the robot does
+    in each phase"): the Jetson while the Brain applies our newest Commands; in driver control
+    otherwise the driver; else nobody."""
+    if state is None or state.phase == MatchPhase.DISABLED:
+        return "nobody"
+    timed_out = bool(state.faults & Fault.COMMAND_TIMEOUT) or bool(
+        state.faults & Fault.FINGERPRINT_MISMATCH
+    )
+    applied = (
+        command is not None
+        and state.last_command_seq != 0
+        and 0 <= command.seq - state.last_command_seq <= 5
+    )
+    if applied and not timed_out:
+        return "jetson"
+    return "driver" if state.phase == MatchPhase.DRIVER else "nobody"
+
+
+def state_snapshot(state: Any, command: Any, decision: Any) -> dict[str, Any]:
+    """The match, the pose and the last Command (from one cycle's State, Command, Decision)."""
+    out: dict[str, Any] = {"pose": None, "match": None, "command": None, "speeds": None}
+    if state is not None:
+        out["pose"] = {
+            "x": _r(state.x), "y": _r(state.y), "heading": _r(state.heading, 2),
+            "gps_status": GpsStatus(state.gps_status).name.lower(),
+            "gps_error": _r(state.gps_error),
+        }  # fmt: skip
+        out["match"] = {
+            "phase": MatchPhase(state.phase).name.lower(),
+            "phase_ms": int(state.phase_ms),
+            "time_ms": int(state.time_ms),
+            "seq": int(state.seq),
+            "alliance": alliance_name(state) or "unknown",
+            "driver": who_drives(state, command),
+            "faults": [f.name.lower() for f in Fault if f in Fault(state.faults)],
+            "rings_held": int(state.rings_held),
+            "goal_clamped": int(state.goal_clamped),
+        }
+        out["speeds"] = {"left": _r(state.left_speed), "right": _r(state.right_speed)}
+    if command is not None:
+        out["command"] = {
+            "seq": int(command.seq),
+            "linear": _r(command.linear),
+            "angular": _r(command.angular),
+            "intake": bool(command.intake),
+            "valid_ms": int(command.valid_ms),
+            "reason": getattr(decision, "reason", None),
+            "perception": getattr(decision, "perception", None),
+            "rings": getattr(decision, "rings", None),
+        }
+    return out
+
+
+def _slot(f: np.ndarray, offset: int, unit: float) -> np.ndarray | None:
+    s = f[offset : offset + 3]
+    return None if s.size < 3 or s[2] <= 0 else s[:2] * unit
+
+
+def field_view(decider: Any, state: Any, seen_robot_xy: Any = None) -> dict[str, Any]:
+    """The decision's picture of the field, in the field frame (GPS, metres): the rings seen in
+    the last camera result, the rings remembered, the goals remembered, the chosen skill and its
+    target, and the path (robot -> target, and the route's stops)."""
+    out: dict[str, Any] = {
+        "seen": [], "remembered": [], "goals": [], "holding": False, "memory": False,
+        "goal_memory": False, "skill": None, "target": None, "path": [], "route": [],
+    }  # fmt: skip
+    alliance = alliance_name(state)
+    if decider is None or state is None or alliance is None:
+        return out
+    spec = decider.spec
+    pose = (float(state.x), float(state.y))
+    heading = float(state.heading)
+    seen = np.zeros((0, 2))
+    if seen_robot_xy is not None and len(seen_robot_xy):
+        seen = robot_to_field(np.asarray(seen_robot_xy, dtype=np.float64), pose, heading)
+    out["seen"] = _points(seen)
+    if spec.ring_memory:
+        out["memory"] = True
+        known = to_alliance_frame(decider.ring_memory.known, None, alliance)[0]
+        if len(seen) and len(known):
+            d = np.linalg.norm(known[:, None, :] - seen[None, :, :], axis=2)
+            known = known[d.min(axis=1) > spec.memory_merge_m]
+        out["remembered"] = _points(known)
+    if spec.goal_memory:
+        out["goal_memory"] = True
+        out["goals"] = _points(to_alliance_frame(decider.goal_memory.known, None, alliance)[0])
+        out["holding"] = bool(decider.goal_memory.holding)
+    obs, action = decider.last_obs, decider.last_action
+    if obs is None:
+        return out
+    f = np.asarray(obs, dtype=np.float64)[: spec.frame_size]
+    unit = spec.length_unit_m
+    stops = []
+    for i in range(spec.route_slots):
+        local = _slot(f, spec.route_offset + 3 * i, unit)
+        if local is not None:
+            stops.append(local)
+    if stops:
+        out["route"] = _points(robot_to_field(np.array(stops), pose, heading))
+    skills = getattr(decider.policy, "skills", None)
+    if skills is None or action is None:
+        out["skill"] = "direct drive"
+        return out
+    a = np.asarray(action, dtype=np.float64).reshape(-1)
+    names = skills.option_names()
+    k = int(np.argmax(a[: skills.n_options]))
+    name = names[k]
+    target = None
+    driver = decider.skill_driver
+    commit = getattr(driver, "_commit_point", None) if driver is not None else None
+    if commit is not None:
+        name = "goal (committed)"
+        target = to_alliance_frame(np.asarray(commit), None, alliance)[0]
+    elif name == "route":
+        local = _slot(f, spec.route_offset, unit)
+        target = None if local is None else robot_to_field(local[None, :], pose, heading)[0]
+    elif name.startswith("ring"):
+        local = _slot(f, spec.ring_offset + 3 * int(name[4:]), unit)
+        target = None if local is None else robot_to_field(local[None, :], pose, heading)[0]
+    elif name.startswith("goal"):
+        local = _slot(f, spec.goal_offset + 3 * int(name[4:]), unit)
+        target = None if local is None else robot_to_field(local[None, :], pose, heading)[0]
+    elif name == "platform":
+        cx, cy = skills.platform_box[:2]
+        target = to_alliance_frame(np.array([cx, cy]), None, alliance)[0]
+    out["skill"] = name
+    if target is not None:
+        out["target"] = _points(target)[0]
+        path = [list(pose), out["target"]]
+        if name == "route" and len(out["route"]) > 1:
+            path += out["route"][1:]
+        out["path"] = [[round(x, 4), round(y, 4)] for x, y in path]
+    return out
+
+
+class Forgetting:
+    """Rings the memory knew at the last snapshot and no longer does: shown fading for
+    FORGOTTEN_KEEP_S. Fed each snapshot's remembered and seen rings."""
+
+    def __init__(self, merge_m: float = 0.12) -> None:
+        self.merge_m = merge_m
+        self._known = np.zeros((0, 2))
+        self.forgotten: deque[tuple[float, float, float]] = deque(maxlen=200)
+
+    def reset(self) -> None:
+        self._known = np.zeros((0, 2))
+        self.forgotten.clear()
+
+    def update(self, t: float, field: dict[str, Any]) -> list[list[float]]:
+        now = np.asarray(field["remembered"] + field["seen"], dtype=np.float64).reshape(-1, 2)
+        prev = self._known
+        if len(prev):
+            if len(now):
+                d = np.linalg.norm(prev[:, None, :] - now[None, :, :], axis=2).min(axis=1)
+                gone = prev[d > self.merge_m]
+            else:
+                gone = prev
+            for x, y in gone:
+                self.forgotten.append((t, float(x), float(y)))
+        self._known = now
+        while self.forgotten and (t - self.forgotten[0][0] > FORGOTTEN_KEEP_S or t < 0):
+            self.forgotten.popleft()
+        return [[round(x, 4), round(y, 4), round(t - t0, 2)] for t0, x, y in self.forgotten]
+
+
+class Observer:
+    """The daemon's side of the dashboard (see the module docstring).
+
+    Written by the daemon's thread: `snapshot` (replaced whole), `brain_lines`. Written by the
+    server's thread: `wanted`. Each is one reference or one bool: no lock is needed or taken."""
+
+    def __init__(self) -> None:
+        self.wanted = False
+        self.snapshot: dict[str, Any] | None = None
+        self.snapshots = 0
+        self.errors = 0
+        self.last_error: str | None = None
+        self.build_s = 0.0  # daemon-thread time spent building snapshots, in total
+        self.brain_lines: deque[list[Any]] = deque(maxlen=BRAIN_LINES)
+        self.lines_total = 0
+        self._forgetting: Forgetting | None = None
+        self._boot: int | None = None
+
+    # --- called by the daemon's thread -----------------------------------------------------
+
+    def turn(self, daemon: Any) -> None:
+        """The end of one turn of the daemon's loop: a snapshot if one is wanted."""
+        if self.wanted:
+            self.wanted = False
+            self.publish(daemon)
+
+    def publish(self, daemon: Any) -> dict[str, Any] | None:
+        """Build and publish a snapshot now (on the daemon's thread: a lockstep simulator or a
+        test may call it between two turns). Never raises."""
+        t0 = time.perf_counter()
+        try:
+            snap = self.take(daemon)
+        except Exception as exc:  # the dashboard must never cost the robot a Command
+            self.errors += 1
+            self.last_error = f"{type(exc).__name__}: {exc}"
+            return None
+        finally:
+            self.build_s += time.perf_counter() - t0
+        self.snapshot = snap
+        return snap
+
+    def brain_line(self, t: float, level: str, text: str) -> None:
+        self.lines_total += 1
+        self.brain_lines.append([round(t, 3), level, text[:300], self.lines_total])
+
+    # --- the snapshot ----------------------------------------------------------------------
+
+    def take(self, daemon: Any) -> dict[str, Any]:
+        now = daemon.clock.now()
+        state, command, decision = daemon.last_state, daemon.last_command, daemon.last_decision
+        decider = daemon.decider
+        hs = daemon.handshake
+        if hs.brain_boot_id != self._boot or self._forgetting is None:
+            self._boot = hs.brain_boot_id
+            self._forgetting = Forgetting(decider.spec.memory_merge_m)
+        c = daemon.counters
+        decoder = daemon.decoder.stats
+        recent = daemon.latency.recent
+        lat = list(itertools.islice(reversed(recent), LATENCY_WINDOW))
+        p = daemon.last_perceived
+        fresh = decision is not None and decision.perception == "fresh"
+        seen = p.rings_robot_xy if (p is not None and fresh and p.error is None) else None
+        field = field_view(decider, state, seen)
+        field["forgotten"] = self._forgetting.update(now, field)
+        self.snapshots += 1
+        perception = None
+        if p is not None:
+            perception = {
+                "id": int(p.id),
+                "age_ms": _r((now - p.stamp_s) * 1e3, 1),
+                "rings": len(p.rings_robot_xy),
+                "detections": int(p.detections),
+                "process_ms": _r(p.process_ms, 2),
+                "error": p.error,
+            }
+        link = {
+            "state": daemon.state,
+            "connected": daemon.link is not None,
+            "up": hs.up,
+            "port": daemon.locator.describe(),
+            "ours": f"{hs.fingerprint:08X}",
+            "brain": None if hs.brain_fingerprint is None else f"{hs.brain_fingerprint:08X}",
+            "jetson_boot": f"{hs.boot_id:08X}",
+            "brain_boot": None if hs.brain_boot_id is None else f"{hs.brain_boot_id:08X}",
+            "rx_bytes": int(daemon.rx_bytes),
+            "tx_bytes": int(daemon.tx_bytes),
+            "received": int(c.received + decoder.received),
+            "lost": int(c.lost + decoder.lost),
+            "states": int(c.states),
+            "commands": int(c.commands),
+            "stops": int(c.stops),
+            "skipped": int(c.states_skipped),
+            "unverified": int(c.states_unverified),
+            "connects": int(c.connects),
+            "disconnects": int(c.disconnects),
+            "tx_dropped": int(c.tx_dropped),
+            "decision_errors": int(c.errors),
+            "errors": daemon.link_errors(),
+            "latency": latency_view(lat),
+        }
+        frames = daemon.frames
+        newest = frames.newest if frames is not None else None
+        recorder = daemon.recorder
+        return {
+            "kind": "state",
+            "n": self.snapshots,
+            "t": round(now, 4),
+            "wall": round(time.time(), 3),
+            "link": link,
+            **state_snapshot(state, command, decision),
+            "perception": perception,
+            "has_camera": daemon.perception is not None,
+            "frame_id": None if newest is None else newest.id,
+            "field": field,
+            "brain_lines": list(self.brain_lines),
+            "recording": None if recorder is None else str(recorder.path),
+        }
+
+
+def fingerprint() -> str:
+    return f"{messages.FINGERPRINT:08X}"
