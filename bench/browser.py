@@ -12,6 +12,8 @@ downloaded. Used by tests/jetson/dashboard/test_browser.py and bench/dashboard.p
 
 from __future__ import annotations
 
+import contextlib
+import os
 import shutil
 import sys
 import time
@@ -64,6 +66,30 @@ class Browser:
             opts.add_argument(arg)
         self.driver = webdriver.Chrome(service=Service(driver), options=opts)
         self.driver.set_script_timeout(10)
+
+    def pids(self) -> list[int]:
+        """The browser's processes: chromedriver and everything under it."""
+        root = self.driver.service.process.pid
+        children: dict[int, list[int]] = {}
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                pid, rest = stat.read_text().split(" (", 1)
+                ppid = int(rest.rsplit(")", 1)[1].split()[1])
+            except (OSError, ValueError, IndexError):
+                continue
+            children.setdefault(ppid, []).append(int(pid))
+        out, todo = [], [root]
+        while todo:
+            pid = todo.pop()
+            out.append(pid)
+            todo += children.get(pid, [])
+        return out
+
+    def pin(self, cpus: set[int]) -> None:
+        """Keep the browser's processes on `cpus` (a benchmark keeps it off the daemon's)."""
+        for pid in self.pids():
+            with contextlib.suppress(OSError):  # it ended meanwhile
+                os.sched_setaffinity(pid, cpus)
 
     def open(self, url: str) -> None:
         self.driver.get(url)

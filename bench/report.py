@@ -77,6 +77,13 @@ SOURCES: dict[str, Source] = {
         "The Jetson daemon's State -> Command latency over a pty with the shipped policy: its "
         "own part and the round trip, without and with the camera thread beside the loop.",
     ),
+    "dashboard": Source(
+        "python -m bench.dashboard",
+        "What the live dashboard costs the robot and what a browser gets (issue 43): the daemon "
+        "in its own process with the camera thread, States at 100 Hz, without the dashboard and "
+        "with it open in headless Chromium: the daemon's State -> Command p50/p99 and their "
+        "ratio, the process's CPU, the snapshots and camera frames a second the page counts.",
+    ),
     "deploy": Source(
         "python -m bench.deploy",
         "How exposed the Jetson daemon's systemd unit (jetson/deploy/pete-jetson.service) leaves "

@@ -82,6 +82,8 @@ class LiveSource:
         self.frame_width = frame_width
         self._frame: tuple[int, str] | None = None  # (view id, encoded message)
         self._jetson: tuple[float, str] | None = None
+        self._dashboard_s = 0.0  # the server thread's CPU time at the last sample
+        self._rendered: dict[str, Any] | None = None
 
     def info(self) -> dict[str, Any]:
         from jetson.dashboard.snapshot import FIELD_HALF_M, fingerprint
@@ -96,7 +98,13 @@ class LiveSource:
         self.observer.wanted = True
 
     def snapshot(self) -> dict[str, Any] | None:
-        return self.observer.snapshot
+        """The newest snapshot, rendered (here, on the server's thread) once whoever asks."""
+        raw = self.observer.snapshot
+        if raw is None:
+            return None
+        if self._rendered is None or self._rendered["n"] != raw["n"]:
+            self._rendered = self.observer.render(raw)
+        return self._rendered
 
     def frame_message(self) -> tuple[int, str] | None:
         """The newest frame as a message (encoded once, whoever asks)."""
@@ -116,7 +124,8 @@ class LiveSource:
             return None
         now = time.monotonic()
         if self._jetson is None or now - self._jetson[0] >= 1.0:
-            sample = self.system.sample(dashboard_s)
+            sample = self.system.sample(dashboard_s - self._dashboard_s)
+            self._dashboard_s = dashboard_s
             sample["observer"] = {
                 "snapshots": self.observer.snapshots,
                 "errors": self.observer.errors,
@@ -257,10 +266,10 @@ class DashboardServer:
         src = self.source
         if src.mode != "live":
             return web.json_response(src.snapshot_at(src.start_t))
-        before = src.snapshot()
+        before = src.observer.snapshot
         src.want()
         deadline = time.monotonic() + 0.5
-        while time.monotonic() < deadline and src.snapshot() is before:
+        while time.monotonic() < deadline and src.observer.snapshot is before:
             await asyncio.sleep(0.01)
         return web.json_response(src.snapshot())
 

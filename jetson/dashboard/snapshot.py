@@ -13,10 +13,12 @@ turn a recording's cycles into the same snapshots (jetson/dashboard/replay.py).
 
 from __future__ import annotations
 
+import bisect
 import itertools
 import math
 import time
 from collections import deque
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -55,12 +57,8 @@ def percentile(sorted_values: list[float], q: float) -> float:
 def latency_view(latencies_s: list[float]) -> dict[str, Any]:
     """p50, p99, max (ms) and a histogram over LATENCY_EDGES_MS of the given latencies."""
     ms = sorted(x * 1e3 for x in latencies_s)
-    counts = [0] * len(LATENCY_EDGES_MS)
-    for v in ms:
-        i = 0
-        while i + 1 < len(LATENCY_EDGES_MS) and v >= LATENCY_EDGES_MS[i + 1]:
-            i += 1
-        counts[i] += 1
+    cuts = [bisect.bisect_left(ms, e) for e in LATENCY_EDGES_MS[1:]]
+    counts = [b - a for a, b in zip([0, *cuts], [*cuts, len(ms)], strict=True)]
     return {
         "n": len(ms),
         "p50_ms": _r(percentile(ms, 50)),
@@ -136,10 +134,35 @@ def _slot(f: np.ndarray, offset: int, unit: float) -> np.ndarray | None:
     return None if s.size < 3 or s[2] <= 0 else s[:2] * unit
 
 
+@dataclass(frozen=True)
+class DecisionView:
+    """References to what the decision knows after a cycle (arrays the decision replaces, never
+    changes in place), taken on the daemon's thread and drawn anywhere (field_view)."""
+
+    spec: Any
+    skills: Any
+    known_rings: Any  # alliance frame
+    known_goals: Any
+    holding: bool
+    obs: Any
+    action: Any
+    commit: Any  # a committed goal manoeuvre's point, alliance frame
+
+    @classmethod
+    def of(cls, decider: Any) -> DecisionView:
+        driver = decider.skill_driver
+        return cls(
+            decider.spec, getattr(decider.policy, "skills", None), decider.ring_memory.known,
+            decider.goal_memory.known, decider.goal_memory.holding, decider.last_obs,
+            decider.last_action, getattr(driver, "_commit_point", None),
+        )  # fmt: skip
+
+
 def field_view(decider: Any, state: Any, seen_robot_xy: Any = None) -> dict[str, Any]:
     """The decision's picture of the field, in the field frame (GPS, metres): the rings seen in
     the last camera result, the rings remembered, the goals remembered, the chosen skill and its
-    target, and the path (robot -> target, and the route's stops)."""
+    target, and the path (robot -> target, and the route's stops). `decider`: a DecisionView
+    (or a jetson.decide.Decider, read at once)."""
     out: dict[str, Any] = {
         "seen": [], "remembered": [], "goals": [], "holding": False, "memory": False,
         "goal_memory": False, "skill": None, "target": None, "path": [], "route": [],
@@ -147,6 +170,8 @@ def field_view(decider: Any, state: Any, seen_robot_xy: Any = None) -> dict[str,
     alliance = alliance_name(state)
     if decider is None or state is None or alliance is None:
         return out
+    if not isinstance(decider, DecisionView):
+        decider = DecisionView.of(decider)
     spec = decider.spec
     pose = (float(state.x), float(state.y))
     heading = float(state.heading)
@@ -156,16 +181,16 @@ def field_view(decider: Any, state: Any, seen_robot_xy: Any = None) -> dict[str,
     out["seen"] = _points(seen)
     if spec.ring_memory:
         out["memory"] = True
-        known = to_alliance_frame(decider.ring_memory.known, None, alliance)[0]
+        known = to_alliance_frame(decider.known_rings, None, alliance)[0]
         if len(seen) and len(known):
             d = np.linalg.norm(known[:, None, :] - seen[None, :, :], axis=2)
             known = known[d.min(axis=1) > spec.memory_merge_m]
         out["remembered"] = _points(known)
     if spec.goal_memory:
         out["goal_memory"] = True
-        out["goals"] = _points(to_alliance_frame(decider.goal_memory.known, None, alliance)[0])
-        out["holding"] = bool(decider.goal_memory.holding)
-    obs, action = decider.last_obs, decider.last_action
+        out["goals"] = _points(to_alliance_frame(decider.known_goals, None, alliance)[0])
+        out["holding"] = bool(decider.holding)
+    obs, action = decider.obs, decider.action
     if obs is None:
         return out
     f = np.asarray(obs, dtype=np.float64)[: spec.frame_size]
@@ -177,17 +202,19 @@ def field_view(decider: Any, state: Any, seen_robot_xy: Any = None) -> dict[str,
             stops.append(local)
     if stops:
         out["route"] = _points(robot_to_field(np.array(stops), pose, heading))
-    skills = getattr(decider.policy, "skills", None)
+    skills = decider.skills
     if skills is None or action is None:
         out["skill"] = "direct drive"
         return out
     a = np.asarray(action, dtype=np.float64).reshape(-1)
     names = skills.option_names()
-    k = int(np.argmax(a[: skills.n_options]))
+    # Not np.argmax: it lets go of the interpreter lock, and taking it back behind the camera
+    # thread costs the daemon's thread up to a switch interval.
+    scores = a[: skills.n_options].tolist()
+    k = scores.index(max(scores))
     name = names[k]
     target = None
-    driver = decider.skill_driver
-    commit = getattr(driver, "_commit_point", None) if driver is not None else None
+    commit = decider.commit
     if commit is not None:
         name = "goal (committed)"
         target = to_alliance_frame(np.asarray(commit), None, alliance)[0]
@@ -246,16 +273,18 @@ class Forgetting:
 class Observer:
     """The daemon's side of the dashboard (see the module docstring).
 
+    On the daemon's thread, take() copies references and numbers only (a few microseconds: no
+    geometry, no JSON); render() turns that into the page's snapshot on the server's thread.
     Written by the daemon's thread: `snapshot` (replaced whole), `brain_lines`. Written by the
     server's thread: `wanted`. Each is one reference or one bool: no lock is needed or taken."""
 
     def __init__(self) -> None:
         self.wanted = False
-        self.snapshot: dict[str, Any] | None = None
+        self.snapshot: dict[str, Any] | None = None  # the newest taken (not yet rendered)
         self.snapshots = 0
         self.errors = 0
         self.last_error: str | None = None
-        self.build_s = 0.0  # daemon-thread time spent building snapshots, in total
+        self.build_s = 0.0  # daemon-thread time spent taking snapshots, in total
         self.brain_lines: deque[list[Any]] = deque(maxlen=BRAIN_LINES)
         self.lines_total = 0
         self._forgetting: Forgetting | None = None
@@ -270,7 +299,7 @@ class Observer:
             self.publish(daemon)
 
     def publish(self, daemon: Any) -> dict[str, Any] | None:
-        """Build and publish a snapshot now (on the daemon's thread: a lockstep simulator or a
+        """Take and publish a snapshot now (on the daemon's thread: a lockstep simulator or a
         test may call it between two turns). Never raises."""
         t0 = time.perf_counter()
         try:
@@ -288,26 +317,74 @@ class Observer:
         self.lines_total += 1
         self.brain_lines.append([round(t, 3), level, text[:300], self.lines_total])
 
-    # --- the snapshot ----------------------------------------------------------------------
-
     def take(self, daemon: Any) -> dict[str, Any]:
-        now = daemon.clock.now()
-        state, command, decision = daemon.last_state, daemon.last_command, daemon.last_decision
-        decider = daemon.decider
-        hs = daemon.handshake
-        if hs.brain_boot_id != self._boot or self._forgetting is None:
-            self._boot = hs.brain_boot_id
-            self._forgetting = Forgetting(decider.spec.memory_merge_m)
+        """References and numbers, on the daemon's thread."""
         c = daemon.counters
         decoder = daemon.decoder.stats
-        recent = daemon.latency.recent
-        lat = list(itertools.islice(reversed(recent), LATENCY_WINDOW))
-        p = daemon.last_perceived
+        hs = daemon.handshake
+        frames = daemon.frames
+        newest = frames.newest if frames is not None else None
+        recorder = daemon.recorder
+        self.snapshots += 1
+        return {
+            "n": self.snapshots,
+            "t": daemon.clock.now(),
+            "wall": time.time(),
+            "state": daemon.last_state,
+            "command": daemon.last_command,
+            "decision": daemon.last_decision,
+            "view": DecisionView.of(daemon.decider),
+            "perceived": daemon.last_perceived,
+            "has_camera": daemon.perception is not None,
+            "frame_id": None if newest is None else newest.id,
+            "recording": None if recorder is None else str(recorder.path),
+            "latencies": list(itertools.islice(reversed(daemon.latency.recent), LATENCY_WINDOW)),
+            "brain_lines": list(self.brain_lines),
+            "link": {
+                "state": daemon.state,
+                "connected": daemon.link is not None,
+                "up": hs.up,
+                "port": daemon.locator.describe(),
+                "ours": hs.fingerprint,
+                "brain": hs.brain_fingerprint,
+                "jetson_boot": hs.boot_id,
+                "brain_boot": hs.brain_boot_id,
+                "rx_bytes": daemon.rx_bytes,
+                "tx_bytes": daemon.tx_bytes,
+                "received": c.received + decoder.received,
+                "lost": c.lost + decoder.lost,
+                "states": c.states,
+                "commands": c.commands,
+                "stops": c.stops,
+                "skipped": c.states_skipped,
+                "unverified": c.states_unverified,
+                "connects": c.connects,
+                "disconnects": c.disconnects,
+                "tx_dropped": c.tx_dropped,
+                "decision_errors": c.errors,
+                "errors": daemon.link_errors(),
+            },
+        }
+
+    # --- called by the server's thread -----------------------------------------------------
+
+    def render(self, raw: dict[str, Any]) -> dict[str, Any]:
+        """The page's snapshot (JSON-ready) from one take(); call it once per snapshot, in
+        order (it follows which rings were forgotten from one to the next)."""
+        link = dict(raw["link"])
+        for key in ("ours", "brain", "jetson_boot", "brain_boot"):
+            link[key] = None if link[key] is None else f"{link[key]:08X}"
+        link["latency"] = latency_view(raw["latencies"])
+        view: DecisionView = raw["view"]
+        if link["brain_boot"] != self._boot or self._forgetting is None:
+            self._boot = link["brain_boot"]
+            self._forgetting = Forgetting(view.spec.memory_merge_m)
+        state, decision, p = raw["state"], raw["decision"], raw["perceived"]
+        now = raw["t"]
         fresh = decision is not None and decision.perception == "fresh"
         seen = p.rings_robot_xy if (p is not None and fresh and p.error is None) else None
-        field = field_view(decider, state, seen)
+        field = field_view(view, state, seen)
         field["forgotten"] = self._forgetting.update(now, field)
-        self.snapshots += 1
         perception = None
         if p is not None:
             perception = {
@@ -318,47 +395,19 @@ class Observer:
                 "process_ms": _r(p.process_ms, 2),
                 "error": p.error,
             }
-        link = {
-            "state": daemon.state,
-            "connected": daemon.link is not None,
-            "up": hs.up,
-            "port": daemon.locator.describe(),
-            "ours": f"{hs.fingerprint:08X}",
-            "brain": None if hs.brain_fingerprint is None else f"{hs.brain_fingerprint:08X}",
-            "jetson_boot": f"{hs.boot_id:08X}",
-            "brain_boot": None if hs.brain_boot_id is None else f"{hs.brain_boot_id:08X}",
-            "rx_bytes": int(daemon.rx_bytes),
-            "tx_bytes": int(daemon.tx_bytes),
-            "received": int(c.received + decoder.received),
-            "lost": int(c.lost + decoder.lost),
-            "states": int(c.states),
-            "commands": int(c.commands),
-            "stops": int(c.stops),
-            "skipped": int(c.states_skipped),
-            "unverified": int(c.states_unverified),
-            "connects": int(c.connects),
-            "disconnects": int(c.disconnects),
-            "tx_dropped": int(c.tx_dropped),
-            "decision_errors": int(c.errors),
-            "errors": daemon.link_errors(),
-            "latency": latency_view(lat),
-        }
-        frames = daemon.frames
-        newest = frames.newest if frames is not None else None
-        recorder = daemon.recorder
         return {
             "kind": "state",
-            "n": self.snapshots,
+            "n": raw["n"],
             "t": round(now, 4),
-            "wall": round(time.time(), 3),
+            "wall": round(raw["wall"], 3),
             "link": link,
-            **state_snapshot(state, command, decision),
+            **state_snapshot(state, raw["command"], decision),
             "perception": perception,
-            "has_camera": daemon.perception is not None,
-            "frame_id": None if newest is None else newest.id,
+            "has_camera": raw["has_camera"],
+            "frame_id": raw["frame_id"],
             "field": field,
-            "brain_lines": list(self.brain_lines),
-            "recording": None if recorder is None else str(recorder.path),
+            "brain_lines": raw["brain_lines"],
+            "recording": raw["recording"],
         }
 
 
