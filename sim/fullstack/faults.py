@@ -217,27 +217,36 @@ class Scenario:
 class _StopWatch:
     """From an event on: when the Jetson stopped driving the motors, read on brain_host's own
     clock (in realtime the simulator's ticks may lag it), and how old the Command it drove by
-    last had been (lockstep)."""
+    last had been (lockstep). The robot counts as stopped at the first step the Jetson does not
+    drive its motors, or from the step the Brain acts on a stop Command (it then brakes under its
+    acceleration limit: from full speed that takes about 0.3 s, its ramp, not a delay)."""
 
     def __init__(self) -> None:
         self.event_ms: int | None = None  # brain_host's clock at the event
         self.stopped_ms: int | None = None  # ...at the first step the Jetson did not drive
         self.last_age_ms: int | None = None  # the Command driving the last step before that
+        self.driven_at_event: bool | None = None  # the Jetson drove the motors at the event
+        self.by_stop_command = False  # it stopped on a stop Command (not by a timeout)
         self.jetson_after_stop = 0  # steps the Jetson drove again afterwards
 
     def start(self, m: RunningMatch) -> None:
         self.event_ms = m.brain_now_ms()
 
-    def note(self, report: BrainReport, age_ms: int | None = None) -> None:
+    def note(
+        self, report: BrainReport, age_ms: int | None = None, stop_command: bool = False
+    ) -> None:
         if self.event_ms is None or report.last_step_ms < self.event_ms:
             return
         driven = report.source == "jetson" and report.moving
         if self.stopped_ms is None:
-            if driven:
+            if self.driven_at_event is None:
+                self.driven_at_event = driven
+            if driven and not stop_command:
                 self.last_age_ms = age_ms
             else:
                 self.stopped_ms = report.last_step_ms
-        elif driven:
+                self.by_stop_command = driven and stop_command
+        elif driven and not stop_command:
             self.jetson_after_stop += 1
 
     @property
@@ -259,10 +268,11 @@ class _StopWatch:
             return Check("stops_in_time", False, f"the Jetson still drove at the end after {what}")
         took = self.stopped_ms - self.event_ms
         age = "" if self.last_age_ms is None else f"; its last Command drove {self.last_age_ms} ms"
+        how = "began braking on the stop Command" if self.by_stop_command else "stopped driving"
         return Check(
             "stops_in_time",
             took <= limit,
-            f"the Brain stopped driving {took} ms after {what} (limit: {limit} ms, {why}){age}",
+            f"the Brain {how} {took} ms after {what} (limit: {limit} ms, {why}){age}",
         )
 
     def stays_stopped(self, what: str) -> Check:
@@ -273,7 +283,12 @@ class _StopWatch:
         )
 
     def measures(self) -> dict[str, Any]:
-        return {"stop_after_fault_ms": self.took_ms, "kept_driving_ms": self.last_age_ms}
+        return {
+            "stop_after_fault_ms": self.took_ms,
+            "kept_driving_ms": self.last_age_ms,
+            "driven_at_fault": self.driven_at_event,
+            "stopped_by_command": self.by_stop_command,
+        }
 
 
 class _Return:
@@ -335,7 +350,9 @@ class LinkCut(Scenario):
     def after_tick(self, m: RunningMatch, report: BrainReport) -> None:
         t = m.step_match_ms(report)
         if t < self.back_ms:
-            self.watch.note(report, m.brain_track.age_ms(report))
+            self.watch.note(
+                report, m.brain_track.age_ms(report), m.brain_track.applies_stop(report)
+            )
         else:
             self.back.note(m, t, report)
 
@@ -476,7 +493,9 @@ class JetsonKilled(Scenario):
     def after_tick(self, m: RunningMatch, report: BrainReport) -> None:
         t = m.step_match_ms(report)
         if t < self.sticks_on_ms:
-            self.watch.note(report, m.brain_track.age_ms(report))
+            self.watch.note(
+                report, m.brain_track.age_ms(report), m.brain_track.applies_stop(report)
+            )
         if self.sticks_on_ms <= t < self.sticks_off_ms and report.source == "driver":
             self.driver_steps += report.moving
 
@@ -679,7 +698,9 @@ class _Restart(Scenario):
         if self.exit is None and before is not None and len(m.jetson.exits) > before:
             self.exit = m.jetson.exits[before]
         if t < self.restart_ms:
-            self.watch.note(report, m.brain_track.age_ms(report))
+            self.watch.note(
+                report, m.brain_track.age_ms(report), m.brain_track.applies_stop(report)
+            )
         else:
             self.back.note(m, t, report)
 

@@ -143,6 +143,8 @@ class BrainRecord(Protocol):
 
     def age_ms(self, report: BrainReport) -> int | None: ...
 
+    def applies_stop(self, report: BrainReport) -> bool: ...
+
 
 class RunningMatch(Protocol):
     """What a fault scenario needs of the full-stack match that runs it."""

@@ -187,16 +187,26 @@ class BrainTrack:
     ledger: bool = False
     valid_ms: int = 250
     delivered: dict[int, int] = field(default_factory=dict)
+    stop_seqs: set[int] = field(default_factory=set)  # those that said stop (no speed, no turn)
     jetson_steps: int = 0
     invalid_steps: int = 0  # driven by a Command never delivered as sent, or past its validity
     invalid_examples: list[str] = field(default_factory=list)
     max_command_age_ms: int = 0
     brains: int = 1
 
-    def command_delivered(self, seq: int, t_ms: int) -> None:
+    def command_delivered(self, seq: int, t_ms: int, stop: bool = False) -> None:
         """A Command's bytes reached brain_host after its step at t_ms: it reads them at its
         next step, where the Command's validity starts."""
         self.delivered[int(seq)] = t_ms + LOOP_MS
+        if stop:
+            self.stop_seqs.add(int(seq))
+        else:
+            self.stop_seqs.discard(int(seq))
+
+    def applies_stop(self, report: Any) -> bool:
+        """The Brain is acting on a Command that says stop (braking under its acceleration
+        limit, the motors still turning down to zero)."""
+        return int(report.last_command_seq) in self.stop_seqs
 
     def age_ms(self, report: Any) -> int | None:
         """How old the Command the Brain applied at this step was (None: not one it read)."""
@@ -206,6 +216,7 @@ class BrainTrack:
     def new_brain(self) -> None:
         """A rebooted Brain: it holds none of the Commands the old one received."""
         self.delivered.clear()
+        self.stop_seqs.clear()
         self.last_seq = 0
         self.brains += 1
 
@@ -571,7 +582,8 @@ class FullStackMatch:
 
             for msg in self.cable.take_received("down"):
                 if isinstance(msg, Command):
-                    self.brain_track.command_delivered(msg.seq, t)
+                    stop = msg.linear == 0.0 and msg.angular == 0.0
+                    self.brain_track.command_delivered(msg.seq, t, stop)
         self.brain_track.note(report, started)
         self.scenario.after_tick(self, report)
         if started and not w.over:
