@@ -13,8 +13,9 @@ detector, a session recording keeping its frames); this process plays the Brain
 - with: `--dashboard` on a loopback port and the page open in headless Chromium (Debian's,
   bench/browser.py) for the whole run.
 
-The browser stands for the team's laptop: with two cores or more it is kept on the last core and
-the daemon's process on the others, in both scenarios (--no-pin shares every core).
+The browser stands for the team's laptop: its processes run at the lowest priority (nice 19),
+and with four cores or more it is kept on the last core and the daemon's process on the others,
+in both scenarios (--no-pin shares every core).
 
 Metrics: the daemon's own State -> Command latency (its recording's `latency_ms`) p50/p99 of each
 scenario (rounds pooled) and their ratio; the update rates the page itself counts (snapshots and
@@ -148,12 +149,14 @@ def run_scenario(
                 os.sched_setaffinity(child.pid, daemon_cpus)
             if dashboard:
                 browser = Browser()
+                browser.renice(19)
                 if browser_cpus:
                     browser.pin(browser_cpus)
                 browser.open(f"http://127.0.0.1:{port}/")
                 browser.wait(lambda: browser.js("return D.cameraDrawn > 0"), 30, "a frame")
+                browser.renice(19)  # the page's renderer processes too
                 if browser_cpus:
-                    browser.pin(browser_cpus)  # the page's renderer processes too
+                    browser.pin(browser_cpus)
             for _ in range(50):  # warm up
                 brain.send_state()
                 brain.wait_command(1.0)
@@ -239,7 +242,7 @@ def main(argv: list[str] | None = None) -> int:
         "--no-pin",
         dest="pin",
         action="store_false",
-        help="do not keep the browser on its own core (by default, with 2 or more cores, the "
+        help="do not keep the browser on its own core (by default, with 4 or more cores, the "
         "browser gets the last core and the daemon the others)",
     )
     parser.add_argument("--out", type=Path, default=RESULTS_DIR, help="where dashboard.json goes")
@@ -255,7 +258,7 @@ def main(argv: list[str] | None = None) -> int:
     # and the daemon the others, so that what is measured is the dashboard, not Chromium.
     cpus = sorted(os.sched_getaffinity(0))
     daemon_cpus = browser_cpus = None
-    if args.pin and len(cpus) >= 2:
+    if args.pin and len(cpus) >= 4:
         daemon_cpus, browser_cpus = set(cpus[:-1]), {cpus[-1]}
     runs: dict[bool, list[dict[str, Any]]] = {False: [], True: []}
     for _ in range(args.rounds):
