@@ -106,6 +106,13 @@ def add_match_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--record", action="store_true", help="keep the daemon's session (pete-jetson replay)"
     )
+    p.add_argument(
+        "--dashboard",
+        metavar="[HOST:]PORT",
+        default=None,
+        help="serve the daemon's read-only live dashboard here (a port alone: 127.0.0.1) "
+        "(default: off)",
+    )
     p.add_argument("--out", type=Path, default=None, help="run folder (default: runs/match-...)")
     p.add_argument("--brain-host", type=Path, default=None, help="the brain_host binary")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
@@ -155,6 +162,7 @@ def cmd_match(args: argparse.Namespace) -> int:
             record=args.record,
             out=out,
             brain_host=args.brain_host,
+            dashboard=args.dashboard,
         )
         progress = None if args.quiet or args.json else (lambda m: print(m, flush=True))
         result = run_match(options, progress)

@@ -29,6 +29,7 @@ from typing import Any, TextIO
 
 from jetson.camera_feed import Perceived
 from jetson.clock import Clock
+from jetson.frames import FrameTap
 from jetson.service import build, make_camera
 from jetson.settings import Settings
 from jetson.stats import Counters
@@ -157,6 +158,10 @@ class DaemonHost:
                 raise DaemonError(f"the daemon's camera cannot start: {exc}") from exc
             if isinstance(self.feed, RecordingFeed):
                 self.feed.camera = self.camera
+            if options.record_dir is not None and self.settings.record.frames_hz > 0:
+                # The recording keeps small camera frames, as `pete-jetson run`'s does.
+                r = self.settings.record
+                self.daemon.frames = self.camera.tap = FrameTap(1.0 / r.frames_hz, r.frame_width)
         self.alive = True
         self.exits: list[Any] = []  # a process's ends (DaemonProcess); none in this process
         self._shut = False

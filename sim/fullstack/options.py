@@ -61,6 +61,8 @@ class MatchOptions:
     daemon: str | None = None
     # Several faults in one match, (name, match time s) each; instead of fault / fault_at_s.
     faults: tuple[tuple[str, float], ...] = ()
+    # "[HOST:]PORT": the daemon's live dashboard (jetson/dashboard/README.md); None is off.
+    dashboard: str | None = None
 
     def __post_init__(self) -> None:
         if self.stack not in STACKS:
@@ -92,6 +94,11 @@ class MatchOptions:
             raise MatchError(f"daemon must be one of {DAEMON_MODES[1:]}, got {self.daemon!r}")
         if self.daemon == "process" and self.realtime:
             raise MatchError("the daemon as a process runs in lockstep only: drop --realtime")
+        if self.dashboard is not None and (self.stack != "full" or self.daemon == "process"):
+            raise MatchError(
+                "the dashboard follows the daemon in this process: --stack full, without "
+                "--daemon process"
+            )
 
     @property
     def frame_period_ms(self) -> int:

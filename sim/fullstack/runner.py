@@ -301,6 +301,7 @@ class FullStackMatch:
         self.camera_stopped = False  # a fault stopped the camera
         self.realtime = False
         self.server: Any = None
+        self.dashboard: Any = None  # jetson.dashboard.server.DashboardServer (--dashboard)
         self.frames_address: str | None = None
         self.jetson: Any = None
         self.daemon_mode = self.scenario.daemon_mode(options)
@@ -412,9 +413,31 @@ class FullStackMatch:
                 )  # fmt: skip
         except DaemonError as exc:
             raise MatchError(str(exc)) from exc
+        if o.dashboard is not None:
+            self._start_dashboard()
         self.jetson.start()
         self._jetson_alive = True
         self._accept_camera()
+
+    def _start_dashboard(self) -> None:
+        """The daemon's live dashboard (jetson/dashboard), as `pete-jetson run --dashboard`."""
+        from jetson.dashboard.server import live_server
+        from jetson.errors import SettingsError
+        from jetson.settings import DashboardSettings
+
+        if self.daemon_mode == "process":
+            raise MatchError(
+                "the dashboard follows the daemon in this process; this fault runs it as its own"
+            )
+        try:
+            settings = DashboardSettings(address=str(self.options.dashboard))
+            self.dashboard = live_server(
+                self.jetson.daemon, self.jetson.camera, settings,
+                title=f"pete-sim match, seed {self.options.seed}",
+            ).start()  # fmt: skip
+        except (SettingsError, OSError) as exc:
+            raise MatchError(f"the dashboard: {exc}") from exc
+        self.progress(f"dashboard (read-only) at {self.dashboard.url}")
 
     def _start_brain(self, boot_id: int, realtime: bool, append_stderr: bool = False) -> None:
         from sim.errors import BrainHostError
@@ -519,6 +542,8 @@ class FullStackMatch:
             self.daemon_log.close()
         if getattr(self, "core", None) is not None:
             self.core.close()
+        if self.dashboard is not None:
+            self.dashboard.stop()
 
     # --- lockstep -------------------------------------------------------------------------------
 

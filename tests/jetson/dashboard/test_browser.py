@@ -3,7 +3,8 @@ lockstep full-stack match (brain_host + the cable + the daemon + the simulated f
 with the dashboard on a loopback port. From the page itself: the match clock advances; at a
 moment where the match is held still, the robot's pose drawn on the field is within 5 cm of the
 daemon's, the ring and goal counts and the link counters are the daemon's, and the camera
-picture is not blank. A screenshot goes into the run folder (dashboard.png)."""
+picture is not blank. A screenshot goes into the run folder (dashboard.png). The match runs as
+`pete-sim match --stack full --dashboard 127.0.0.1:0 --record` does."""
 
 from __future__ import annotations
 
@@ -38,25 +39,11 @@ class HeldMatch:
 
         options = MatchOptions(
             stack="full", seed=3, seconds=5.0, gif=False, plots=False, out=out,
-            policy=DEFAULT_POLICY,
+            policy=DEFAULT_POLICY, dashboard="127.0.0.1:0", record=True,
         )  # fmt: skip
         held = self
 
         class Match(FullStackMatch):
-            def _setup(self, tmp: Path, realtime: bool) -> None:
-                from jetson.dashboard.server import live_server
-                from jetson.settings import DashboardSettings
-
-                super()._setup(tmp, realtime)
-                self.dashboard = live_server(
-                    self.jetson.daemon, self.jetson.camera, DashboardSettings("127.0.0.1:0")
-                ).start()
-
-            def _teardown(self) -> None:
-                super()._teardown()
-                if getattr(self, "dashboard", None) is not None:
-                    self.dashboard.stop()
-
             def _tick(self) -> None:
                 super()._tick()
                 if self.match_ms == HOLD_AT_MS and not held.held.is_set():
@@ -158,3 +145,18 @@ def test_dashboard_in_chromium_on_a_full_stack_match(tmp_path: Path) -> None:
     if run.error is not None:
         raise run.error
     assert run.result is not None
+    # The match's session recording keeps camera frames for `pete-jetson dashboard --recording`.
+    from jetson.dashboard.replay import Timeline
+
+    (session,) = (out / "sessions").glob("session-*")
+    timeline = Timeline(session)
+    assert len(timeline.frames) >= 10 and timeline.snapshots[-1]["field"]["memory"]
+
+
+def test_the_dashboard_needs_the_daemon_in_this_process() -> None:
+    from sim.errors import MatchError
+    from sim.fullstack.options import MatchOptions
+
+    for bad in ({"stack": "sim"}, {"daemon": "process"}):
+        with pytest.raises(MatchError, match="dashboard"):
+            MatchOptions(dashboard="127.0.0.1:0", **bad)
