@@ -210,7 +210,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seconds", type=float, default=105.0, help="match length (default 105)")
     ap.add_argument("--policy", type=Path, default=DEFAULT_POLICY)
     ap.add_argument(
-        "--jobs", type=int, default=1, help="ring matches at once (fault matches: one at a time)"
+        "--jobs",
+        type=int,
+        default=2,
+        help="ring matches at once (default 2; the fault matches run one at a time)",
     )
     ap.add_argument("--out", type=Path, default=Path("runs/bench-soak"))
     ap.add_argument("--results", type=Path, default=RESULTS_DIR, help="where soak.json goes")
