@@ -39,7 +39,7 @@ RINGS = [[0.1, 0.6], [-0.3, 0.9], [0.5, 1.2], [-0.8, 1.5], [0.2, 2.0], [1.0, 2.4
 TARGET_P99_MS = 5.0
 
 
-def _camera(clock: Any, log: Any) -> Any:
+def synthetic_camera(clock: Any, log: Any) -> Any:
     """The camera thread on a synthetic 640x480 frame, 30 frames a second."""
     import numpy as np
 
@@ -82,7 +82,7 @@ def serve(port: str, policy_path: str, record_dir: str, camera: bool) -> None:
         log={"summary": False},
     )
     devnull = open(os.devnull, "w")  # noqa: SIM115 - lives as long as the process
-    worker = _camera(clock, EventLog(devnull)) if camera else None
+    worker = synthetic_camera(clock, EventLog(devnull)) if camera else None
     perception = worker or FixedPerception(RINGS, clock)
     service = build(settings, clock, devnull, perception=perception)
     service.install_signal_handlers()
@@ -95,12 +95,12 @@ def serve(port: str, policy_path: str, record_dir: str, camera: bool) -> None:
         worker.stop()
 
 
-def _renice(nice: int) -> None:
+def renice(nice: int, who: str = "bench.daemon") -> None:
     if nice:
         try:
             os.nice(nice)
         except PermissionError:
-            print(f"bench.daemon: cannot set nice {nice} (not root): running at the default")
+            print(f"{who}: cannot set nice {nice} (not root): running at the default")
 
 
 def _percentiles(values: list[float]) -> dict[str, float]:
@@ -208,7 +208,7 @@ def main(argv: list[str] | None = None) -> int:
     load = os.getloadavg()[0]
     # Both processes (the daemon inherits it): the daemon as the unit runs it, and the Brain's
     # stand-in, which on a robot has its own CPU and does not queue behind other jobs.
-    _renice(args.nice)
+    renice(args.nice)
     with tempfile.TemporaryDirectory() as tmp:
         policy = args.policy or (SHIPPED_POLICY if SHIPPED_POLICY.exists() else None)
         if policy is None:

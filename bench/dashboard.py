@@ -42,38 +42,13 @@ from typing import Any
 
 from bench.browser import Browser, missing_reason
 from bench.common import RESULTS_DIR, Result
+from bench.daemon import renice, synthetic_camera
 from jetson.models import DEFAULT_POLICY
 
 TARGET_P99_MS = 5.0
 TARGET_RATIO = 1.10
 TARGET_STATE_HZ = 10.0
 TARGET_FRAME_HZ = 5.0
-
-
-def _camera(clock: Any, log: Any) -> Any:
-    """The camera thread on a synthetic 640x480 frame, 30 frames a second (as bench.daemon)."""
-    import numpy as np
-
-    from jetson.camera_feed import CameraWorker
-    from jetson.perception.camera import CameraConfig
-    from jetson.perception.pipeline import Pipeline, make_detector
-    from jetson.perception.synthetic import random_frame
-
-    camera = CameraConfig()
-    frame = random_frame(np.random.default_rng(1), camera.intrinsics, camera.mount).frame
-    pipeline = Pipeline(make_detector("classical", camera), camera)
-
-    class Source:
-        description = "synthetic 30 fps"
-
-        def read(self) -> Any:
-            time.sleep(1 / 30)
-            return frame
-
-        def close(self) -> None:
-            pass
-
-    return CameraWorker(Source, pipeline.process, clock, log)
 
 
 def serve(port: str, record_dir: str, dashboard: str) -> None:
@@ -92,7 +67,7 @@ def serve(port: str, record_dir: str, dashboard: str) -> None:
         dashboard={"address": dashboard or None},
     )
     devnull = open(os.devnull, "w")  # noqa: SIM115 - lives as long as the process
-    worker = _camera(clock, EventLog(devnull))
+    worker = synthetic_camera(clock, EventLog(devnull))
     service = build(settings, clock, devnull, perception=worker)
     service.install_signal_handlers()
     worker.start()
@@ -212,14 +187,6 @@ def run_scenario(
     }
 
 
-def _renice(nice: int) -> None:
-    if nice:
-        try:
-            os.nice(nice)
-        except PermissionError:
-            print(f"bench.dashboard: cannot set nice {nice} (not root): running at the default")
-
-
 def _pct(values: list[float], q: float) -> float:
     from jetson.log import percentile
 
@@ -253,7 +220,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     result = Result("dashboard")
     load = os.getloadavg()[0]
-    _renice(args.nice)
+    renice(args.nice, "bench.dashboard")
     # The browser stands for a laptop's: on a machine with cores to spare it gets the last one
     # and the daemon the others, so that what is measured is the dashboard, not Chromium.
     cpus = sorted(os.sched_getaffinity(0))

@@ -93,7 +93,7 @@ def test_generates_every_benchmark_with_targets_machine_date_and_command(
     assert readme.startswith("# Project\n\nText before.\n\n<!-- results:begin -->\n")
     assert readme.endswith("<!-- results:end -->\n\nAfter.\n")
     assert "old" not in readme
-    assert f"| 494,541 round trips/s | [protocol](RESULTS.md#protocol), {today} |" in readme
+    assert "| 494,541 round trips/s | [protocol](RESULTS.md#protocol) |" in readme
     # Headlines of benchmarks absent from the folder are left out.
     assert "[train]" not in readme
 
