@@ -67,8 +67,10 @@ def tour(
     cand = np.argsort(cost, kind="stable")[: c.candidates]
     stops = min(stops, len(cand))
     sub = pts[cand]
-    pair = np.linalg.norm(sub[:, None, :] - sub[None, :, :], axis=2)
-    start = cost[cand]
+    # Plain lists from here: the loops below index single numbers, which lists do several times
+    # faster than numpy arrays (the same float64 values, so the same tours).
+    pair = np.linalg.norm(sub[:, None, :] - sub[None, :, :], axis=2).tolist()
+    start = cost[cand].tolist()
     best_cost, best = math.inf, [0]
     for first in range(len(cand)):
         total, order = _tour_from(first, start, pair, stops)
@@ -83,21 +85,27 @@ def tour(
 
 
 def _tour_from(
-    first: int, start: FloatArray, pair: FloatArray, stops: int
+    first: int, start: list[float], pair: list[list[float]], stops: int
 ) -> tuple[float, list[int]]:
     order = [first]
     left = [j for j in range(len(pair)) if j != first]
     while left and len(order) < stops:
-        nxt = min(left, key=lambda j: pair[order[-1], j])
+        row = pair[order[-1]]
+        nxt = min(left, key=row.__getitem__)
         order.append(nxt)
         left.remove(nxt)
     order = two_opt(order, pair, fixed_first=True)
-    return float(start[first] + sum(pair[a, b] for a, b in itertools.pairwise(order))), order
+    return start[first] + sum(pair[a][b] for a, b in itertools.pairwise(order)), order
 
 
-def two_opt(order: list[int], pair: FloatArray, fixed_first: bool = False) -> list[int]:
+def two_opt(
+    order: list[int], pair: FloatArray | list[list[float]], fixed_first: bool = False
+) -> list[int]:
     """Reverse sub-paths of an open tour while that shortens it (the start leg is not counted,
-    so the first stop is free to change unless fixed_first)."""
+    so the first stop is free to change unless fixed_first). `pair`: the distances between the
+    points, as an array or as nested lists."""
+    if isinstance(pair, np.ndarray):
+        pair = pair.tolist()
     best = list(order)
     lo = 1 if fixed_first else 0
     improved = True
@@ -108,11 +116,11 @@ def two_opt(order: list[int], pair: FloatArray, fixed_first: bool = False) -> li
                 a = best[i - 1] if i > 0 else None
                 b, cpt = best[i], best[k]
                 d = best[k + 1] if k + 1 < len(best) else None
-                before = (pair[a, b] if a is not None else 0.0) + (
-                    pair[cpt, d] if d is not None else 0.0
+                before = (pair[a][b] if a is not None else 0.0) + (
+                    pair[cpt][d] if d is not None else 0.0
                 )
-                after = (pair[a, cpt] if a is not None else 0.0) + (
-                    pair[b, d] if d is not None else 0.0
+                after = (pair[a][cpt] if a is not None else 0.0) + (
+                    pair[b][d] if d is not None else 0.0
                 )
                 if after < before - 1e-9:
                     best[i : k + 1] = reversed(best[i : k + 1])
