@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import base64
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -93,6 +94,11 @@ class FrameTap:
         self.offered = 0
         self.taken = 0
         self._last_stamp = -math.inf
+        # Called (on the camera thread) with each view kept: the dashboard's process gets its
+        # frames this way (jetson/dashboard/bridge.py). It must not wait; what it raises is
+        # counted, never passed on to the camera thread.
+        self.sink: Callable[[FrameView], object] | None = None
+        self.sink_errors = 0
 
     @property
     def newest(self) -> FrameView | None:
@@ -127,6 +133,11 @@ class FrameTap:
         )
         self.views = (*self.views[-(self.keep - 1) :], view)
         self.taken += 1
+        if self.sink is not None:
+            try:
+                self.sink(view)
+            except Exception:
+                self.sink_errors += 1
 
 
 def jpeg(image: NDArray[np.uint8], width: int | None = None, quality: int = 75) -> bytes:

@@ -75,7 +75,7 @@ class Service:
     camera: Any | None = None  # jetson.camera_feed.CameraWorker
     stop_event: StopFlag = field(default_factory=StopFlag)
     _files: list[TextIO] = field(default_factory=list)
-    dashboard: Any | None = None  # jetson.dashboard.server.DashboardServer, not started yet
+    dashboard: Any | None = None  # jetson.dashboard.process.DashboardProcess, not started yet
 
     def stop(self) -> None:
         self.stop_event.set()
@@ -107,6 +107,8 @@ class Service:
         except OSError as exc:
             log.error("dashboard", f"no dashboard: {exc}")
             self.daemon.observer = None
+            if self.daemon.frames is not None:
+                self.daemon.frames.sink = None
             self.dashboard = None
             return
         log.info(
@@ -222,7 +224,7 @@ def build(
         camera_thread.tap = daemon.frames
     dashboard = None
     if settings.dashboard.address:
-        from jetson.dashboard.server import live_server
+        from jetson.dashboard.process import live_server
 
         dashboard = live_server(
             daemon, camera_thread, settings.dashboard, settings.record.dir or None,

@@ -1,9 +1,9 @@
 """The dashboard's web server: one page, its script, and a WebSocket of snapshots and frames.
 
-It runs on its own thread with its own asyncio event loop (aiohttp), so nothing it does blocks
-the daemon's loop; the only things the two threads share are the Observer's `snapshot` and
-`wanted` and the FrameTap's `views` (jetson/dashboard/snapshot.py, jetson/frames.py), each one
-reference replaced whole.
+It runs on its own thread with its own asyncio event loop (aiohttp). For a live robot that thread
+is in the dashboard's own process (jetson/dashboard/process.py), which reads the daemon's
+snapshots and frames from shared memory (jetson/dashboard/bridge.py); for a recording
+(`pete-jetson dashboard --recording`) it is in the command's process.
 
 Each browser gets its own sender: every 1/state_hz it asks the daemon for a snapshot and sends
 the newest one it has, every 1/camera_hz the newest camera frame (JPEG, encoded once for all the
@@ -31,10 +31,9 @@ from urllib.parse import urlsplit
 
 from aiohttp import WSMsgType, web
 
-from jetson.dashboard.address import parse_address
-from jetson.frames import FrameTap, view_record
+from jetson.frames import view_record
 
-__all__ = ["DashboardServer", "LiveSource", "parse_address"]
+__all__ = ["DashboardServer", "LiveSource"]
 
 STATIC_FILES = {
     "/": ("index.html", "text/html"),
@@ -70,11 +69,14 @@ class LiveSource:
     def __init__(
         self,
         observer: Any,
-        frames: FrameTap | None = None,
+        frames: Any = None,  # a jetson.frames.FrameTap, or what has its `newest`
         system: Any = None,
         title: str = "pete-jetson",
         frame_width: int = 320,
+        own_process: bool = False,
     ) -> None:
+        # `own_process`: the server has a process to itself, whose whole CPU is the dashboard's.
+        self.own_process = own_process
         self.observer = observer
         self.frames = frames
         self.system = system
@@ -119,18 +121,17 @@ class LiveSource:
         return self._frame
 
     def jetson_message(self, dashboard_s: float) -> str | None:
-        """The Jetson's health, sampled at most once a second whoever asks."""
+        """The Jetson's health, sampled at most once a second whoever asks. `dashboard_s`: the
+        server thread's CPU time (the process's own is used when it has one to itself)."""
         if self.system is None:
             return None
         now = time.monotonic()
         if self._jetson is None or now - self._jetson[0] >= 1.0:
+            if self.own_process:
+                dashboard_s = time.process_time()
             sample = self.system.sample(dashboard_s - self._dashboard_s)
             self._dashboard_s = dashboard_s
-            sample["observer"] = {
-                "snapshots": self.observer.snapshots,
-                "errors": self.observer.errors,
-                "build_ms_total": round(self.observer.build_s * 1e3, 2),
-            }
+            sample["observer"] = self.observer.counters()
             self._jetson = (now, json.dumps(sample, separators=(",", ":")))
         return self._jetson[1]
 
@@ -395,35 +396,3 @@ class DashboardServer:
                 await asyncio.sleep(self.state_period)
         finally:
             reader.cancel()
-
-
-def live_server(
-    daemon: Any,
-    camera: Any = None,
-    settings: Any = None,
-    record_dir: str | None = None,
-    title: str = "pete-jetson",
-) -> DashboardServer:
-    """A dashboard for a built daemon (jetson.loop.Daemon), not started yet: its Observer is
-    set on the daemon, and the camera thread (a CameraWorker, when given) hands small copies of
-    its frames to the daemon's FrameTap (made here when the daemon has none). `settings` is
-    jetson.settings.DashboardSettings."""
-    from jetson.dashboard.snapshot import Observer
-    from jetson.dashboard.system import SystemStats
-    from jetson.settings import DashboardSettings
-
-    s = settings or DashboardSettings()
-    host, port = parse_address(s.address or "0")
-    observer = Observer()
-    daemon.observer = observer
-    tap = daemon.frames
-    if camera is not None:
-        if tap is None:
-            tap = FrameTap(period_s=1.0 / s.camera_hz, width=s.frame_width)
-            daemon.frames = tap
-        else:
-            tap.period_s = min(tap.period_s, 1.0 / s.camera_hz)
-            tap.width = max(tap.width, s.frame_width)
-        camera.tap = tap
-    source = LiveSource(observer, tap, SystemStats(record_dir), title, s.frame_width)
-    return DashboardServer(source, host, port, s.state_hz, s.camera_hz, log=daemon.log)

@@ -278,13 +278,17 @@ class Observer:
     Written by the daemon's thread: `snapshot` (replaced whole), `brain_lines`. Written by the
     server's thread: `wanted`. Each is one reference or one bool: no lock is needed or taken."""
 
-    def __init__(self) -> None:
+    def __init__(self, bridge: Any = None) -> None:
+        # `bridge`: the dashboard's process's shared slots (jetson/dashboard/bridge.py); None
+        # when the server runs in this process and reads `snapshot` itself.
+        self.bridge = bridge
         self.wanted = False
         self.snapshot: dict[str, Any] | None = None  # the newest taken (not yet rendered)
         self.snapshots = 0
         self.errors = 0
         self.last_error: str | None = None
         self.build_s = 0.0  # daemon-thread time spent taking snapshots, in total
+        self.post_s = 0.0  # ... and taking and handing them to the dashboard's process
         self.brain_lines: deque[list[Any]] = deque(maxlen=BRAIN_LINES)
         self.lines_total = 0
         self._forgetting: Forgetting | None = None
@@ -294,7 +298,8 @@ class Observer:
 
     def turn(self, daemon: Any) -> None:
         """The end of one turn of the daemon's loop: a snapshot if one is wanted."""
-        if self.wanted:
+        bridge = self.bridge
+        if self.wanted or (bridge is not None and bridge.wanted.take()):
             self.wanted = False
             self.publish(daemon)
 
@@ -311,7 +316,24 @@ class Observer:
         finally:
             self.build_s += time.perf_counter() - t0
         self.snapshot = snap
+        if self.bridge is not None:
+            snap["observer"] = self.counters()
+            try:
+                self.bridge.post_snapshot(snap)
+            except Exception as exc:  # a snapshot that cannot be pickled is a dashboard bug
+                self.errors += 1
+                self.last_error = f"{type(exc).__name__}: {exc}"
+            self.post_s += time.perf_counter() - t0
         return snap
+
+    def counters(self) -> dict[str, Any]:
+        """What the dashboard reports of the daemon's side (the page's Jetson panel)."""
+        return {
+            "snapshots": self.snapshots,
+            "errors": self.errors,
+            "build_ms_total": round(self.build_s * 1e3, 2),
+            "post_ms_total": round(self.post_s * 1e3, 2),
+        }
 
     def brain_line(self, t: float, level: str, text: str) -> None:
         self.lines_total += 1

@@ -44,9 +44,22 @@ def _meminfo() -> dict[str, float]:
     return out
 
 
-def _rss_bytes() -> float | None:
+def _process_cpu_s(pid: int | None) -> float | None:
+    """CPU seconds (user + system) of a process; None (this process's own clock is used
+    instead) for this process."""
+    if pid is None:
+        return time.process_time()
     try:
-        with open("/proc/self/statm") as f:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _rss_bytes(pid: int | None = None) -> float | None:
+    try:
+        with open(f"/proc/{pid or 'self'}/statm") as f:
             return float(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
     except (OSError, ValueError, IndexError):
         return None
@@ -71,13 +84,15 @@ def temperatures() -> dict[str, float]:
 
 
 class SystemStats:
-    """One reading a second of the machine and this process (sample() computes rates since the
-    previous call)."""
+    """One reading a second of the machine and the daemon's process (sample() computes rates
+    since the previous call). `pid`: the daemon's process when it is not this one (the
+    dashboard's own process reads it)."""
 
-    def __init__(self, record_dir: str | None = None) -> None:
+    def __init__(self, record_dir: str | None = None, pid: int | None = None) -> None:
         self.record_dir = record_dir
+        self.pid = pid
         self._cpu = _cpu_times()
-        self._proc = time.process_time()
+        self._proc = _process_cpu_s(pid)
         self._wall = time.monotonic()
 
     def sample(self, dashboard_thread_s: float | None = None) -> dict[str, Any]:
@@ -87,8 +102,10 @@ class SystemStats:
         cpu_pct = None
         if cpu is not None and self._cpu is not None and cpu[1] > self._cpu[1]:
             cpu_pct = round(100.0 * (cpu[0] - self._cpu[0]) / (cpu[1] - self._cpu[1]), 1)
-        proc = time.process_time()
-        proc_pct = round(100.0 * (proc - self._proc) / span, 1)
+        proc = _process_cpu_s(self.pid)
+        proc_pct = None
+        if proc is not None and self._proc is not None:
+            proc_pct = round(100.0 * (proc - self._proc) / span, 1)
         self._cpu, self._proc, self._wall = cpu, proc, wall
         mem = _meminfo()
         total = mem.get("MemTotal")
@@ -105,7 +122,7 @@ class SystemStats:
             except OSError:
                 disk = None
         temps = temperatures()
-        rss = _rss_bytes()
+        rss = _rss_bytes(self.pid)
         return {
             "kind": "jetson",
             "cpu_pct": cpu_pct,

@@ -301,7 +301,7 @@ class FullStackMatch:
         self.camera_stopped = False  # a fault stopped the camera
         self.realtime = False
         self.server: Any = None
-        self.dashboard: Any = None  # jetson.dashboard.server.DashboardServer (--dashboard)
+        self.dashboard: Any = None  # jetson.dashboard.process.DashboardProcess (--dashboard)
         self.frames_address: str | None = None
         self.jetson: Any = None
         self.daemon_mode = self.scenario.daemon_mode(options)
@@ -421,7 +421,7 @@ class FullStackMatch:
 
     def _start_dashboard(self) -> None:
         """The daemon's live dashboard (jetson/dashboard), as `pete-jetson run --dashboard`."""
-        from jetson.dashboard.server import live_server
+        from jetson.dashboard.process import live_server
         from jetson.errors import SettingsError
         from jetson.settings import DashboardSettings
 

@@ -1,0 +1,256 @@
+"""The live dashboard in its own process, at the lowest priority.
+
+A browser watching the robot must never slow it. Python runs one thread at a time in a process,
+so a server thread beside the daemon's loop (building pages, encoding JPEGs, talking WebSocket)
+makes the loop wait for the interpreter; and on a 2-core Jetson the server's CPU is the robot's.
+So the server (jetson/dashboard/server.py) runs in a process of its own, started with `spawn`
+(nothing of the daemon's threads is copied) at nice 19: the daemon's process, at its own
+priority, always runs first.
+
+What the daemon's side does for the dashboard: when the dashboard has asked (a shared flag), the
+daemon's thread takes a snapshot (references and numbers, jetson/dashboard/snapshot.py) and
+pickles it into a shared slot; the camera thread pickles each frame view the FrameTap keeps into
+another. Neither ever waits (jetson/dashboard/bridge.py). Everything else (rendering, JSON,
+JPEG, the Jetson's health, the browsers) happens in the dashboard's process.
+
+The dashboard's process ends when told to, and on its own when the daemon's process is gone.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import pickle
+import signal
+import time
+from collections import Counter
+from dataclasses import dataclass
+from multiprocessing.connection import Connection
+from typing import Any
+
+from jetson.dashboard.address import parse_address
+from jetson.dashboard.bridge import Bridge, Latest, frame_bytes_for
+
+__all__ = ["DashboardProcess", "live_server"]
+
+DASHBOARD_NICE = 19  # the lowest priority: the robot's processes always come first
+SNAPSHOT_BYTES = 1 << 20  # room for one pickled snapshot (a few kB to a few tens of kB)
+START_TIMEOUT_S = 30.0  # a Jetson imports the server's libraries in a few seconds
+STATS_PERIOD_S = 0.5
+
+
+@dataclass(frozen=True)
+class ProcessOptions:
+    host: str
+    port: int
+    state_hz: float
+    camera_hz: float
+    frame_width: int
+    title: str
+    record_dir: str | None
+    camera: bool
+    daemon_pid: int
+
+
+class RemoteObserver:
+    """The daemon's Observer as the dashboard's process sees it: what LiveSource reads."""
+
+    def __init__(self, bridge: Bridge) -> None:
+        from jetson.dashboard.snapshot import Observer
+
+        self._bridge = bridge
+        self._latest = Latest(bridge.snapshots)
+        self._renderer = Observer()  # render() follows forgotten rings from one to the next
+
+    @property
+    def snapshot(self) -> dict[str, Any] | None:
+        return self._latest.get()
+
+    @property
+    def wanted(self) -> bool:
+        return False
+
+    @wanted.setter
+    def wanted(self, value: bool) -> None:
+        if value:
+            self._bridge.wanted.set()
+
+    def render(self, raw: dict[str, Any]) -> dict[str, Any]:
+        return self._renderer.render(raw)
+
+    def counters(self) -> dict[str, Any]:
+        raw = self._latest.value
+        return dict(raw.get("observer", {})) if isinstance(raw, dict) else {}
+
+
+class RemoteFrames:
+    """The daemon's FrameTap as the dashboard's process sees it: the newest view."""
+
+    def __init__(self, bridge: Bridge) -> None:
+        self._latest = Latest(bridge.frames)
+
+    @property
+    def newest(self) -> Any:
+        return self._latest.get()
+
+
+def child_main(conn: Connection, bridge: Bridge, options: ProcessOptions) -> None:
+    """The dashboard's process: serve until told to stop or the daemon's process is gone."""
+    with contextlib.suppress(OSError):
+        os.setpriority(os.PRIO_PROCESS, 0, DASHBOARD_NICE)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the daemon's to handle
+    from jetson.dashboard.server import DashboardServer, LiveSource
+    from jetson.dashboard.system import SystemStats
+
+    frames = RemoteFrames(bridge) if options.camera else None
+    source = LiveSource(
+        RemoteObserver(bridge),
+        frames,
+        SystemStats(options.record_dir, pid=options.daemon_pid),
+        options.title,
+        options.frame_width,
+        own_process=True,
+    )
+    server = DashboardServer(
+        source, options.host, options.port, options.state_hz, options.camera_hz
+    )
+    try:
+        server.start()
+    except OSError as exc:
+        conn.send(("error", str(exc)))
+        return
+    conn.send(("ready", server.port))
+    try:
+        while not conn.poll(STATS_PERIOD_S):
+            if os.getppid() != options.daemon_pid:
+                break
+            stats = {"sent": dict(server.sent), "clients": server.clients,
+                     "refused": server.refused}  # fmt: skip
+            bridge.stats.put(pickle.dumps(stats))
+    except (EOFError, OSError):
+        pass
+    finally:
+        server.stop()
+
+
+class DashboardProcess:
+    """The daemon's handle on its dashboard's process (see the module doc). start() returns once
+    the server listens, or raises OSError saying why it cannot (a port taken, an address this
+    machine does not have); `url` says where it listens. `sent`, `clients` and `refused` are the
+    server's counts as its process last reported them (twice a second)."""
+
+    def __init__(self, options: ProcessOptions, bridge: Bridge, log: Any = None) -> None:
+        self.options = options
+        self.bridge = bridge
+        self.log = log
+        self.host = options.host
+        self.port = options.port
+        self._process: Any = None
+        self._conn: Connection | None = None
+        self._stats = Latest(bridge.stats)
+
+    @property
+    def url(self) -> str:
+        host = f"[{self.host}]" if ":" in self.host else self.host
+        if host in ("0.0.0.0", "[::]"):
+            host = "127.0.0.1"
+        return f"http://{host}:{self.port}/"
+
+    def _stat(self, key: str) -> Any:
+        stats = self._stats.get() or {}
+        return stats.get(key)
+
+    @property
+    def sent(self) -> Counter[str]:
+        return Counter(self._stat("sent") or {})
+
+    @property
+    def clients(self) -> int:
+        return int(self._stat("clients") or 0)
+
+    @property
+    def refused(self) -> int:
+        return int(self._stat("refused") or 0)
+
+    @property
+    def alive(self) -> bool:
+        return self._process is not None and self._process.is_alive()
+
+    def start(self, timeout_s: float = START_TIMEOUT_S) -> DashboardProcess:
+        ctx = multiprocessing.get_context("spawn")
+        ours, theirs = ctx.Pipe()
+        process = ctx.Process(
+            target=child_main,
+            args=(theirs, self.bridge, self.options),
+            name="pete-dashboard",
+            daemon=True,
+        )
+        process.start()
+        theirs.close()
+        self._process, self._conn = process, ours
+        reply: Any = None
+        deadline = time.monotonic() + timeout_s
+        while reply is None and time.monotonic() < deadline and process.is_alive():
+            with contextlib.suppress(EOFError):
+                if ours.poll(0.1):
+                    reply = ours.recv()
+        if reply is None or reply[0] != "ready":
+            self.stop(0.5)
+            why = reply[1] if reply else "its process did not start in time"
+            raise OSError(f"the dashboard cannot listen on {self.host}:{self.port}: {why}")
+        self.port = int(reply[1])
+        return self
+
+    def stop(self, timeout_s: float = 1.0) -> None:
+        process, conn = self._process, self._conn
+        if conn is not None:
+            with contextlib.suppress(OSError, ValueError):
+                conn.send("stop")
+        if process is not None:
+            process.join(timeout_s)
+            if process.is_alive():
+                process.terminate()
+                process.join(timeout_s)
+        if conn is not None:
+            conn.close()
+        self._conn = None
+
+
+def live_server(
+    daemon: Any,
+    camera: Any = None,
+    settings: Any = None,
+    record_dir: str | None = None,
+    title: str = "pete-jetson",
+) -> DashboardProcess:
+    """A dashboard for a built daemon (jetson.loop.Daemon), not started yet: its Observer is set
+    on the daemon, and the camera thread (a CameraWorker, when given) hands small copies of its
+    frames to the daemon's FrameTap (made here when the daemon has none), which hands them on to
+    the dashboard's process. `settings` is jetson.settings.DashboardSettings."""
+    from jetson.dashboard.snapshot import Observer
+    from jetson.frames import FrameTap
+    from jetson.settings import DashboardSettings
+
+    s = settings or DashboardSettings()
+    host, port = parse_address(s.address or "0")
+    tap = daemon.frames
+    if camera is not None:
+        if tap is None:
+            tap = FrameTap(period_s=1.0 / s.camera_hz, width=s.frame_width)
+            daemon.frames = tap
+        else:
+            tap.period_s = min(tap.period_s, 1.0 / s.camera_hz)
+            tap.width = max(tap.width, s.frame_width)
+        camera.tap = tap
+    ctx = multiprocessing.get_context("spawn")
+    width = tap.width if tap is not None else s.frame_width
+    bridge = Bridge(ctx, SNAPSHOT_BYTES, frame_bytes_for(width))
+    daemon.observer = Observer(bridge)
+    if camera is not None and tap is not None:
+        tap.sink = bridge.post_frame
+    options = ProcessOptions(
+        host, port, s.state_hz, s.camera_hz, s.frame_width, title, record_dir,
+        camera is not None, os.getpid(),
+    )  # fmt: skip
+    return DashboardProcess(options, bridge, log=daemon.log)
