@@ -7,7 +7,7 @@ The daemon runs in its own process as on the robot (built as `pete-jetson run` b
 shipped policy, the camera thread on a synthetic 640x480 frame at 30 frames/s with the classical
 detector, a session recording keeping its frames); this process plays the Brain
 (jetson.testing.FakeBrain): a State every 1/--rate s, each answered by a Command. Two scenarios,
-`--rounds` times each, in turn:
+`--rounds` times each, in turn (the order alternating from round to round):
 
 - without: the daemon as it runs by default, no dashboard;
 - with: `--dashboard` on a loopback port and the page open in headless Chromium (Debian's,
@@ -231,8 +231,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.pin and len(cpus) >= 4:
         daemon_cpus, browser_cpus = set(cpus[:-1]), {cpus[-1]}
     runs: dict[bool, list[dict[str, Any]]] = {False: [], True: []}
-    for _ in range(args.rounds):
-        for with_dashboard in (False, True):
+    for i in range(args.rounds):
+        # without, with; with, without; ...: a load that drifts over the run weighs on both
+        order = (False, True) if i % 2 == 0 else (True, False)
+        for with_dashboard in order:
             runs[with_dashboard].append(
                 run_scenario(args.seconds, args.rate, with_dashboard, daemon_cpus, browser_cpus)
             )
