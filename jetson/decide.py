@@ -46,7 +46,7 @@ from jetson.autonomy.ring_memory import RingMemory
 from jetson.autonomy.skills import SkillDriver
 from jetson.errors import SettingsError
 from jetson.settings import DecisionConfig
-from protocol.messages import Alliance, GpsStatus, MatchPhase, State
+from protocol.messages import Alliance, ClampAction, GpsStatus, LiftAction, MatchPhase, State
 
 DEFAULT_DECISION_HZ = 12.0  # sim.config.WorldConfig.control_hz: what policies are trained at
 RINGS_UNKNOWN = 255  # State.rings_held when the Brain has no ring counter
@@ -71,6 +71,8 @@ class Decision:
     perception: str = "-"  # fresh | stale | none | - (not looked at)
     rings: int = 0  # rings in the observation
     error: str | None = None  # the exception, when one made this a stop
+    clamp: ClampAction = ClampAction.LEAVE  # the goal clamp: hold, release or leave as it is
+    lift: LiftAction = LiftAction.LEAVE  # the high-branch lift: up, down or leave as it is
 
     @property
     def drove(self) -> bool:

@@ -356,7 +356,15 @@ class Daemon:
 
     def _send_command(self, d: Decision) -> Command:
         self._cmd_seq = self._cmd_seq % 0xFFFFFFFF + 1  # 1.., never 0 ("no command" on the Brain)
-        cmd = Command(self._cmd_seq, d.linear, d.angular, d.intake, self.decider.config.valid_ms)
+        cmd = Command(
+            self._cmd_seq,
+            d.linear,
+            d.angular,
+            d.intake,
+            self.decider.config.valid_ms,
+            clamp=d.clamp,
+            lift=d.lift,
+        )
         if not self._write(framing.encode_downlink(cmd, self._tx_seq)):
             self._error_once("tx_dropped", "the Brain is not draining its port: Command dropped")
         self.counters.commands += 1

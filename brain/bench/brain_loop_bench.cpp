@@ -94,6 +94,7 @@ struct Rig {
   host::FakeDrivetrain drive;
   host::FakeIntake intake;
   host::FakeGoalClamp clamp;
+  host::FakeLift lift;
   host::FakeCompetition competition;
   host::FakeDriverInput driver;
   BenchSerial serial;
@@ -102,7 +103,7 @@ struct Rig {
 
   Rig()
       : robot(core::kRobotConfig,
-              core::Hardware{clock, gps, drive, intake, clamp, serial, competition, driver},
+              core::Hardware{clock, gps, drive, intake, clamp, lift, serial, competition, driver},
               0xB0B0CAFE) {
     drive.calls.reserve(host::FakeDrivetrain::kKeep);
     competition.set_phase(msg::MatchPhase::autonomous);

@@ -90,6 +90,7 @@ class FakeIntake final : public core::Intake {
 /// The goal clamp: remembers what it was told; the sensor reads what the caller sets.
 class FakeGoalClamp final : public core::GoalClamp {
  public:
+  bool fitted() override { return actuator; }
   void set(bool closed_) override {
     if (closed_ != closed) ++changes;
     closed = closed_;
@@ -98,6 +99,20 @@ class FakeGoalClamp final : public core::GoalClamp {
   bool closed = false;
   uint32_t changes = 0;                  // times it was told to change state
   uint8_t sensor = core::kClampUnknown;  // 1 goal at the back, 0 none, kClampUnknown no sensor
+  bool actuator = true;                  // a piston or motor is fitted
+};
+
+/// The lift: remembers what it was told.
+class FakeLift final : public core::Lift {
+ public:
+  bool fitted() override { return actuator; }
+  void set(bool up_) override {
+    if (up_ != up) ++changes;
+    up = up_;
+  }
+  bool up = false;
+  uint32_t changes = 0;
+  bool actuator = true;
 };
 
 class FakeCompetition final : public core::Competition {

@@ -13,7 +13,7 @@ namespace {
 constexpr const char* kHelp =
     "ok commands: get | advance MS [rx=BYTES] | until MS [rx=BYTES] | "
     "phase disabled|autonomous|driver | gps X Y HEADING [ERROR] | "
-    "gps calibrating|error|absent | sticks FORWARD TURN [intake] [clamp] | sticks off | "
+    "gps calibrating|error|absent | sticks FORWARD TURN [intake] [clamp] [lift] | sticks off | "
     "measured LEFT_MPS RIGHT_MPS | measured auto | rings N|unknown | clamp 0|1|unknown | "
     "motor_fault 0|1 | help | quit";
 
@@ -146,20 +146,21 @@ std::string SideChannel::handle(const std::string& line) {
       rig_.driver.sticks = {};
       return "ok";
     }
-    if (n < 3 || n > 5) return error("sticks FORWARD TURN [intake] [clamp] | sticks off");
+    if (n < 3 || n > 6) return error("sticks FORWARD TURN [intake] [clamp] [lift] | sticks off");
     double f = 0.0, r = 0.0;
     if (!parse_number(t[1], f)) return not_number("sticks", t[1]);
     if (!parse_number(t[2], r)) return not_number("sticks", t[2]);
     if (std::fabs(f) > 1.0 || std::fabs(r) > 1.0) return error("sticks: axes must be in [-1, 1]");
-    bool intake = false, clamp = false;
+    bool intake = false, clamp = false, lift = false;
     for (std::size_t i = 3; i < n; ++i) {
-      bool& button = t[i] == "intake" ? intake : clamp;
-      if ((t[i] != "intake" && t[i] != "clamp") || button) {
-        return error("sticks: '" + t[i] + "' should be 'intake' or 'clamp', each at most once");
+      bool& button = t[i] == "intake" ? intake : t[i] == "clamp" ? clamp : lift;
+      if ((t[i] != "intake" && t[i] != "clamp" && t[i] != "lift") || button) {
+        return error("sticks: '" + t[i] +
+                     "' should be 'intake', 'clamp' or 'lift', each at most once");
       }
       button = true;
     }
-    rig_.driver.sticks = {true, static_cast<float>(f), static_cast<float>(r), intake, clamp};
+    rig_.driver.sticks = {true, static_cast<float>(f), static_cast<float>(r), intake, clamp, lift};
     return "ok";
   }
   if (cmd == "measured") {

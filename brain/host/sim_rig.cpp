@@ -34,7 +34,7 @@ std::string fault_names(msg::Fault faults) {
 
 SimRig::SimRig(const core::Config& config, core::SerialLink& serial, uint32_t boot_id)
     : robot(config,
-            core::Hardware{clock, gps, drive, intake, clamp, serial, competition, driver},
+            core::Hardware{clock, gps, drive, intake, clamp, lift, serial, competition, driver},
             boot_id) {
   competition.status.connected = true;
 }
@@ -74,7 +74,7 @@ std::string SimRig::report() const {
       buf, sizeof buf,
       "t=%llu last_step_ms=%u phase=%s phase_ms=%u link=%s source=%s stopped=%d "
       "left_rpm=%.6g right_rpm=%.6g left_mps=%.6g right_mps=%.6g linear=%.6g angular=%.6g "
-      "intake=%d rings=%u clamp=%u clamp_closed=%d gps=%s faults=%s last_command_seq=%u "
+      "intake=%d rings=%u clamp=%u clamp_closed=%d lift_up=%d gps=%s faults=%s last_command_seq=%u "
       "steps=%u timeouts=%u",
       static_cast<unsigned long long>(now_ms_), s.state.time_ms, msg::to_string(s.phase),
       s.phase_ms, core::to_string(robot.link().state()), core::to_string(s.source),
@@ -84,7 +84,7 @@ std::string SimRig::report() const {
       static_cast<double>(model.motor_rpm_to_wheel(right_rpm)),
       static_cast<double>(s.commanded.linear), static_cast<double>(s.commanded.angular),
       s.intake ? 1 : 0, static_cast<unsigned>(s.state.rings_held),
-      static_cast<unsigned>(s.state.goal_clamped), s.clamp_closed ? 1 : 0,
+      static_cast<unsigned>(s.state.goal_clamped), s.clamp_closed ? 1 : 0, s.lift_up ? 1 : 0,
       msg::to_string(s.state.gps_status), fault_names(s.state.faults).c_str(),
       s.state.last_command_seq, s.steps, s.command_timeouts);
   return buf;

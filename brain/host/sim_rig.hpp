@@ -31,6 +31,7 @@ class SimRig {
   FakeDrivetrain drive;
   FakeIntake intake;
   FakeGoalClamp clamp;
+  FakeLift lift;
   FakeCompetition competition;
   FakeDriverInput driver;
   core::Robot robot;

@@ -221,25 +221,63 @@ class ProsIntake final : public core::Intake {
   bool on_ = true;  // so the first set(false) really stops it
 };
 
-// --- goal clamp ----------------------------------------------------------------------------------
+// --- goal clamp and lift ------------------------------------------------------------------------
 
-/// The mobile-goal clamp: a pneumatic solenoid on one ADI port (Ports::clamp_piston) and a limit
-/// switch or bumper at the clamp's mouth on another (Ports::clamp_sensor), pressed while a goal
-/// sits at the back. Neither is fitted as shipped: then the piston is never driven and the sensor
-/// reads kClampUnknown, so the core never closes the clamp and the State says 255.
+/// A two-position actuator: a pneumatic solenoid on an ADI port, or a smart motor that moves
+/// between 0 (its position at power-up) and `on_deg` and holds there. Which one (or none) is
+/// chosen in kRobotPorts; config.hpp's ports_error() refuses both at once.
+class TwoPosition {
+ public:
+  TwoPosition(uint8_t adi_port, bool on_high, std::int8_t motor_port, float on_deg)
+      : on_high_(on_high), on_deg_(on_deg) {
+    // Both start in the "off" position (open clamp, lowered lift), so power-up moves nothing.
+    if (adi_port != 0) {
+      piston_.emplace(adi_port, level(false));
+    } else if (motor_port != 0) {
+      motor_.emplace(motor_port, pros::MotorGears::green);
+      motor_->set_brake_mode(pros::MotorBrake::hold);
+      motor_->tare_position();
+    }
+  }
+
+  bool fitted() const { return piston_.has_value() || motor_.has_value(); }
+
+  void set(bool on) {
+    if (!fitted() || (known_ && on == on_)) return;
+    known_ = true;
+    on_ = on;
+    if (piston_) {
+      piston_->set_value(level(on) ? 1 : 0);
+    } else {
+      motor_->move_absolute(on ? on_deg_ : 0.0,
+                            static_cast<std::int32_t>(kPorts.actuator_motor_rpm));
+    }
+  }
+
+ private:
+  bool level(bool on) const { return on == on_high_; }
+
+  bool on_high_;
+  double on_deg_;
+  std::optional<pros::adi::DigitalOut> piston_;
+  std::optional<pros::Motor> motor_;
+  bool known_ = false;
+  bool on_ = false;
+};
+
+/// The mobile-goal clamp: a piston (Ports::clamp_piston) or a motor (Ports::clamp_motor), and a
+/// limit switch or bumper at the clamp's mouth (Ports::clamp_sensor), pressed while a goal sits at
+/// the back. None is fitted as shipped: the State then says clamp absent and goal_clamped 255.
 class ProsGoalClamp final : public core::GoalClamp {
  public:
-  ProsGoalClamp() {
-    // The solenoid starts at the "open" level, so power-up never grabs anything.
-    if (kPorts.clamp_piston != 0) piston_.emplace(kPorts.clamp_piston, level(false));
+  ProsGoalClamp()
+      : actuator_(kPorts.clamp_piston, kPorts.clamp_closes_high, kPorts.clamp_motor,
+                  kPorts.clamp_motor_closed_deg) {
     if (kPorts.clamp_sensor != 0) sensor_.emplace(kPorts.clamp_sensor);
   }
 
-  void set(bool closed) override {
-    if (!piston_ || closed == closed_) return;
-    closed_ = closed;
-    piston_->set_value(level(closed) ? 1 : 0);
-  }
+  bool fitted() override { return actuator_.fitted(); }
+  void set(bool closed) override { actuator_.set(closed); }
 
   uint8_t goal_at_back() override {
     if (!sensor_) return core::kClampUnknown;
@@ -250,11 +288,22 @@ class ProsGoalClamp final : public core::GoalClamp {
   }
 
  private:
-  static bool level(bool closed) { return closed == kPorts.clamp_closes_high; }
-
-  std::optional<pros::adi::DigitalOut> piston_;
+  TwoPosition actuator_;
   std::optional<pros::adi::DigitalIn> sensor_;
-  bool closed_ = false;
+};
+
+/// The lift that reaches the high branch: a piston (Ports::lift_piston) or a motor
+/// (Ports::lift_motor); none as shipped (the State says lift absent).
+class ProsLift final : public core::Lift {
+ public:
+  ProsLift()
+      : actuator_(kPorts.lift_piston, kPorts.lift_up_high, kPorts.lift_motor,
+                  kPorts.lift_motor_up_deg) {}
+  bool fitted() override { return actuator_.fitted(); }
+  void set(bool up) override { actuator_.set(up); }
+
+ private:
+  TwoPosition actuator_;
 };
 
 // --- serial --------------------------------------------------------------------------------------
@@ -318,12 +367,13 @@ class ProsDriverInput final : public core::DriverInput {
  public:
   static constexpr std::uint32_t kFreshMs = 100;
 
-  void publish(std::int32_t forward, std::int32_t turn, bool intake, bool clamp) {
+  void publish(std::int32_t forward, std::int32_t turn, bool intake, bool clamp, bool lift) {
     const std::uint32_t packed = static_cast<std::uint8_t>(static_cast<std::int8_t>(forward)) |
                                  static_cast<std::uint32_t>(static_cast<std::uint8_t>(
                                      static_cast<std::int8_t>(turn)))
                                      << 8 |
-                                 (intake ? 1u << 16 : 0u) | (clamp ? 1u << 17 : 0u);
+                                 (intake ? 1u << 16 : 0u) | (clamp ? 1u << 17 : 0u) |
+                                 (lift ? 1u << 18 : 0u);
     sample_.store(packed, std::memory_order_relaxed);
     stamp_ms_.store(pros::millis(), std::memory_order_release);
   }
@@ -338,6 +388,7 @@ class ProsDriverInput final : public core::DriverInput {
     s.turn = static_cast<float>(static_cast<std::int8_t>((packed >> 8) & 0xFF)) / 127.0f;
     s.intake = (packed >> 16) & 1u;
     s.clamp = (packed >> 17) & 1u;
+    s.lift = (packed >> 18) & 1u;
     return s;
   }
 
@@ -354,12 +405,13 @@ struct ProsHardware {
   ProsDrivetrain drive;
   ProsIntake intake;
   ProsGoalClamp clamp;
+  ProsLift lift;
   ProsSerial serial;
   ProsCompetition competition;
   ProsDriverInput driver;
 
   core::Hardware hal() {
-    return {clock, gps, drive, intake, clamp, serial, competition, driver};
+    return {clock, gps, drive, intake, clamp, lift, serial, competition, driver};
   }
 };
 
@@ -432,7 +484,8 @@ void opcontrol() {
       g_hardware->driver.publish(master.get_analog(pros::E_CONTROLLER_ANALOG_LEFT_Y),
                                  master.get_analog(pros::E_CONTROLLER_ANALOG_RIGHT_X),
                                  master.get_digital(pros::E_CONTROLLER_DIGITAL_R1) == 1,
-                                 master.get_digital(pros::E_CONTROLLER_DIGITAL_L1) == 1);
+                                 master.get_digital(pros::E_CONTROLLER_DIGITAL_L1) == 1,
+                                 master.get_digital(pros::E_CONTROLLER_DIGITAL_R2) == 1);
     }
     pros::Task::delay_until(&wake, 10);
   }

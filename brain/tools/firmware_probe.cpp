@@ -33,8 +33,13 @@ struct Intake final : core::Intake {
   uint8_t rings_held() override { return core::kRingsUnknown; }
 };
 struct Clamp final : core::GoalClamp {
+  bool fitted() override { return true; }
   void set(bool closed) override { g_sink = closed ? 1.0f : 0.0f; }
   uint8_t goal_at_back() override { return 1; }
+};
+struct Lift final : core::Lift {
+  bool fitted() override { return true; }
+  void set(bool up) override { g_sink = up ? 1.0f : 0.0f; }
 };
 struct Serial final : core::SerialLink {
   core::ByteRing<256> rx;  // as the PROS adapter uses it, so its atomics are linked too
@@ -57,12 +62,13 @@ int main() {
   static Drive drive;
   static Intake intake;
   static Clamp clamp;
+  static Lift lift;
   static Serial serial;
   static Comp comp;
   static Sticks sticks;
   static core::Robot robot(
       core::kRobotConfig,
-      core::Hardware{clock, gps, drive, intake, clamp, serial, comp, sticks}, 1u);
+      core::Hardware{clock, gps, drive, intake, clamp, lift, serial, comp, sticks}, 1u);
   const uint8_t hello[] = ":00\n";
   serial.rx.push(hello, sizeof hello - 1);
   for (uint32_t i = 0; i < 100; ++i) {

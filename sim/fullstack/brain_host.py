@@ -79,6 +79,7 @@ class BrainReport:
     rings: int = RINGS_UNKNOWN  # the intake's ring counter as the State reports it
     clamp: int = CLAMP_UNKNOWN  # the State's goal_clamped: 1 holding a goal, 0 not, 255 no sensor
     clamp_closed: bool = False  # what the Brain told the goal clamp (its piston)
+    lift_up: bool = False  # what the Brain told the lift
 
     @classmethod
     def parse(cls, fields: dict[str, str]) -> BrainReport:
@@ -109,6 +110,7 @@ class BrainReport:
                 rings=int(fields.get("rings", RINGS_UNKNOWN)),
                 clamp=int(fields.get("clamp", CLAMP_UNKNOWN)),
                 clamp_closed=fields.get("clamp_closed", "0") == "1",
+                lift_up=fields.get("lift_up", "0") == "1",
             )
         except (KeyError, ValueError) as exc:
             raise BrainHostError(
@@ -336,7 +338,9 @@ class BrainHost:
         return f"clamp {int(bool(goal_at_back))}"
 
     @staticmethod
-    def sticks_line(forward: float, turn: float, intake: bool = False, clamp: bool = False) -> str:
+    def sticks_line(
+        forward: float, turn: float, intake: bool = False, clamp: bool = False, lift: bool = False
+    ) -> str:
         for v, name in ((forward, "forward"), (turn, "turn")):
             if not (math.isfinite(v) and -1.0 <= v <= 1.0):
                 raise ValueError(f"stick {name} must be in [-1, 1], got {v!r}")
@@ -344,6 +348,7 @@ class BrainHost:
             f"sticks {forward!r} {turn!r}"
             + (" intake" if intake else "")
             + (" clamp" if clamp else "")
+            + (" lift" if lift else "")
         )
 
     @staticmethod
@@ -376,9 +381,14 @@ class BrainHost:
         self.command(self.clamp_line(goal_at_back))
 
     def set_sticks(
-        self, forward: float, turn: float, intake: bool = False, clamp: bool = False
+        self,
+        forward: float,
+        turn: float,
+        intake: bool = False,
+        clamp: bool = False,
+        lift: bool = False,
     ) -> None:
-        self.command(self.sticks_line(forward, turn, intake, clamp))
+        self.command(self.sticks_line(forward, turn, intake, clamp, lift))
 
     def sticks_off(self) -> None:
         self.command("sticks off")

@@ -14,9 +14,11 @@ Each 10 ms loop step the Brain reads its sensors and drives its motors. Here:
                                (DriveCommand.from_wheels), and the intake.
 
 The World's own drive model (acceleration and speed limits of the real robot) then applies them.
-The goal clamp is the World's own (WorldConfig.auto_clamp grabs a goal that touches the back), so
-the Brain's piston has nothing to move here; the sensor tells the Brain what the World did, and
-the Brain reports it to the Jetson in the State's goal_clamped, as a real robot's would.
+The World grabs a goal that touches the back (WorldConfig.auto_clamp); the sensor tells the Brain,
+whose own auto close then closes its piston, and the Brain reports it in the State's goal_clamped,
+as a real robot's would. When the Brain opens its clamp (the Jetson's Command.clamp release, or
+the driver), the World is told to release (DriveCommand.clamp False) and keeps the clamp open
+until the Brain closes it again.
 
 Competition status (VEX AI): before the match the robot is powered and disabled (the two sides
 connect); the isolation period is autonomous, the interaction period driver control (the Jetson
@@ -78,10 +80,13 @@ class RobotHardware:
         self._sent_rings: int | None = None
         self._sent_goal: bool | None = None
         self.last_command = DriveCommand(0.0, 0.0, intake=False)
+        self._brain_closed = False  # the Brain's clamp piston at the last report
+        self._released = False  # the Brain opened its clamp and has not closed it since
 
     def forget_sent(self) -> None:
         """A new Brain (rebooted) knows nothing yet: send the phase, ring count and clamp again."""
         self._sent_phase = self._sent_rings = self._sent_goal = None
+        self._brain_closed = self._released = False
 
     @property
     def robot(self) -> RobotState:
@@ -118,13 +123,25 @@ class RobotHardware:
         lines.append(BrainHost.measured_line(reading.left_mps, reading.right_mps))
         return lines
 
+    def _clamp(self, report: BrainReport) -> bool | None:
+        """The World's clamp from the Brain's piston: None (the World's auto clamp) until the
+        Brain opens it, then False (release, grab nothing) until the Brain closes it again."""
+        if self._brain_closed and not report.clamp_closed:
+            self._released = True
+        elif report.clamp_closed:
+            self._released = False
+        self._brain_closed = report.clamp_closed
+        return False if self._released else None
+
     def command(self, report: BrainReport) -> DriveCommand:
         """The Brain's motor outputs as the simulator's command for this robot. Stopped motors
         (brake) are zero speed; the intake runs only when the Brain runs it."""
+        clamp = self._clamp(report)
         if report.stopped:
-            cmd = DriveCommand(0.0, 0.0, intake=report.intake)
+            cmd = DriveCommand(0.0, 0.0, intake=report.intake, clamp=clamp)
         else:
             rc = self.robot.config
             cmd = DriveCommand.from_wheels(rc, report.left_mps, report.right_mps, report.intake)
+            cmd.clamp = clamp
         self.last_command = cmd
         return cmd

@@ -93,7 +93,7 @@ def test_encode_command_down_prints_the_hex_of_the_line(capsys: pytest.CaptureFi
     assert code == 0, err
     expected = framing.encode_downlink(Command(linear=0.5), 0)
     assert out.strip() == expected.hex()
-    assert bytes.fromhex(out.strip()).startswith(b":03000f")
+    assert bytes.fromhex(out.strip()).startswith(b":030011")
 
 
 def test_encode_fields_left_out_take_defaults(capsys: pytest.CaptureFixture[str]) -> None:
@@ -212,6 +212,8 @@ def test_decode_down_prints_messages_and_errors(
         "angular": -0.25,
         "intake": True,
         "valid_ms": 150,
+        "clamp": "leave",
+        "lift": "leave",
     }
     assert [x["seq"] for x in lines if x["type"] == "message"] == [1, 4]
 

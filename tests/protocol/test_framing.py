@@ -403,9 +403,21 @@ def test_downlink_command_with_bool_2_is_bad_value(value: int) -> None:
     assert decoder.stats.received == 0
 
 
+@pytest.mark.parametrize(("offset", "value"), [(15, 3), (16, 3), (15, 0xFF)])
+def test_downlink_command_with_an_unknown_clamp_or_lift_action_is_bad_value(
+    offset: int, value: int
+) -> None:
+    body = bytearray(COMMAND.encode_body())
+    body[offset] = value
+    decoder = DownlinkDecoder()
+    events = decoder.feed(down(raw_packet(Command.ID, 0, bytes(body))))
+    assert errors_of(events) == [ErrorKind.BAD_VALUE]
+    assert decoder.stats.received == 0
+
+
 @pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
 def test_downlink_command_with_non_finite_speed_is_bad_value(value: float) -> None:
-    body = struct.pack("<IffBH", 1, value, 0.0, 0, 100)
+    body = struct.pack("<IffBHBB", 1, value, 0.0, 0, 100, 0, 0)
     events = DownlinkDecoder().feed(down(raw_packet(Command.ID, 0, body)))
     assert errors_of(events) == [ErrorKind.BAD_VALUE]
 

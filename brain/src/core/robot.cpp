@@ -115,6 +115,8 @@ void Robot::step() {
   const DriverSticks sticks = hw_.driver.read();
   const DriveSource source = arbiter_.decide(phase, command_active, sticks, now);
   bool intake = false;
+  msg::ClampAction clamp_cmd = msg::ClampAction::leave;
+  msg::LiftAction lift_cmd = msg::LiftAction::leave;
   switch (source) {
     case DriveSource::none:
       drive_.stop(hw_.drive);
@@ -123,6 +125,8 @@ void Robot::step() {
       const msg::Command& cmd = watchdog_.command();
       drive_.drive({cmd.linear, cmd.angular}, dt_s, hw_.drive);
       intake = cmd.intake;
+      clamp_cmd = cmd.clamp;
+      lift_cmd = cmd.lift;
       last_command_seq_ = cmd.seq;
       break;
     }
@@ -133,11 +137,15 @@ void Robot::step() {
   }
   hw_.intake.set(intake);
 
-  // The goal clamp closes by itself on a goal at the back and never opens by itself.
-  const ClampEvent clamp_event =
-      clamp_.update(phase, hw_.clamp.goal_at_back(), sticks.present && sticks.clamp, now);
+  // The goal clamp: the Jetson's hold/release while it drives, the driver's L1, else auto close
+  // on a goal at the back; it never opens by itself.
+  const ClampEvent clamp_event = clamp_.update(phase, hw_.clamp.goal_at_back(),
+                                               sticks.present && sticks.clamp, clamp_cmd, now);
   hw_.clamp.set(clamp_.closed());
   if (clamp_event != ClampEvent::none) link_.log(msg::LogLevel::info, now, to_string(clamp_event));
+  const LiftEvent lift_event = lift_.update(phase, sticks.present && sticks.lift, lift_cmd);
+  hw_.lift.set(lift_.up());
+  if (lift_event != LiftEvent::none) link_.log(msg::LogLevel::info, now, to_string(lift_event));
 
   // Report.
   const WheelFeedback fb = hw_.drive.feedback();
@@ -158,6 +166,12 @@ void Robot::step() {
   s.rings_held = hw_.intake.rings_held();
   s.goal_clamped = clamp_.goal_clamped();
   s.faults = faults(now, gps, fb);
+  s.clamp = !hw_.clamp.fitted() ? msg::ClampState::absent
+            : clamp_.closed()   ? msg::ClampState::closed
+                                : msg::ClampState::open;
+  s.lift = !hw_.lift.fitted() ? msg::LiftState::absent
+           : lift_.up()       ? msg::LiftState::up
+                              : msg::LiftState::down;
   link_.transmit(hw_.serial, now, s);
 
   status_.phase = phase;
@@ -168,6 +182,7 @@ void Robot::step() {
   status_.stopped = drive_.stopped();
   status_.intake = intake;
   status_.clamp_closed = clamp_.closed();
+  status_.lift_up = lift_.up();
   ++status_.steps;
 
   const uint64_t took = hw_.clock.now_us() - t0_us;

@@ -88,7 +88,7 @@ TEST(Config, ClampPortsAreAdiPorts) {
   EXPECT_STREQ(ports_error(p), "the clamp piston and sensor share an ADI port");
   p.clamp_piston = 0;
   p.clamp_sensor = 'B';
-  EXPECT_STREQ(ports_error(p), "a clamp sensor needs a clamp piston");
+  EXPECT_STREQ(ports_error(p), "a clamp sensor needs a clamp");
   p.clamp_piston = 'H';
   p.clamp_sensor = 0;
   EXPECT_EQ(ports_error(p), nullptr) << "a piston alone: the driver's button only";

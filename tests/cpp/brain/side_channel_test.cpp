@@ -160,9 +160,9 @@ TEST(SideChannel, BadInputGetsAClearErrorAndChangesNothing) {
   EXPECT_EQ(s("phase halftime"), "error phase: 'halftime' is not disabled, autonomous or driver");
   EXPECT_EQ(s("sticks 2 0"), "error sticks: axes must be in [-1, 1]");
   EXPECT_EQ(s("sticks 0 0 boost"),
-            "error sticks: 'boost' should be 'intake' or 'clamp', each at most once");
+            "error sticks: 'boost' should be 'intake', 'clamp' or 'lift', each at most once");
   EXPECT_EQ(s("sticks 0 0 clamp clamp"),
-            "error sticks: 'clamp' should be 'intake' or 'clamp', each at most once");
+            "error sticks: 'clamp' should be 'intake', 'clamp' or 'lift', each at most once");
   EXPECT_EQ(s("clamp yes"), "error clamp 0|1|unknown");
   EXPECT_EQ(s("clamp"), "error clamp 0|1|unknown");
   EXPECT_EQ(s("advance -5"), "error advance: '-5' is not a whole number of ms");

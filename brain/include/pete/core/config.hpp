@@ -42,8 +42,9 @@ struct DriverConfig {
   uint32_t override_hold_ms; // a stick move takes over from the Jetson for this long after release
 };
 
-/// The mobile-goal clamp on the robot's back. As in the simulator, nobody commands it in a match:
-/// the Brain closes it when its sensor says a goal is at the back, and keeps it closed.
+/// The mobile-goal clamp on the robot's back. The Jetson holds or releases it (Command.clamp); left
+/// to itself, the Brain closes it when its sensor says a goal is at the back, as the simulator's
+/// auto clamp does, and keeps it closed.
 struct ClampConfig {
   bool auto_close;      // close the clamp by itself (autonomous and driver control, never disabled)
   uint32_t confirm_ms;  // ...once the sensor has said "goal" this long without a break (0: at once)
@@ -71,9 +72,20 @@ struct Ports {
   double gps_offset_x_m;     // GPS sensor position relative to the robot's turning centre,
   double gps_offset_y_m;     //   as pros::Gps(port, xOffset, yOffset) takes it
   float intake_rpm;          // intake motor speed when running
-  uint8_t clamp_piston;      // ADI port (1..8 or 'A'..'H') of the clamp's solenoid; 0 = no clamp
+  // The goal clamp's actuator: a pneumatic piston on an ADI port OR a motor (not both; neither =
+  // no clamp, and the State says clamp absent).
+  uint8_t clamp_piston;      // ADI port (1..8 or 'A'..'H') of the clamp's solenoid; 0 = none
   uint8_t clamp_sensor;      // ADI port of the switch a goal at the back presses; 0 = none fitted
   bool clamp_closes_high;    // the solenoid level that closes the clamp (false: LOW closes it)
+  int8_t clamp_motor;        // smart port of a clamp motor (negative reverses it); 0 = none
+  float clamp_motor_closed_deg;  // motor-shaft angle that closes the clamp, from the open one at
+                                 //   power-up (the motor holds it there)
+  // The lift that reaches the high branch: a piston OR a motor, as the clamp (neither = none).
+  uint8_t lift_piston;       // ADI port of the lift's solenoid; 0 = none
+  bool lift_up_high;         // the solenoid level that raises the lift
+  int8_t lift_motor;         // smart port of a lift motor; 0 = none
+  float lift_motor_up_deg;   // motor-shaft angle of the raised lift, from the lowered one at power-up
+  float actuator_motor_rpm;  // speed of a clamp or lift motor while it moves (green cartridge)
 };
 
 // --- this robot ---------------------------------------------------------------------------------
@@ -122,6 +134,13 @@ inline constexpr Ports kRobotPorts{
     /*clamp_piston=*/0,  // none fitted: the State says goal_clamped = 255 (e.g. 'A' once wired)
     /*clamp_sensor=*/0,  //   (e.g. 'B' for a limit switch at the back)
     /*clamp_closes_high=*/true,
+    /*clamp_motor=*/0,   // or a motor clamp, e.g. 8 with clamp_motor_closed_deg = 120
+    /*clamp_motor_closed_deg=*/120.0f,
+    /*lift_piston=*/0,   // none fitted: the State says lift absent (e.g. 'C' once wired)
+    /*lift_up_high=*/true,
+    /*lift_motor=*/0,    // or a motor lift, e.g. 9 with lift_motor_up_deg = 600
+    /*lift_motor_up_deg=*/600.0f,
+    /*actuator_motor_rpm=*/150.0f,
 };
 
 // --- checks -------------------------------------------------------------------------------------
@@ -177,7 +196,8 @@ constexpr int adi_port_index(uint8_t port) {
 
 constexpr const char* ports_error(const Ports& p) {
   bool used[22] = {};
-  const int8_t* groups[3] = {p.left, p.right, p.intake};
+  const int8_t actuators[kMaxMotorsPerSide] = {p.clamp_motor, p.lift_motor, 0, 0};
+  const int8_t* groups[4] = {p.left, p.right, p.intake, actuators};
   for (const int8_t* group : groups) {
     for (std::size_t i = 0; i < kMaxMotorsPerSide; ++i) {
       const int port = group[i] < 0 ? -group[i] : group[i];
@@ -193,8 +213,23 @@ constexpr const char* ports_error(const Ports& p) {
   const int piston = adi_port_index(p.clamp_piston);
   const int sensor = adi_port_index(p.clamp_sensor);
   if (piston < 0 || sensor < 0) return "clamp ADI ports must be 0, 1..8 or 'A'..'H'";
-  if (sensor != 0 && piston == 0) return "a clamp sensor needs a clamp piston";
   if (piston != 0 && piston == sensor) return "the clamp piston and sensor share an ADI port";
+  if (piston != 0 && p.clamp_motor != 0) return "the clamp is a piston or a motor, not both";
+  if (sensor != 0 && piston == 0 && p.clamp_motor == 0) return "a clamp sensor needs a clamp";
+  const int lift = adi_port_index(p.lift_piston);
+  if (lift < 0) return "lift_piston must be 0, 1..8 or 'A'..'H'";
+  if (lift != 0 && (lift == piston || lift == sensor)) return "the lift piston shares an ADI port";
+  if (lift != 0 && p.lift_motor != 0) return "the lift is a piston or a motor, not both";
+  if (p.clamp_motor != 0 && !(p.clamp_motor_closed_deg != 0.0f)) {
+    return "clamp_motor_closed_deg must not be 0 (the open angle)";
+  }
+  if (p.lift_motor != 0 && !(p.lift_motor_up_deg != 0.0f)) {
+    return "lift_motor_up_deg must not be 0 (the lowered angle)";
+  }
+  if ((p.clamp_motor != 0 || p.lift_motor != 0) &&
+      !(p.actuator_motor_rpm > 0.0f && p.actuator_motor_rpm <= 200.0f)) {
+    return "actuator_motor_rpm must be in (0, 200]";
+  }
   return nullptr;
 }
 

@@ -78,10 +78,12 @@ class Intake {
 /// What GoalClamp::goal_at_back() says when no goal sensor is fitted (the State carries it as is).
 inline constexpr uint8_t kClampUnknown = 255;
 
-/// The mobile-goal clamp on the robot's back: an actuator (a pneumatic piston on the V5) and a
+/// The mobile-goal clamp on the robot's back: an actuator (a pneumatic piston or a motor) and a
 /// sensor (a limit switch or bumper) that a goal presses when it sits in the clamp's mouth.
 class GoalClamp {
  public:
+  /// Whether an actuator is fitted (false: the State says clamp absent).
+  virtual bool fitted() = 0;
   /// Close (true) or open (false) the clamp. Called every loop step with the wanted state.
   virtual void set(bool closed) = 0;
   /// 1 while a goal is at the back, 0 while none is, or kClampUnknown when no sensor is fitted.
@@ -90,6 +92,18 @@ class GoalClamp {
 
  protected:
   ~GoalClamp() = default;
+};
+
+/// The lift that puts rings on a goal's high branch: a piston or a motor, up or down.
+class Lift {
+ public:
+  /// Whether one is fitted (false: the State says lift absent).
+  virtual bool fitted() = 0;
+  /// Raise (true) or lower (false) it. Called every loop step with the wanted state.
+  virtual void set(bool up) = 0;
+
+ protected:
+  ~Lift() = default;
 };
 
 /// The USB serial link to the Jetson. On the Brain, reads come from stdin (filled by a reader task,
@@ -131,6 +145,7 @@ struct DriverSticks {
   float turn = 0.0f;     // right stick, right = clockwise
   bool intake = false;   // R1 held
   bool clamp = false;    // L1 held: each press toggles the goal clamp
+  bool lift = false;     // R2 held: each press toggles the lift
 };
 
 class DriverInput {
@@ -148,6 +163,7 @@ struct Hardware {
   Drivetrain& drive;
   Intake& intake;
   GoalClamp& clamp;
+  Lift& lift;
   SerialLink& serial;
   Competition& competition;
   DriverInput& driver;

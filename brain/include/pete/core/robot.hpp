@@ -12,6 +12,7 @@
 #include "pete/core/config.hpp"
 #include "pete/core/drive.hpp"
 #include "pete/core/hal.hpp"
+#include "pete/core/lift.hpp"
 #include "pete/core/link.hpp"
 #include "pete/core/match_clock.hpp"
 #include "pete/core/watchdog.hpp"
@@ -34,6 +35,7 @@ struct RobotStatus {
   bool stopped = true;   // the motors were stopped (brake) rather than driven
   bool intake = false;
   bool clamp_closed = false;  // what the goal clamp was told
+  bool lift_up = false;       // what the lift was told
   msg::State state;      // the State of this step (sent only when one is due)
   uint32_t steps = 0;
   uint32_t command_timeouts = 0;
@@ -67,6 +69,7 @@ class Robot {
   Arbiter arbiter_;
   DriveController drive_;
   ClampControl clamp_;
+  LiftControl lift_;
   RobotStatus status_;
 
   bool started_ = false;
