@@ -19,6 +19,8 @@ from sim.errors import ConfigError
 
 Fidelity = Literal["training", "high"]
 FIDELITIES: tuple[Fidelity, ...] = ("training", "high")
+Game = Literal["ring_race", "tipping_point"]
+GAMES: tuple[Game, ...] = ("ring_race", "tipping_point")
 
 
 # Defaults from a real drivetrain: V5 Smart Motors with the 200 rpm (green) cartridge driving 4 in
@@ -103,7 +105,17 @@ class GpsConfig:
 
 @dataclass(frozen=True)
 class RobotConfig:
-    """A VEX AI robot as a box with a differential drive, an intake and a mobile-goal clamp."""
+    """A VEX AI robot as a box with a differential drive, an intake and a mobile-goal clamp.
+
+    The mechanisms (the whole game; the ring race ignores where rings land): `clamp` is where the
+    clamp holds a goal (its back or its front face); `loads` is what the intake does with a ring
+    when a goal is clamped: a conveyor that threads it onto the goal's branches ("branch") or one
+    that drops it in the goal's base ("base"); `reaches_high_branch`: the lift reaches a neutral
+    goal's high branch (rings go there first, 10 points each); `clamp_lifts`: the clamp lifts the
+    goal off the tiles (then it is not Scored in a Home Zone until it is set down; it still is
+    Elevated with an Elevated robot). `pull_n`, the force its drive pulls with (traction-limited:
+    mass x max_linear_accel), decides a tug of war over a goal.
+    """
 
     name: str = "15in"
     width_m: float = 15 * INCH
@@ -122,6 +134,10 @@ class RobotConfig:
     clamp_reach_m: float = 0.06  # gap between the back face and a goal's base that still clamps
     clamp_half_width_m: float = 0.12  # how far off-centre a goal may be to clamp
     ring_transfer_s: float = 0.5  # a held ring moves onto the carried goal every this many s
+    clamp: Literal["back", "front"] = "back"
+    loads: Literal["branch", "base"] = "branch"
+    reaches_high_branch: bool = False
+    clamp_lifts: bool = False
     rgb: tuple[int, int, int] = (60, 60, 66)
     camera: CameraConfig = dc_field(default_factory=CameraConfig)
     gps: GpsConfig = dc_field(default_factory=GpsConfig)
@@ -146,6 +162,20 @@ class RobotConfig:
             raise ConfigError(f"robot {self.name}: ring_capacity must be >= 0 or None")
         if min(self.intake_width_m, self.intake_depth_m, self.clamp_reach_m) < 0:
             raise ConfigError(f"robot {self.name}: intake and clamp sizes must be >= 0")
+        if self.clamp not in ("back", "front"):
+            raise ConfigError(f"robot {self.name}: clamp must be 'back' or 'front'")
+        if self.loads not in ("branch", "base"):
+            raise ConfigError(f"robot {self.name}: loads must be 'branch' or 'base'")
+
+    @property
+    def clamp_sign(self) -> float:
+        """-1: the clamp holds a goal behind the back face; +1: ahead of the front."""
+        return -1.0 if self.clamp == "back" else 1.0
+
+    @property
+    def pull_n(self) -> float:
+        """The drive's pull, N: what it can push or drag before its wheels slip."""
+        return self.mass_kg * self.max_linear_accel
 
     @property
     def radius_m(self) -> float:
@@ -162,6 +192,8 @@ class RobotConfig:
         return (left + right) / 2.0, (left - right) / self.track_m
 
 
+# The VEX AI pair (Appendix D: one 24" and one 15" robot an alliance). The 24" carries the lift
+# that reaches a neutral goal's high branch; the 15" threads rings onto the low branches.
 ROBOT_15 = RobotConfig()
 ROBOT_24 = RobotConfig(
     name="24in",
@@ -171,6 +203,7 @@ ROBOT_24 = RobotConfig(
     mass_kg=9.0,
     track_m=0.52,
     intake_width_m=0.30,
+    reaches_high_branch=True,
     # The camera must sit outside the body: at the front edge of the larger robot, higher up.
     camera=CameraConfig(forward_m=0.32, height_m=0.40),
 )
@@ -243,6 +276,10 @@ class WorldConfig:
     """
 
     field: str = "tipping_point"
+    # "ring_race": the original team's simplified game (every ring 3, a flat platform, no fouls);
+    # "tipping_point": the whole game (sim/world/rules.py): branches, the see-saw, the autonomous
+    # bonus and win point, fouls, goals released and fought over.
+    game: Game = "ring_race"
     fidelity: Fidelity = "training"
     control_hz: float = 12.0
     physics_hz: float | None = None  # None: 60 (training) or 240 (high)
@@ -250,6 +287,9 @@ class WorldConfig:
     blue: tuple[str, ...] = ("15in",)
     robots: dict[str, RobotConfig] = dc_field(default_factory=lambda: dict(ROBOTS))
     isolation_s: float = 0.0  # optional isolation period before the interaction period
+    # The isolation period's centre-line wall that only robots hit (off: robots may cross it;
+    # in the whole game contact with the other alliance's robots is then a foul).
+    isolation_barrier: bool = True
     interaction_s: float | None = None  # None: the field file's (105 s)
     preloads: bool = False
     match_loads: bool = False
@@ -268,6 +308,8 @@ class WorldConfig:
     def __post_init__(self) -> None:
         if self.fidelity not in FIDELITIES:
             raise ConfigError(f"fidelity must be one of {FIDELITIES}, got {self.fidelity!r}")
+        if self.game not in GAMES:
+            raise ConfigError(f"game must be one of {GAMES}, got {self.game!r}")
         if not self.control_hz > 0:
             raise ConfigError(f"control_hz must be positive, got {self.control_hz}")
         if self.physics_hz is not None and self.physics_hz < self.control_hz:
@@ -300,6 +342,38 @@ class WorldConfig:
     @property
     def control_dt(self) -> float:
         return 1.0 / self.control_hz
+
+
+# Named matches (`world_preset(name)`). "ring_race" is today's default; "tipping_point_2v2" is the
+# whole VEX AI match: a 24" and a 15" robot an alliance, starting in their zones with their
+# preloads, the 15 s isolation period (no barrier: contact with the other alliance is a foul) and
+# the 105 s interaction period.
+WORLD_PRESETS: dict[str, dict[str, Any]] = {
+    "ring_race": {},
+    "tipping_point_1v1": {
+        "game": "tipping_point",
+        "red": ("24in",),
+        "blue": ("24in",),
+        "isolation_s": 15.0,
+        "isolation_barrier": False,
+        "preloads": True,
+    },
+    "tipping_point_2v2": {
+        "game": "tipping_point",
+        "red": ("24in", "15in"),
+        "blue": ("24in", "15in"),
+        "isolation_s": 15.0,
+        "isolation_barrier": False,
+        "preloads": True,
+    },
+}
+
+
+def world_preset(name: str, **overrides: Any) -> WorldConfig:
+    """A named match (WORLD_PRESETS) as a WorldConfig, with any field overridden."""
+    if name not in WORLD_PRESETS:
+        raise ConfigError(f"no world preset {name!r} ({sorted(WORLD_PRESETS)})")
+    return WorldConfig(**{**WORLD_PRESETS[name], **overrides})
 
 
 T = TypeVar("T")

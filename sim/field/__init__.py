@@ -10,8 +10,9 @@ standard library here.
 
 from __future__ import annotations
 
+import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -57,6 +58,12 @@ class GoalSpec:
     height: float
     mass_kg: float
     rgb: RGB
+    branch_capacity: int = 1 << 30  # rings its low branches hold (then the base takes them)
+    high_branch_capacity: int = 0  # rings its high branch holds (0: it has none)
+
+    @property
+    def has_high_branch(self) -> bool:
+        return self.high_branch_capacity > 0
 
 
 @dataclass(frozen=True)
@@ -78,6 +85,38 @@ class PlatformSpec:
             abs(x - self.center[0]) <= self.size[0] / 2
             and abs(y - self.center[1]) <= self.size[1] / 2
         )
+
+    @property
+    def field_side(self) -> float:
+        """+1 or -1: the direction along x from the platform toward the field's centre (the
+        board's hinge runs along y, parallel to the alliance wall)."""
+        return 1.0 if self.center[0] < 0 else -1.0
+
+    @property
+    def max_tilt_rad(self) -> float:
+        """The board's tilt when an edge rests on the floor."""
+        return math.asin(min(1.0, self.height / (self.size[0] / 2)))
+
+    def edge_height(self, tilt_rad: float) -> float:
+        """Height of the field-side edge above the floor at a tilt (positive: that edge down)."""
+        return max(0.0, self.height - self.size[0] / 2 * math.sin(tilt_rad))
+
+    def along(self, x: float) -> float:
+        """A point's distance from the hinge toward the field (the lever arm of a load)."""
+        return (x - self.center[0]) * self.field_side
+
+
+@dataclass(frozen=True)
+class SeesawSpec:
+    """The platform as a see-saw (the field file's [seesaw]; the whole game only)."""
+
+    board_mass_kg: float = 4.0
+    hinge_flat: float = 0.0508  # m: half the width of the hinge's flat surfaces
+    balanced_tilt_deg: float = 3.0
+    tilt_rate_deg_s: float = 45.0
+    climb_edge: float = 0.0254  # m
+    start_down: str = "field"  # "field", "wall" or "level"
+    overhang: float = 0.0762  # m a robot's frame may hang over the board's edge
 
 
 @dataclass(frozen=True)
@@ -116,6 +155,11 @@ class RulesSpec:
     autonomous_s: float
     interaction_s: float
     pin_time_s: float
+    endgame_s: float = 30.0  # <SG3>: the platforms are protected in the match's last seconds
+    platform_foul_credit: int = 1  # Elevated robots credited to the opponent per <SG3> violation
+    isolation_contact_foul: bool = True  # robots of both alliances touching in isolation
+    isolation_foul_forfeits: bool = True  # ... gives the opponent the bonus and the win point
+    isolation_home_zone_foul: bool = False  # a robot in the opponent's home zone in isolation
 
 
 @dataclass(frozen=True)
@@ -127,6 +171,7 @@ class ScoringSpec:
     robot_elevated: int
     goal_elevated: int
     autonomous_bonus: int
+    autonomous_bonus_tie: int = 10  # to each alliance when the autonomous period is a tie
 
 
 @dataclass(frozen=True)
@@ -151,6 +196,10 @@ class FieldSpec:
     starts: tuple[StartSpec, ...]
     rules: RulesSpec
     scoring: ScoringSpec
+    seesaw: SeesawSpec = SeesawSpec()
+    # The AWP line of each alliance ([x0, y0, x1, y1]) and the goal that starts on it (its index).
+    awp_lines: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
+    awp_goals: dict[str, int] = field(default_factory=dict)
 
     @property
     def half(self) -> float:
@@ -227,6 +276,12 @@ class _Reader:
         value = data.get(key)
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
             raise self.fail(f"{where}.{key}", f"expected a non-negative integer, got {value!r}")
+        return value
+
+    def flag(self, data: dict[str, Any], key: str, where: str, default: bool) -> bool:
+        value = data.get(key, default)
+        if not isinstance(value, bool):
+            raise self.fail(f"{where}.{key}", f"expected true or false, got {value!r}")
         return value
 
     def string(self, data: dict[str, Any], key: str, where: str) -> str:
@@ -337,6 +392,12 @@ def parse_field(data: dict[str, Any], source: str = "<field>") -> FieldSpec:
                 height=r.positive(k, "height", kw, length=True),
                 mass_kg=r.positive(k, "mass_kg", kw),
                 rgb=rgb,
+                branch_capacity=r.integer(k, "branch_capacity", kw)
+                if "branch_capacity" in k
+                else 1 << 30,
+                high_branch_capacity=r.integer(k, "high_branch_capacity", kw)
+                if "high_branch_capacity" in k
+                else 0,
             )
         )
 
@@ -366,6 +427,34 @@ def parse_field(data: dict[str, Any], source: str = "<field>") -> FieldSpec:
                 f"zones.{alliance}_home", "expected [x0, y0, x1, y1] with x0 < x1, y0 < y1"
             )
         home_zones[alliance] = Zone(x0, y0, x1, y1)
+    awp_lines: dict[str, tuple[float, float, float, float]] = {}
+    awp_goals: dict[str, int] = {}
+    names = [g.name for g in goals]
+    for alliance in ("red", "blue"):
+        if f"{alliance}_awp_line" not in zones_t:
+            continue
+        line = r.points([zones_t[f"{alliance}_awp_line"]], f"zones.{alliance}_awp_line", 4)[0]
+        awp_lines[alliance] = (float(line[0]), float(line[1]), float(line[2]), float(line[3]))
+        goal = r.string(zones_t, f"{alliance}_awp_goal", "zones")
+        if goal not in names:
+            raise r.fail(f"zones.{alliance}_awp_goal", f"no goal named {goal!r}")
+        awp_goals[alliance] = names.index(goal)
+
+    seesaw = SeesawSpec()
+    if "seesaw" in data:
+        st = r.table(data, "seesaw")
+        start_down = st.get("start_down", "field")
+        if start_down not in ("field", "wall", "level"):
+            raise r.fail("seesaw.start_down", f"expected field, wall or level, got {start_down!r}")
+        seesaw = SeesawSpec(
+            board_mass_kg=r.positive(st, "board_mass_kg", "seesaw"),
+            hinge_flat=r.number(st, "hinge_flat", "seesaw", length=True),
+            balanced_tilt_deg=r.positive(st, "balanced_tilt_deg", "seesaw"),
+            tilt_rate_deg_s=r.positive(st, "tilt_rate_deg_s", "seesaw"),
+            climb_edge=r.number(st, "climb_edge", "seesaw", length=True),
+            start_down=start_down,
+            overhang=r.number(st, "overhang", "seesaw", length=True) if "overhang" in st else 0.0,
+        )
 
     starts = []
     for i, s in enumerate(data.get("starts", [])):
@@ -382,10 +471,20 @@ def parse_field(data: dict[str, Any], source: str = "<field>") -> FieldSpec:
         raise FieldError(f"{source}: starts: at least one robot start pose is needed")
 
     rules_t = r.table(data, "rules")
+    defaults = RulesSpec(0.0, 1.0, 1.0)
     rules = RulesSpec(
         autonomous_s=r.number(rules_t, "autonomous_s", "rules"),
         interaction_s=r.positive(rules_t, "interaction_s", "rules"),
         pin_time_s=r.positive(rules_t, "pin_time_s", "rules"),
+        endgame_s=r.number(rules_t, "endgame_s", "rules")
+        if "endgame_s" in rules_t
+        else defaults.endgame_s,
+        platform_foul_credit=r.integer(rules_t, "platform_foul_credit", "rules")
+        if "platform_foul_credit" in rules_t
+        else defaults.platform_foul_credit,
+        isolation_contact_foul=r.flag(rules_t, "isolation_contact_foul", "rules", True),
+        isolation_foul_forfeits=r.flag(rules_t, "isolation_foul_forfeits", "rules", True),
+        isolation_home_zone_foul=r.flag(rules_t, "isolation_home_zone_foul", "rules", False),
     )
     sc = r.table(data, "scoring")
     scoring = ScoringSpec(
@@ -400,7 +499,10 @@ def parse_field(data: dict[str, Any], source: str = "<field>") -> FieldSpec:
                 "goal_elevated",
                 "autonomous_bonus",
             )
-        }
+        },
+        autonomous_bonus_tie=r.integer(sc, "autonomous_bonus_tie", "scoring")
+        if "autonomous_bonus_tie" in sc
+        else r.integer(sc, "autonomous_bonus", "scoring") // 2,
     )
     return FieldSpec(
         name=r.string(data, "name", "<top>"),
@@ -423,4 +525,7 @@ def parse_field(data: dict[str, Any], source: str = "<field>") -> FieldSpec:
         starts=tuple(starts),
         rules=rules,
         scoring=scoring,
+        seesaw=seesaw,
+        awp_lines=awp_lines,
+        awp_goals=awp_goals,
     )

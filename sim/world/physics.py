@@ -4,8 +4,11 @@
     world.reset(np.random.default_rng(7))
     events = world.step([DriveCommand(0.5, 0.0), DriveCommand()])   # one control step per robot
 
-The game's rules (scoring, goal ownership, pins) are sim.world.rules and the sensors (GPS, camera,
-visibility) sim.world.sensors: functions over the state this class keeps.
+The game's rules (scoring, goal ownership, pins, fouls) are sim.world.rules, the platform's
+see-saw model sim.world.seesaw, and the sensors (GPS, camera, visibility) sim.world.sensors:
+functions over the state this class keeps. WorldConfig.game picks the ring race (the default) or
+the whole game (see-saw platforms, rings placed by each robot's mechanism, tugs of war over a
+goal, fouls, the autonomous bonus).
 
 Two fidelities (WorldConfig.fidelity):
 
@@ -48,15 +51,18 @@ from jetson.autonomy.geometry import (
 from sim.config import RobotConfig, WorldConfig
 from sim.errors import WorldError
 from sim.field import FieldSpec, load_field
-from sim.world import rules
+from sim.world import rules, seesaw
 from sim.world.state import (
     POST_RADIUS,
     RING_FLOOR,
     RING_HELD,
     RING_SCORED,
     AllianceScore,
+    AutonomousResult,
     DriveCommand,
+    Foul,
     GoalState,
+    PlatformState,
     RobotState,
     StepEvents,
 )
@@ -87,6 +93,7 @@ class World:
         self.dt = self.config.control_dt
         self.substeps = self.config.substeps
         self.training = self.config.fidelity == "training"
+        self.game = self.config.game == "tipping_point"  # the whole game, not the ring race
         self.lineup: list[tuple[AllianceName, str]] = [("red", n) for n in self.config.red] + [
             ("blue", n) for n in self.config.blue
         ]
@@ -104,6 +111,13 @@ class World:
         self.steps = 0
         self.over = False
         self.pin_timers: dict[tuple[int, int], float] = {}  # sim.world.rules' pin clocks
+        # The whole game (sim.world.state.WorldState documents them).
+        self.platforms: dict[str, PlatformState] = {}
+        self.fouls: list[Foul] = []
+        self.autonomous: dict[str, AutonomousResult] | None = None
+        self.foul_contacts: set[tuple[int, int, str]] = set()
+        self._boards: dict[str, int] = {}  # alliance -> the hinged platform body
+        self._tug: dict[int, float] = {}  # robot -> its speed's share in a tug of war
         self._barrier: int | None = None
         self._ready = False
         # score() is asked for by every robot's info each step; it only changes when the world
@@ -154,11 +168,23 @@ class World:
         self.steps = 0
         self.over = False
         self.pin_timers = {}
+        self.fouls = []
+        self.autonomous = None
+        self.foul_contacts = set()
+        self._tug = {}
+        self.platforms = (
+            {
+                p.alliance: PlatformState(p.alliance, seesaw.start_tilt(p, self.field.seesaw))
+                for p in self.field.platforms
+            }
+            if self.game
+            else {}
+        )
         self._build_field()
         self._build_goals()
         self._build_robots(rng)
         self._build_rings(rng)
-        if self.isolation_s > 0:
+        if self.isolation_s > 0 and self.config.isolation_barrier:
             self._build_barrier()
         else:
             self._barrier = None
@@ -220,9 +246,14 @@ class World:
             self._static_box((0, sy * (half + t / 2), zc), (half + t, t / 2, hz), f.wall_rgb, True)
             for sy in (-1, 1)
         ]
-        # Platforms are drawn but neither collide nor hide rings: the see-saw a robot climbs is
-        # not simulated (a robot "elevates" by ending the match on it), and a 3 in ramp hides
-        # little from a camera 0.3 m up.
+        # Platforms are drawn but neither collide nor hide rings (a 3 in board hides little from
+        # a camera 0.3 m up). The ring race draws a flat box (a robot "elevates" by ending the
+        # match on it); the whole game a hinged board that sim.world.seesaw tips.
+        self._boards = {}
+        if self.game:
+            for plat in f.platforms:
+                self._boards[plat.alliance] = self._build_board(plat)
+            return
         for plat in f.platforms:
             sx, sy = plat.size
             self._static_box(
@@ -231,6 +262,56 @@ class World:
                 plat.rgb,
                 False,
             )
+
+    def _build_board(self, plat: object) -> int:
+        """A see-saw: a fixed base at the hinge and the board on a revolute joint along y."""
+        assert isinstance(plat, type(self.field.platforms[0]))
+        cid = self.client
+        sx, sy = plat.size
+        thick = 0.01
+        base_vis = p.createVisualShape(
+            p.GEOM_BOX,
+            halfExtents=(0.03, sy / 2, plat.height / 2),
+            rgbaColor=self._rgba((40, 40, 40)),
+            physicsClientId=cid,
+        )
+        board_vis = p.createVisualShape(
+            p.GEOM_BOX,
+            halfExtents=(sx / 2, sy / 2, thick / 2),
+            rgbaColor=self._rgba(plat.rgb),
+            physicsClientId=cid,
+        )
+        body = p.createMultiBody(
+            0,
+            -1,
+            base_vis,
+            basePosition=(plat.center[0], plat.center[1], plat.height / 2),
+            linkMasses=[self.field.seesaw.board_mass_kg],
+            linkCollisionShapeIndices=[-1],
+            linkVisualShapeIndices=[board_vis],
+            linkPositions=[(0.0, 0.0, plat.height / 2)],
+            linkOrientations=[(0, 0, 0, 1)],
+            linkInertialFramePositions=[(0, 0, 0)],
+            linkInertialFrameOrientations=[(0, 0, 0, 1)],
+            linkParentIndices=[0],
+            linkJointTypes=[p.JOINT_REVOLUTE],
+            linkJointAxis=[(0, 1, 0)],
+            physicsClientId=cid,
+        )
+        self._set_board(plat.alliance, body)
+        return body
+
+    def _set_board(self, alliance: str, body: int | None = None) -> None:
+        """Turn the hinged board to the model's tilt (positive: the field-side edge down)."""
+        body = self._boards[alliance] if body is None else body
+        plat = self.field.platform(alliance)  # type: ignore[arg-type]
+        # About +y, a positive angle lowers the +x edge.
+        angle = self.platforms[alliance].tilt * plat.field_side
+        p.resetJointState(body, 0, angle, physicsClientId=self.client)
+
+    def board_angle(self, alliance: str) -> float:
+        """The hinged board's joint angle now (radians about +y), as PyBullet holds it."""
+        return float(p.getJointState(self._boards[alliance], 0, physicsClientId=self.client)[0])
 
     def _build_goals(self) -> None:
         cid = self.client
@@ -476,6 +557,8 @@ class World:
         for r, cmd in zip(self.robots, commands, strict=True):
             self._apply_limits(r, cmd, dt)
             r.intake_on = bool(cmd.intake)
+        if self.game:
+            self._tug_of_war()
         if self.training:
             self._set_velocities()
             p.stepSimulation(physicsClientId=cid)
@@ -486,6 +569,8 @@ class World:
         before = [(r.x, r.y, r.heading) for r in self.robots]
         self._read_poses()
         self._contain()
+        if self.game:
+            self._board_contacts(before)
         for r, (x0, y0, h0) in zip(self.robots, before, strict=True):
             h = math.radians(h0)
             r.measured_v = ((r.x - x0) * math.sin(h) + (r.y - y0) * math.cos(h)) / dt
@@ -504,12 +589,68 @@ class World:
             self._push_rings()
         self._transfer(events)
         rules.update_pins(self, self._touching, events, dt)
+        if self.game:
+            for plat in self.field.platforms:
+                state = self.platforms[plat.alliance]
+                on = seesaw.loads(plat, self.robots, self.goals)
+                seesaw.step_tilt(plat, self.field.seesaw, state, on, dt)
+                self._set_board(plat.alliance)
+            rules.update_fouls(self, self._touching, events)
+            if events.phase_changed:  # the isolation (autonomous) period is judged as it ends
+                self.autonomous = rules.autonomous_results(self)
         for r in self.robots:
             r.history.append((self.time_s, r.x, r.y, r.heading))
         if self.time_s >= self.match_length_s - 1e-9:
             self.over = True
             events.match_over = True
         return events
+
+    def _board_contacts(self, before: list[tuple[float, float, float]]) -> None:
+        """The whole game: robots drive onto a see-saw over its lowered field-side edge, leave it
+        when they are off it, and are pushed back from it anywhere else (sim.world.seesaw)."""
+        spec = self.field.seesaw
+        for r, (x0, y0, _) in zip(self.robots, before, strict=True):
+            for plat in self.field.platforms:
+                ox, oy = seesaw.overlap(seesaw.robot_box(r), seesaw.board_box(plat))
+                if ox <= 0 or oy <= 0:
+                    if r.on_platform == plat.alliance:
+                        r.on_platform = None
+                    continue
+                if r.on_platform == plat.alliance:
+                    continue
+                state = self.platforms[plat.alliance]
+                if r.on_platform is None and seesaw.may_mount(plat, spec, state, (x0, y0)):
+                    r.on_platform = plat.alliance
+                    continue
+                dx, dy = seesaw.push_out(r, plat)
+                r.x += dx
+                r.y += dy
+                self._place(r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading))
+
+    def _tug_of_war(self) -> None:
+        """A goal clamped by robots of both alliances (training and high fidelity alike, a model):
+        each pulls with its drive's force (RobotConfig.pull_n) times how hard it drives away from
+        the goal; the stronger pull moves, slowed by the weaker, and drags the other robot with
+        the goal (_carry_goals); equal pulls hold both still."""
+        self._tug = {}
+        for g in self.goals:
+            if g.carried_by is None or g.contested_by is None:
+                continue
+            a, b = self.robots[g.carried_by], self.robots[g.contested_by]
+            pa, pb = self._pull(a), self._pull(b)
+            if pa == pb:
+                self._tug[a.index] = self._tug[b.index] = 0.0
+                continue
+            win, lose, pw, pl = (a, b, pa, pb) if pa > pb else (b, a, pb, pa)
+            self._tug[win.index] = (pw - pl) / (pw + pl)
+            self._tug[lose.index] = 0.0
+            if win is b:  # the goal now goes where the winner drags it
+                g.carried_by, g.contested_by = b.index, a.index
+
+    @staticmethod
+    def _pull(r: RobotState) -> float:
+        away = -r.config.clamp_sign * r.v  # driving away from the goal it holds
+        return r.config.pull_n * max(0.0, away) / r.config.max_linear_mps
 
     def _apply_limits(self, r: RobotState, cmd: DriveCommand, dt: float) -> None:
         rc = r.config
@@ -529,9 +670,10 @@ class World:
         cid = self.client
         for r in self.robots:
             h = math.radians(r.heading)
+            v = r.v * self._tug[r.index] if r.index in self._tug else r.v
             p.resetBaseVelocity(
                 r.body,
-                (r.v * math.sin(h), r.v * math.cos(h), 0.0),
+                (v * math.sin(h), v * math.cos(h), 0.0),
                 (0.0, 0.0, -r.w),
                 physicsClientId=cid,
             )
@@ -607,9 +749,12 @@ class World:
         return r.config.length_m / 2 + g.spec.base_radius + 0.005
 
     def clamp_point(self, r: RobotState, g: GoalState) -> tuple[float, float]:
-        """Where a carried goal's centre sits: just behind the robot's back face."""
+        """Where a carried goal's centre sits: just behind the robot's back face (ahead of its
+        front with RobotConfig.clamp = "front")."""
         back = self.clamp_offset(r, g)
         f = heading_vector(r.heading)
+        if r.config.clamp == "front":
+            return r.x + back * float(f[0]), r.y + back * float(f[1])
         return r.x - back * float(f[0]), r.y - back * float(f[1])
 
     def _clamp(self, r: RobotState, cmd: DriveCommand, events: StepEvents) -> None:
@@ -625,25 +770,42 @@ class World:
         rc = r.config
         h = math.radians(r.heading)
         fs, fc = math.sin(h), math.cos(h)
+        front = rc.clamp == "front"
         best, best_d = None, math.inf
         for g in self.goals:
-            if g.carried_by is not None:
+            if g.carried_by is not None and not self._contestable(r, g):
                 continue
             dx, dy = g.x - r.x, g.y - r.y
             across = dx * fc - dy * fs
-            gap = -(dx * fs + dy * fc) - rc.length_m / 2 - g.spec.base_radius
+            ahead = dx * fs + dy * fc
+            gap = (ahead if front else -ahead) - rc.length_m / 2 - g.spec.base_radius
             if -0.03 <= gap <= rc.clamp_reach_m and abs(across) <= rc.clamp_half_width_m:
                 best, best_d = (g, gap) if gap < best_d else (best, best_d)
         if best is not None:
-            best.carried_by = r.index
+            if best.carried_by is None:
+                best.carried_by = r.index
+            else:  # the whole game: a tug of war with the other alliance's robot
+                best.contested_by = r.index
             r.carried_goal = best.index
             p.setCollisionFilterPair(r.body, best.body, -1, -1, 0, physicsClientId=self.client)
             events.clamped.append((r.index, best.index))
 
+    def _contestable(self, r: RobotState, g: GoalState) -> bool:
+        """The whole game: a goal one robot holds can be clamped by one of the other alliance."""
+        return (
+            self.game
+            and g.contested_by is None
+            and g.carried_by is not None
+            and self.robots[g.carried_by].alliance != r.alliance
+        )
+
     def _release(self, r: RobotState, events: StepEvents) -> None:
         assert r.carried_goal is not None
         g = self.goals[r.carried_goal]
-        g.carried_by = None
+        if g.contested_by == r.index:
+            g.contested_by = None
+        else:
+            g.carried_by, g.contested_by = g.contested_by, None
         r.carried_goal = None
         p.setCollisionFilterPair(r.body, g.body, -1, -1, 1, physicsClientId=self.client)
         events.released.append((r.index, g.index))
@@ -654,6 +816,10 @@ class World:
             if r.carried_goal is None:
                 continue
             g = self.goals[r.carried_goal]
+            if g.contested_by is not None:
+                if g.contested_by == r.index:
+                    continue  # the tug's loser: dragged below, with the goal
+                self._drag(self.robots[g.contested_by], g, self.clamp_point(r, g))
             g.x, g.y = self.clamp_point(r, g)
             pos, _ = p.getBasePositionAndOrientation(g.body, physicsClientId=cid)
             p.resetBasePositionAndOrientation(
@@ -670,6 +836,13 @@ class World:
                 (0.0, 0.0, -r.w),
                 physicsClientId=cid,
             )
+
+    def _drag(self, r: RobotState, g: GoalState, goal_xy: tuple[float, float]) -> None:
+        """Move a robot (heading kept) so its clamp holds a goal that will sit at goal_xy."""
+        gx, gy = self.clamp_point(r, g)
+        r.x += goal_xy[0] - gx
+        r.y += goal_xy[1] - gy
+        self._place(r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading))
 
     # --- rings --------------------------------------------------------------------------------
 
@@ -766,8 +939,24 @@ class World:
                 self.ring_state[i] = RING_SCORED
                 self.ring_owner[i] = r.carried_goal
                 r.held -= 1
-                self.goals[r.carried_goal].rings += 1
+                g = self.goals[r.carried_goal]
+                if self.game:
+                    self._place_ring(r.config, g)
+                g.rings += 1
                 events.scored[r.index] += 1
+
+    @staticmethod
+    def _place_ring(rc: RobotConfig, g: GoalState) -> None:
+        """The whole game: where the robot's mechanism puts a ring on the goal it holds (counted
+        before g.rings grows): the high branch when its lift reaches one with room, else the low
+        branches while they have room, else (or with an intake that only drops rings) the base."""
+        spec = g.spec
+        if rc.loads == "base":
+            g.rings_base += 1
+        elif rc.reaches_high_branch and g.rings_high < spec.high_branch_capacity:
+            g.rings_high += 1
+        elif g.rings_low >= spec.branch_capacity:
+            g.rings_base += 1
 
     # --- rules (sim.world.rules) ----------------------------------------------------------
 
@@ -782,7 +971,14 @@ class World:
 
     def score(self) -> dict[str, AllianceScore]:
         """sim.world.rules.score for the current state, cached until the world changes."""
-        key = (self.steps, self._edits, tuple(g.rings for g in self.goals))
+        key: tuple = (self.steps, self._edits, tuple(g.rings for g in self.goals))
+        if self.game:
+            key += (
+                tuple((g.rings_high, g.rings_base) for g in self.goals),
+                tuple(s.tilt for s in self.platforms.values()),
+                len(self.fouls),
+                tuple(r.on_platform for r in self.robots),
+            )
         if self._score_cache is not None and self._score_cache[0] == key:
             return dict(self._score_cache[1])
         out = rules.score(self)
@@ -806,8 +1002,33 @@ class World:
         p.resetBaseVelocity(r.body, (0, 0, 0), (0, 0, 0), physicsClientId=self.client)
         r.history.clear()
         r.history.append((self.time_s, r.x, r.y, r.heading))
+        if self.game:  # set down by hand: on a board it overlaps (a scene for tests and tools)
+            r.on_platform = None
+            for plat in self.field.platforms:
+                ox, oy = seesaw.overlap(seesaw.robot_box(r), seesaw.board_box(plat))
+                if ox > 0 and oy > 0:
+                    r.on_platform = plat.alliance
         if r.carried_goal is not None:
             self._carry_goals()
+
+    def set_tilt(self, alliance: str, tilt_rad: float) -> None:
+        """The whole game: set a see-saw's tilt (radians, positive: its field-side edge down)."""
+        self._edits += 1
+        self.platforms[alliance].tilt = float(tilt_rad)
+        self._set_board(alliance)
+
+    def settle_platforms(self, seconds: float = 2.0) -> None:
+        """The whole game: let the see-saws swing under their loads for `seconds`, nothing else
+        moving (a scene set up with place_robot/place_goal settles as the match would)."""
+        self._edits += 1
+        for _ in range(max(1, round(seconds / self.dt))):
+            for plat in self.field.platforms:
+                on = seesaw.loads(plat, self.robots, self.goals)
+                seesaw.step_tilt(
+                    plat, self.field.seesaw, self.platforms[plat.alliance], on, self.dt
+                )
+        for alliance in self.platforms:
+            self._set_board(alliance)
 
     def place_goal(self, index: int, x: float, y: float) -> None:
         self._edits += 1

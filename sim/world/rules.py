@@ -1,5 +1,21 @@
 """The game's rules: what scores, which alliance a goal counts for, when a robot is elevated, when
-a pin is called. Tipping Point (VEX 2021-22), as the manual counts it.
+a platform is balanced, when a pin or a foul is called, the autonomous bonus and win point.
+Tipping Point (VEX 2021-22), as the manual counts it (the sources and the choices made where it is
+silent are in sim/field/tipping_point.toml, which holds every number).
+
+Two games (WorldConfig.game):
+
+ring_race
+    The original team's simplification: every ring on a goal counts as on a branch, a robot is
+    elevated while it stands on its platform, no fouls, no autonomous bonus.
+tipping_point
+    The whole game: rings on a neutral goal's high branch 10, on any other branch 3, in a base 1;
+    rings on an alliance goal count for its alliance wherever it is, on a neutral goal only for
+    the alliance whose home zone it is Scored in (or on whose platform it is Elevated); each goal
+    Scored in the alliance's home zone 20 (its base on the zone's tiles: not Elevated, not lifted
+    by a clamp); each robot Elevated 30 and each goal Elevated 40 on the alliance's Balanced
+    platform; the Autonomous Bonus and Win Point; fouls (the isolation period's contact rule,
+    <SG3>'s platform protection) and what they cost.
 
 Functions over the world's state (sim.world.state.WorldState); the physics (sim.world.physics)
 calls them and knows nothing of points. A different game changes this file.
@@ -7,23 +23,53 @@ calls them and knows nothing of points. A different game changes this file.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 from jetson.autonomy.geometry import AllianceName
-from sim.world.state import AllianceScore, GoalState, RobotState, StepEvents, WorldState
+from sim.field import PlatformSpec
+from sim.world.state import (
+    AllianceScore,
+    AutonomousResult,
+    Foul,
+    GoalState,
+    RobotState,
+    StepEvents,
+    WorldState,
+)
+
+ALLIANCES: tuple[AllianceName, AllianceName] = ("red", "blue")
+
+
+def other(alliance: AllianceName) -> AllianceName:
+    return "blue" if alliance == "red" else "red"
+
+
+def whole_game(world: WorldState) -> bool:
+    return world.config.game == "tipping_point"
 
 
 def robot_elevated(world: WorldState, r: RobotState) -> bool:
-    """A robot is elevated while it stands on its alliance's platform."""
+    """Ring race: a robot is elevated while it stands on its alliance's platform. The whole game:
+    it drove onto its alliance's platform, touches nothing else (its whole footprint is on the
+    board) and the platform is Balanced."""
     try:
         plat = world.field.platform(r.alliance)
     except ValueError:
         return False
+    if whole_game(world):
+        return (
+            r.on_platform == r.alliance
+            and footprint_on_board(plat, r, world.field.seesaw.overhang)
+            and platform_balanced(world, r.alliance)
+        )
     return plat.contains_point(r.x, r.y)
 
 
 def goal_owner(world: WorldState, g: GoalState) -> tuple[AllianceName | None, bool]:
     """Which alliance a goal scores for right now, and whether it is elevated."""
+    if whole_game(world):
+        return _goal_owner_game(world, g)
     if g.carried_by is not None:
         carrier = world.robots[g.carried_by]
         if robot_elevated(world, carrier) and g.spec.alliance in (None, carrier.alliance):
@@ -36,11 +82,15 @@ def goal_owner(world: WorldState, g: GoalState) -> tuple[AllianceName | None, bo
 
 
 def score(world: WorldState) -> dict[str, AllianceScore]:
-    """The match score for the current state.
+    """The match score for the current state (as if the match ended now)."""
+    if whole_game(world):
+        return _score_game(world)
+    return _score_ring_race(world)
 
-    Rings on an alliance goal count for its alliance wherever it is; rings on a neutral goal
-    count only while it is in a home zone (or elevated). Every ring counts as on a branch.
-    """
+
+def _score_ring_race(world: WorldState) -> dict[str, AllianceScore]:
+    """Rings on an alliance goal count for its alliance wherever it is; rings on a neutral goal
+    count only while it is in a home zone (or elevated). Every ring counts as on a branch."""
     sc = world.field.scoring
     out = {}
     for alliance in ("red", "blue"):
@@ -95,3 +145,284 @@ def update_pins(
 def pin_timer(world: WorldState, red_index: int, blue_index: int) -> float:
     """How long the two robots have been in contact, s (0 when apart or just pinned)."""
     return world.pin_timers.get((red_index, blue_index), 0.0)
+
+
+# --- the whole game ---------------------------------------------------------------------------
+
+
+def robot_corners(r: RobotState) -> list[tuple[float, float]]:
+    """The four corners of a robot's footprint, field frame."""
+    h = math.radians(r.heading)
+    fx, fy = math.sin(h), math.cos(h)  # forward
+    rx, ry = fy, -fx  # right
+    hw, hl = r.config.width_m / 2, r.config.length_m / 2
+    return [
+        (r.x + a * hl * fx + b * hw * rx, r.y + a * hl * fy + b * hw * ry)
+        for a, b in ((1, 1), (1, -1), (-1, -1), (-1, 1))
+    ]
+
+
+def footprint_on_board(plat: PlatformSpec, r: RobotState, overhang: float = 0.0) -> bool:
+    """The robot touches no tile: its footprint is over the board but for `overhang` (the field
+    file's [seesaw] overhang: a frame hanging over the edge, its wheels on the board)."""
+    hx, hy = plat.size[0] / 2 + overhang, plat.size[1] / 2 + overhang
+    cx, cy = plat.center
+    return all(abs(x - cx) <= hx and abs(y - cy) <= hy for x, y in robot_corners(r))
+
+
+def goal_on_board(plat: PlatformSpec, g: GoalState) -> bool:
+    """A free goal rests on the board: its centre is over it."""
+    return g.carried_by is None and plat.contains_point(g.x, g.y)
+
+
+def goal_fully_on_board(plat: PlatformSpec, g: GoalState) -> bool:
+    rad = g.spec.base_radius
+    return (
+        abs(g.x - plat.center[0]) <= plat.size[0] / 2 - rad
+        and abs(g.y - plat.center[1]) <= plat.size[1] / 2 - rad
+    )
+
+
+def platform_balanced(world: WorldState, alliance: AllianceName) -> bool:
+    """Balanced [D]: the board roughly parallel to the field (|tilt| within the field file's
+    balanced_tilt_deg, the hinge's flats on its base) and nothing on it also touching the tiles
+    (a robot on it with part of its footprint off the board, a goal resting across its edge)."""
+    plat = world.field.platform(alliance)
+    state = world.platforms.get(alliance)
+    if state is None or abs(state.tilt) > math.radians(world.field.seesaw.balanced_tilt_deg):
+        return False
+    overhang = world.field.seesaw.overhang
+    for r in world.robots:
+        if r.on_platform == alliance and not footprint_on_board(plat, r, overhang):
+            return False
+    return all(not goal_on_board(plat, g) or goal_fully_on_board(plat, g) for g in world.goals)
+
+
+def goal_lifted(world: WorldState, g: GoalState) -> bool:
+    """A goal held off the tiles by a clamp that lifts (RobotConfig.clamp_lifts)."""
+    return any(world.robots[i].config.clamp_lifts for i in g.holders)
+
+
+def _goal_owner_game(world: WorldState, g: GoalState) -> tuple[AllianceName | None, bool]:
+    """Elevated on an alliance's Balanced platform (resting on the board, or in Possession of an
+    Elevated robot of it), else Scored in the home zone its base touches; an alliance goal only
+    ever scores for its own alliance."""
+    for i in g.holders:
+        carrier = world.robots[i]
+        if robot_elevated(world, carrier) and g.spec.alliance in (None, carrier.alliance):
+            return carrier.alliance, True
+    if g.carried_by is None:
+        for alliance in ALLIANCES:
+            try:
+                plat = world.field.platform(alliance)
+            except ValueError:
+                continue
+            if (
+                goal_on_board(plat, g)
+                and goal_fully_on_board(plat, g)
+                and g.spec.alliance in (None, alliance)
+                and platform_balanced(world, alliance)
+            ):
+                return alliance, True
+    if goal_lifted(world, g):
+        return None, False
+    for alliance, zone in world.field.home_zones.items():
+        inside = zone.contains_point(g.x, g.y, margin=g.spec.base_radius)
+        if inside and g.spec.alliance in (None, alliance):
+            return alliance, False  # type: ignore[return-value]
+    return None, False
+
+
+def ring_points(world: WorldState, g: GoalState) -> int:
+    """What the rings on a goal are worth to the alliance they count for."""
+    sc = world.field.scoring
+    return (
+        sc.ring_high_branch * g.rings_high
+        + sc.ring_branch * g.rings_low
+        + sc.ring_base * (g.rings_base)
+    )
+
+
+def _score_game(world: WorldState) -> dict[str, AllianceScore]:
+    sc = world.field.scoring
+    rules = world.field.rules
+    elevated_robots = {a: 0 for a in ALLIANCES}
+    for r in world.robots:
+        if robot_elevated(world, r):
+            elevated_robots[r.alliance] += 1
+    fouls = {a: 0 for a in ALLIANCES}
+    platform_fouls = {a: 0 for a in ALLIANCES}
+    for f in world.fouls:
+        fouls[f.alliance] += 1
+        if f.kind == "platform_protection":
+            platform_fouls[f.alliance] += 1
+    out = {}
+    for alliance in ALLIANCES:
+        rings = high = base = points = in_zone = goals_up = 0
+        for g in world.goals:
+            owner, elevated = goal_owner(world, g)
+            if g.spec.alliance == alliance or (g.spec.alliance is None and owner == alliance):
+                rings += g.rings
+                high += g.rings_high
+                base += g.rings_base
+                points += ring_points(world, g)
+            if owner == alliance:
+                if elevated:
+                    goals_up += 1
+                else:
+                    in_zone += 1
+        credit = rules.platform_foul_credit * platform_fouls[other(alliance)]
+        auto = world.autonomous[alliance] if world.autonomous else None
+        bonus = auto.bonus if auto else 0
+        total = (
+            points
+            + in_zone * sc.goal_in_home_zone
+            + goals_up * sc.goal_elevated
+            + (elevated_robots[alliance] + credit) * sc.robot_elevated
+            + bonus
+        )
+        out[alliance] = AllianceScore(
+            rings,
+            in_zone,
+            goals_up,
+            elevated_robots[alliance],
+            total,
+            rings_high=high,
+            rings_base=base,
+            autonomous_bonus=bonus,
+            autonomous_win_point=bool(auto and auto.win_point),
+            fouls=fouls[alliance],
+            foul_credit=credit,
+            balanced=alliance in world.platforms and platform_balanced(world, alliance),
+        )
+    return out
+
+
+def _segment_distance(x: float, y: float, seg: tuple[float, float, float, float]) -> float:
+    x0, y0, x1, y1 = seg
+    dx, dy = x1 - x0, y1 - y0
+    n = dx * dx + dy * dy
+    t = 0.0 if n == 0 else min(1.0, max(0.0, ((x - x0) * dx + (y - y0) * dy) / n))
+    return math.hypot(x - (x0 + t * dx), y - (y0 + t * dy))
+
+
+def awp_line_cleared(world: WorldState, alliance: AllianceName) -> bool:
+    """Cleared [G]: the alliance goal that started on the AWP line touches neither the line nor
+    the Neutral Zone (between the two home zones), lifted or not (the line's projection is
+    infinite upward, as the Q&A rules)."""
+    f = world.field
+    if alliance not in f.awp_lines:
+        return False
+    g = world.goals[f.awp_goals[alliance]]
+    rad = g.spec.base_radius
+    if _segment_distance(g.x, g.y, f.awp_lines[alliance]) <= rad:
+        return False
+    lo, hi = f.home_zones["red"].x1, f.home_zones["blue"].x0
+    return not (g.x + rad > lo and g.x - rad < hi)
+
+
+def autonomous_results(world: WorldState) -> dict[str, AutonomousResult]:
+    """The isolation period's outcome, judged when it ends: the Autonomous Bonus to the alliance
+    with more points (a tie, 0-0 included, splits it), the Win Point to an alliance that Cleared
+    its AWP line with at least one ring on each of its alliance goals. An alliance whose robots
+    committed a forfeiting foul in the period (rules.isolation_foul_forfeits) gives both to the
+    opponent; when both did, neither gets the bonus."""
+    sc = world.field.scoring
+    now = _score_game(world)
+    points = {a: now[a].total for a in ALLIANCES}
+    forfeit = {a: False for a in ALLIANCES}
+    if world.field.rules.isolation_foul_forfeits:
+        for f in world.fouls:
+            if f.kind in ("isolation_contact", "isolation_home_zone"):
+                forfeit[f.alliance] = True
+    out = {}
+    for a in ALLIANCES:
+        b = other(a)
+        if forfeit[a] or forfeit[b]:
+            bonus = sc.autonomous_bonus if forfeit[b] and not forfeit[a] else 0
+        elif points[a] == points[b]:
+            bonus = sc.autonomous_bonus_tie
+        else:
+            bonus = sc.autonomous_bonus if points[a] > points[b] else 0
+        own_goals = [g for g in world.goals if g.spec.alliance == a]
+        earned = (
+            awp_line_cleared(world, a)
+            and bool(own_goals)
+            and all(g.rings > 0 for g in own_goals)
+            and not forfeit[a]
+        )
+        out[a] = AutonomousResult(points[a], bonus, earned or (forfeit[b] and not forfeit[a]))
+    return out
+
+
+def _touches_platform(world: WorldState, r: RobotState, plat: PlatformSpec, margin: float) -> bool:
+    """Whether a robot's footprint (its bounding box, grown by margin) meets a platform's board."""
+    xs = [c[0] for c in robot_corners(r)]
+    ys = [c[1] for c in robot_corners(r)]
+    hx, hy = plat.size[0] / 2 + margin, plat.size[1] / 2 + margin
+    return (
+        max(xs) >= plat.center[0] - hx
+        and min(xs) <= plat.center[0] + hx
+        and max(ys) >= plat.center[1] - hy
+        and min(ys) <= plat.center[1] + hy
+    )
+
+
+def update_fouls(
+    world: WorldState,
+    touching: Callable[[RobotState, RobotState], bool],
+    events: StepEvents,
+) -> None:
+    """One step of the fouls the twin can see (the whole game). Each is called once when it
+    starts (a contact that goes on is one foul), charged to the robot that broke the rule:
+
+    isolation_contact: in the isolation period, a robot touching one of the other alliance's,
+        charged to each robot that was driving toward the other (VEX AI: no contact);
+    isolation_home_zone: in the isolation period, a robot's centre in the opponent's home zone
+        (<SG4>; off by default for VEX AI);
+    platform_protection: in the last endgame_s seconds, a robot touching the opposing alliance's
+        platform, or touching an opposing robot that stands on its own platform (contact is
+        transitive, <SG3>)."""
+    rules = world.field.rules
+    isolation = world.time_s <= world.isolation_s + 1e-9 and world.isolation_s > 0
+    endgame = world.time_s >= world.match_length_s - rules.endgame_s - 1e-9
+    now: set[tuple[int, int, str]] = set()
+    margin = world.config.pin_contact_m
+    for a in world.robots:
+        for b in world.robots:
+            if a.alliance == b.alliance or a.index == b.index:
+                continue
+            if isolation and rules.isolation_contact_foul and touching(a, b):
+                dx, dy = b.x - a.x, b.y - a.y
+                h = math.radians(a.heading)
+                toward = a.v * (math.sin(h) * dx + math.cos(h) * dy)
+                if toward > 1e-3:
+                    now.add((a.index, b.index, "isolation_contact"))
+            if endgame and b.on_platform == b.alliance and touching(a, b):
+                now.add((a.index, b.index, "platform_protection"))
+        if isolation and rules.isolation_home_zone_foul:
+            zone = world.field.home_zones[other(a.alliance)]
+            if zone.contains_point(a.x, a.y):
+                now.add((a.index, -1, "isolation_home_zone"))
+        if endgame:
+            try:
+                plat = world.field.platform(other(a.alliance))
+            except ValueError:
+                continue
+            if _touches_platform(world, a, plat, margin):
+                now.add((a.index, -1, "platform_protection"))
+    started = sorted(now - world.foul_contacts)
+    world.foul_contacts.clear()
+    world.foul_contacts.update(now)
+    called: set[tuple[int, str]] = set()
+    for robot, _, kind in started:
+        if (robot, kind) in called:
+            continue
+        if kind == "platform_protection" and any(
+            c[0] == robot and c[2] == kind and c not in started for c in now
+        ):
+            continue  # already fouling that platform through another contact
+        called.add((robot, kind))
+        foul = Foul(world.time_s, robot, world.robots[robot].alliance, kind)  # type: ignore[arg-type]
+        world.fouls.append(foul)
+        events.fouls.append(foul)

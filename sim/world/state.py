@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Literal, Protocol
 
 import numpy as np
 
@@ -72,6 +72,7 @@ class RobotState:
     held: int = 0
     collected: int = 0  # rings taken in through the intake this match
     carried_goal: int | None = None
+    on_platform: AllianceName | None = None  # the whole game: the platform it drove onto
     transfer_timer: float = 0.0
     intake_on: bool = True
     history: deque[tuple[float, float, float, float]] = field(default_factory=deque)
@@ -96,6 +97,11 @@ class RobotState:
 
 @dataclass
 class GoalState:
+    """A mobile goal. `rings` counts every ring on it; in the whole game `rings_high` of them are
+    on the high branch and `rings_base` in the base, the rest on the low branches (the ring race
+    counts them all as on a branch). `contested_by`: a robot of the other alliance that clamped it
+    too (a tug of war with `carried_by`)."""
+
     index: int
     spec: GoalSpec
     body: int
@@ -103,6 +109,17 @@ class GoalState:
     y: float
     carried_by: int | None = None
     rings: int = 0
+    rings_high: int = 0
+    rings_base: int = 0
+    contested_by: int | None = None
+
+    @property
+    def rings_low(self) -> int:
+        return self.rings - self.rings_high - self.rings_base
+
+    @property
+    def holders(self) -> tuple[int, ...]:
+        return tuple(i for i in (self.carried_by, self.contested_by) if i is not None)
 
 
 @dataclass
@@ -114,17 +131,63 @@ class StepEvents:
     clamped: list[tuple[int, int]] = field(default_factory=list)  # (robot, goal)
     released: list[tuple[int, int]] = field(default_factory=list)
     pins: list[tuple[int, int]] = field(default_factory=list)  # (red robot, blue robot)
+    fouls: list[Foul] = field(default_factory=list)  # the whole game: fouls called this step
     phase_changed: bool = False
     match_over: bool = False
 
 
+FoulKind = Literal["isolation_contact", "isolation_home_zone", "platform_protection"]
+
+
+@dataclass(frozen=True)
+class Foul:
+    """A rule broken (sim.world.rules.update_fouls): by robot `robot` of `alliance`."""
+
+    time_s: float
+    robot: int
+    alliance: AllianceName
+    kind: FoulKind
+
+
+@dataclass(frozen=True)
+class AutonomousResult:
+    """An alliance's result of the isolation (autonomous) period, fixed when it ends."""
+
+    score: int  # its points at the end of the period
+    bonus: int  # the Autonomous Bonus it gets (all, a tie's share, or 0)
+    win_point: bool  # the Autonomous Win Point
+
+
 @dataclass(frozen=True)
 class AllianceScore:
+    """An alliance's match score. The first five fields are the ring race's; the whole game fills
+    the rest (rings counts the rings that score for it, wherever they sit)."""
+
     rings: int
     goals_in_zone: int
     goals_elevated: int
     robots_elevated: int
     total: int
+    rings_high: int = 0  # of `rings`, on a high branch
+    rings_base: int = 0  # of `rings`, in a base
+    autonomous_bonus: int = 0
+    autonomous_win_point: bool = False
+    fouls: int = 0  # fouls its robots committed
+    foul_credit: int = 0  # Elevated robots credited to it for the opponent's <SG3> fouls
+    balanced: bool = False  # its platform is Balanced now
+
+    @property
+    def rings_low(self) -> int:
+        return self.rings - self.rings_high - self.rings_base
+
+
+@dataclass
+class PlatformState:
+    """The whole game: one alliance's see-saw. tilt: radians, positive with its field-side edge
+    down (sim.world.seesaw moves it)."""
+
+    alliance: AllianceName
+    tilt: float = 0.0
 
 
 class WorldState(Protocol):
@@ -140,6 +203,14 @@ class WorldState(Protocol):
     pin_timers: dict[tuple[int, int], float]  # (red robot, blue robot) -> s in contact
     robots: list[RobotState]
     goals: list[GoalState]
+    isolation_s: float
+    match_length_s: float
+    # The whole game: the see-saws, the fouls so far, the isolation period's result once it ended
+    # (None before, and always in the ring race), and which contacts were going on last step.
+    platforms: dict[str, PlatformState]
+    fouls: list[Foul]
+    autonomous: dict[str, AutonomousResult] | None
+    foul_contacts: set[tuple[int, int, str]]
     ring_xy: np.ndarray
     ring_z: np.ndarray
     ring_state: np.ndarray
