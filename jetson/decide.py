@@ -21,7 +21,9 @@ Pure and deterministic (no I/O, no clock: the caller passes the perception's age
   holds the current frame, so each State is answered from fresh data while the history keeps the
   spacing the policy learned.
 - A new drive phase after a stop (enable, or a re-enable restarting the phase clock) starts a new
-  stack, like a training episode's reset.
+  stack, like a training episode's reset, and forgets the memories, except driver control after
+  autonomous (VEX AI's interaction period after its isolation period), with or without the
+  field's disable between them: the same match goes on, with its stack and memories.
 - Anything that goes wrong (perception that raised on the newest frame, an observation that
   cannot be built, a policy that raises or returns NaN, a GPS without a fix, an unknown alliance)
   gives a stop with the reason named. A camera that stops delivering is not an error: its last
@@ -167,20 +169,25 @@ class Decider:
         self._next_push_ms = 0.0
         self._phase: MatchPhase | None = None
         self._phase_ms = 0
+        self._enabled_phase: MatchPhase | None = None  # the last drive phase decided in
 
     def decide(self, state: State, perception: PerceptionInput | None) -> Decision:
         self.last_obs = self.last_action = None
         phase = state.phase
         restarted = phase != self._phase or state.phase_ms < self._phase_ms
+        # Autonomous -> driver is the same match going on (VEX AI's isolation -> interaction),
+        # with or without the field's disable between them: keep the history.
         entering = restarted and not (
-            # Autonomous -> driver is the same match going on (VEX AI's isolation ->
-            # interaction): keep the history.
-            self._phase == MatchPhase.AUTONOMOUS and phase == MatchPhase.DRIVER
+            self._enabled_phase == MatchPhase.AUTONOMOUS and phase == MatchPhase.DRIVER
         )
         self._phase, self._phase_ms = phase, state.phase_ms
         if phase not in self._drive_phases:
-            self._stack = None
+            # The disable between isolation and interaction keeps the frame stack as well.
+            pause = phase == MatchPhase.DISABLED and self._enabled_phase == MatchPhase.AUTONOMOUS
+            if not pause:
+                self._stack = None
             return stop(f"phase {phase.name.lower()}")
+        self._enabled_phase = phase
         if entering:
             self._stack = None
             self._poses.clear()

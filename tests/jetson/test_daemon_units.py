@@ -28,6 +28,7 @@ from protocol.messages import (
     Alliance,
     GpsStatus,
     Hello,
+    MatchPeriod,
     MatchPhase,
     Role,
     State,
@@ -210,6 +211,35 @@ def test_autonomous_into_driver_keeps_the_match_history() -> None:
     obs = policy.observations[-1]
     assert obs[fs + 1] != obs[1]  # history kept
     assert obs[0] == pytest.approx(15.0 / 105.0)  # the match clock continues
+
+
+def test_the_disable_between_isolation_and_interaction_keeps_the_match_history() -> None:
+    policy = ProbePolicy()
+    policy.keep_observations = True
+    d = Decider(policy, DecisionConfig(driver_time_offset_s=15.0))
+    fs = SPEC.frame_size
+    for t in range(0, 200, 20):
+        d.decide(state(t, x=t / 1000.0, period=MatchPeriod.ISOLATION), None)
+    resets: list[str] = []
+    d.ring_memory.reset = lambda: resets.append("rings")  # type: ignore[method-assign]
+    d.goal_memory.reset = lambda: resets.append("goals")  # type: ignore[method-assign]
+    for t in range(200, 3200, 20):  # the field disables the robots between the periods
+        pause = state(t, phase=MatchPhase.DISABLED, phase_ms=t - 200, period=MatchPeriod.PAUSE)
+        assert d.decide(pause, None).reason == "phase disabled"
+    interaction = state(
+        3200, x=0.2, phase=MatchPhase.DRIVER, phase_ms=0, period=MatchPeriod.INTERACTION
+    )
+    assert d.decide(interaction, None).drove
+    obs = policy.observations[-1]
+    assert obs[fs + 1] != obs[1]  # the frame history kept
+    assert resets == []  # the ring and goal memories kept
+    assert obs[0] == pytest.approx(15.0 / 105.0)
+    # A new match (autonomous again after the interaction) starts afresh.
+    d.decide(state(9000, phase=MatchPhase.DISABLED, phase_ms=0), None)
+    d.decide(state(9020, x=0.9, phase_ms=0, period=MatchPeriod.ISOLATION), None)
+    obs = policy.observations[-1]
+    assert np.all(obs.reshape(11, fs) == obs[:fs])
+    assert resets == ["rings", "goals"]
 
 
 def test_any_exception_or_bad_output_is_a_stop_and_the_next_state_drives_again() -> None:

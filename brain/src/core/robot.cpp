@@ -43,6 +43,7 @@ Robot::Robot(const Config& config, const Hardware& hw, uint32_t boot_id)
     : config_(config),
       hw_(hw),
       boot_id_(boot_id),
+      match_(config.match),
       link_(config.link, boot_id, kSoftwareVersion),
       watchdog_(config.link),
       arbiter_(config),
@@ -88,6 +89,13 @@ void Robot::step() {
     LogText t;
     t.add("phase ").add(msg::to_string(match_.phase()));
     link_.log(msg::LogLevel::info, now, t.c_str());
+    if (match_.period() != period_logged_ || match_.match_began()) {
+      period_logged_ = match_.period();
+      LogText m;
+      m.add("period ").add(msg::to_string(match_.period()));
+      if (match_.match_began()) m.add(", a new match");
+      link_.log(msg::LogLevel::info, now, m.c_str());
+    }
   }
   const msg::MatchPhase phase = match_.phase();
 
@@ -166,6 +174,8 @@ void Robot::step() {
   s.rings_held = hw_.intake.rings_held();
   s.goal_clamped = clamp_.goal_clamped();
   s.faults = faults(now, gps, fb);
+  s.period = match_.period();
+  s.match_ms = match_.match_ms(now);
   s.clamp = !hw_.clamp.fitted() ? msg::ClampState::absent
             : clamp_.closed()   ? msg::ClampState::closed
                                 : msg::ClampState::open;

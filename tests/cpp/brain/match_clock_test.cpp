@@ -53,6 +53,71 @@ TEST(MatchClock, AReEnableRestartsAutonomousFromZero) {
   EXPECT_EQ(c.phases_begun(), 3u);
 }
 
+TEST(MatchClock, AVexAiMatchIsIsolationPauseInteraction) {
+  MatchClock c;  // 15 s + 105 s
+  c.update(status(false, false), 0);
+  EXPECT_EQ(c.period(), msg::MatchPeriod::before);
+  EXPECT_EQ(c.match_ms(5000), 0u);
+  c.update(status(true, true), 10000);  // isolation
+  EXPECT_EQ(c.period(), msg::MatchPeriod::isolation);
+  EXPECT_TRUE(c.match_began());
+  EXPECT_EQ(c.matches_begun(), 1u);
+  EXPECT_EQ(c.match_ms(14000), 4000u);
+  EXPECT_EQ(c.match_ms(26000), 15000u) << "isolation's clock stops at 15 s";
+  c.update(status(false, true), 25000);  // the disable between the periods
+  EXPECT_EQ(c.period(), msg::MatchPeriod::pause);
+  EXPECT_FALSE(c.match_began());
+  EXPECT_EQ(c.match_ms(30000), 15000u);
+  c.update(status(true, false), 32000);  // interaction
+  EXPECT_EQ(c.period(), msg::MatchPeriod::interaction);
+  EXPECT_FALSE(c.match_began()) << "the same match goes on";
+  EXPECT_EQ(c.matches_begun(), 1u);
+  EXPECT_EQ(c.match_ms(32000), 15000u);
+  EXPECT_EQ(c.match_ms(92000), 75000u);
+  EXPECT_EQ(c.match_ms(200000), 120000u) << "capped at the match's end";
+  c.update(status(false, false), 137000);  // 105 s later: the end
+  EXPECT_EQ(c.period(), msg::MatchPeriod::after);
+  EXPECT_EQ(c.match_ms(150000), 120000u);
+  c.update(status(true, true), 300000);  // the next match
+  EXPECT_EQ(c.period(), msg::MatchPeriod::isolation);
+  EXPECT_TRUE(c.match_began());
+  EXPECT_EQ(c.matches_begun(), 2u);
+  EXPECT_EQ(c.match_ms(301000), 1000u);
+}
+
+TEST(MatchClock, AnEarlyDisableInInteractionIsAPauseOfTheSameMatch) {
+  MatchClock c;
+  c.update(status(true, true), 0);
+  c.update(status(true, false), 15000);  // straight into interaction, no disable between
+  EXPECT_EQ(c.period(), msg::MatchPeriod::interaction);
+  EXPECT_EQ(c.matches_begun(), 1u);
+  c.update(status(false, false), 45000);  // a field fault 30 s in
+  EXPECT_EQ(c.period(), msg::MatchPeriod::pause);
+  EXPECT_EQ(c.match_ms(50000), 45000u);
+  c.update(status(true, false), 60000);
+  EXPECT_EQ(c.period(), msg::MatchPeriod::interaction);
+  EXPECT_FALSE(c.match_began());
+  EXPECT_EQ(c.match_ms(61000), 46000u) << "the interaction clock goes on from 30 s";
+  c.update(status(false, false), 60000 + 74000);  // 104 s of interaction in all: within the slack
+  EXPECT_EQ(c.period(), msg::MatchPeriod::after);
+}
+
+TEST(MatchClock, DriverControlWithoutIsolationIsAMatchOfItsOwn) {
+  MatchClock c;
+  c.update(status(true, false), 0);  // no competition switch: PROS says enabled driver control
+  EXPECT_EQ(c.period(), msg::MatchPeriod::interaction);
+  EXPECT_TRUE(c.match_began());
+  EXPECT_EQ(c.match_ms(1000), 16000u);
+  c.update(status(true, true), 5000);  // autonomous from interaction: a new match
+  EXPECT_TRUE(c.match_began());
+  EXPECT_EQ(c.matches_begun(), 2u);
+  c.update(status(false, true), 6000);
+  c.update(status(true, true), 7000);  // re-enabled in isolation: the same match
+  EXPECT_FALSE(c.match_began());
+  EXPECT_EQ(c.period(), msg::MatchPeriod::isolation);
+  EXPECT_EQ(c.matches_begun(), 2u);
+}
+
 TEST(MatchClock, SurvivesMillisWrapAround) {
   MatchClock c;
   c.update(status(true, true), 0xFFFFFF00u);

@@ -395,6 +395,46 @@ TEST(Robot, StateCarriesTimePhaseAndAlliance) {
   EXPECT_EQ(s.seq, 1u);
 }
 
+TEST(Robot, StateCarriesTheMatchPeriodAndItsClock) {
+  Rig r;
+  r.sim.competition.set_phase(msg::MatchPhase::disabled);
+  r.handshake();
+  r.run(100);
+  msg::State s = last_state(r);
+  EXPECT_EQ(s.period, msg::MatchPeriod::before);
+  EXPECT_EQ(s.match_ms, 0u);
+  r.sim.competition.set_phase(msg::MatchPhase::autonomous);
+  r.run(10000);
+  s = last_state(r);
+  EXPECT_EQ(s.period, msg::MatchPeriod::isolation);
+  EXPECT_NEAR(static_cast<double>(s.match_ms), static_cast<double>(s.phase_ms), 0.5);
+  r.run(6000);
+  r.sim.competition.set_phase(msg::MatchPhase::disabled);
+  r.run(3000);
+  s = last_state(r);
+  EXPECT_EQ(s.period, msg::MatchPeriod::pause);
+  EXPECT_EQ(s.match_ms, 15000u);
+  r.sim.competition.set_phase(msg::MatchPhase::driver);
+  r.run(2000);
+  s = last_state(r);
+  EXPECT_EQ(s.period, msg::MatchPeriod::interaction);
+  EXPECT_EQ(s.match_ms, 15000u + s.phase_ms);
+  bool logged_period = false;
+  r.serial.take_messages();
+  r.sim.competition.set_phase(msg::MatchPhase::disabled);
+  r.run(103000);
+  r.run(50);
+  const auto messages = r.serial.take_messages();
+  for (const auto& log : only<msg::Log>(messages)) {
+    logged_period |= std::string(log.text) == "period after";
+  }
+  EXPECT_FALSE(logged_period) << "a disable 2 s into interaction is a pause, not the end";
+  const auto states = only<msg::State>(messages);
+  ASSERT_FALSE(states.empty());
+  EXPECT_EQ(states.back().period, msg::MatchPeriod::pause);
+  EXPECT_EQ(states.back().match_ms, 17000u);
+}
+
 TEST(Robot, PrintsABannerOnStdout) {
   Rig r(kRobotConfig, 0xCAFEF00D);
   r.run(3 * kPeriod);

@@ -119,10 +119,14 @@ def test_corruption_is_counted_and_never_delivered(rig: tuple[FakeBrainPort, Cab
     cable.set_corruption(up=0.05, down=0.05)
     link = SerialLink.open(str(cable.port_path))
     try:
-        up = b"".join(framing.encode_uplink(state(k), k & 0xFF) for k in range(1, 201))
-        brain.write(up)
-        cable.pump_up(brain.written)
-        daemon_read(link, len(up))
+        # In batches of 50 States (3.7 kB), so the daemon's pty never holds more than it buffers.
+        for first in range(1, 201, 50):
+            up = b"".join(
+                framing.encode_uplink(state(k), k & 0xFF) for k in range(first, first + 50)
+            )
+            brain.write(up)
+            cable.pump_up(brain.written)
+            daemon_read(link, len(up))
         down = b"".join(framing.encode_downlink(command(k), k & 0xFF) for k in range(1, 201))
         link.write(down)
         cable.pump_down(link.tx_bytes)

@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "pete/core/match_clock.hpp"
 #include "pete/messages.hpp"
 
 namespace pete::core {
@@ -59,6 +60,7 @@ struct Config {
   msg::Alliance alliance;            // reported in every State (PROS cannot read it from the field)
   bool jetson_drives_in_autonomous;  // VEX AI: both periods are autonomous, so both default to true
   bool jetson_drives_in_driver;
+  MatchTiming match;                 // VEX AI: isolation 15 s, interaction 105 s
 };
 
 /// Motor and sensor ports: used only by src/pros_adapter.cpp. 0 = unused slot; a negative port
@@ -121,6 +123,7 @@ inline constexpr Config kRobotConfig{
     /*alliance=*/msg::Alliance::red,
     /*jetson_drives_in_autonomous=*/true,
     /*jetson_drives_in_driver=*/true,
+    /*match=*/{/*isolation_ms=*/15000, /*interaction_ms=*/105000},
 };
 
 inline constexpr Ports kRobotPorts{
@@ -181,6 +184,10 @@ constexpr const char* config_error(const Config& c) {
   if (!(dr.deadband >= 0.0f && dr.deadband < 0.5f)) return "driver deadband must be in [0, 0.5)";
   if (!msg::is_valid(c.alliance)) return "alliance is not a valid Alliance";
   if (c.clamp.confirm_ms > 1000) return "clamp confirm_ms must be at most 1000";
+  if (c.match.isolation_ms == 0 || c.match.interaction_ms <= MatchClock::kEndSlackMs ||
+      c.match.isolation_ms > 600000 || c.match.interaction_ms > 600000) {
+    return "match periods must be 1..600000 ms (interaction longer than 5 s)";
+  }
   return nullptr;
 }
 

@@ -81,6 +81,7 @@ class Robot {
   uint32_t overrun_ms_ = 0;
   uint32_t overrun_log_ms_ = 0;
   uint32_t last_command_seq_ = 0;
+  msg::MatchPeriod period_logged_ = msg::MatchPeriod::before;
 };
 
 }  // namespace pete::core
