@@ -317,3 +317,42 @@ def test_ring_race_is_unchanged_by_the_whole_game_fields() -> None:
         s = w.score()["red"]
         assert s.rings == 4 and s.total == 4 * 3 + s.goals_in_zone * 20
         assert w.platforms == {} and w.autonomous is None
+
+
+def test_platform_protection_is_transitive_through_a_robot_on_its_platform() -> None:
+    """<SG3>: touching an opposing robot that stands on its own platform in the endgame is
+    touching that platform."""
+    with World(world_preset("tipping_point_2v2", preloads=False, interaction_s=31.0)) as w:
+        w.reset()
+        w.set_floor_rings(np.zeros((0, 2)))
+        blue = w.field.platform("blue")
+        w.place_robot(3, blue.center[0], 0.3, 0.0)  # blue's 15" on its platform
+        w.settle_platforms()
+        w.place_robot(1, blue.center[0], 0.3 + 0.381 + 0.6, 180.0)  # red's 15", north, off it
+        commands = [DriveCommand(intake=False)] * 4
+        fouls: list[Foul] = []
+        while w.time_s < 15.9:
+            fouls += w.step(commands).fouls
+        assert fouls == []
+        commands[1] = DriveCommand(0.3, intake=False)  # red drives south into blue's robot
+        for _ in range(36):
+            fouls += w.step(commands).fouls
+        assert [(f.robot, f.kind) for f in fouls] == [(1, "platform_protection")]
+
+
+def test_isolation_home_zone_foul_is_an_option() -> None:
+    """<SG4>'s VRC rule (off for VEX AI by default): a robot in the opponent's home zone during
+    the isolation period."""
+    from dataclasses import replace
+
+    from sim.field import load_field
+
+    field = load_field()
+    field = replace(field, rules=replace(field.rules, isolation_home_zone_foul=True))
+    with World(world_preset("tipping_point_2v2", preloads=False), field_spec=field) as w:
+        w.reset()
+        w.set_floor_rings(np.zeros((0, 2)))
+        w.place_robot(1, w.field.home_zones["blue"].x0 + 0.3, -0.9, 90.0)
+        fouls = w.step([DriveCommand(intake=False)] * 4).fouls
+        assert [(f.robot, f.kind) for f in fouls] == [(1, "isolation_home_zone")]
+        assert not w.step([DriveCommand(intake=False)] * 4).fouls  # once, as it starts
