@@ -24,10 +24,14 @@ Pure and deterministic (no I/O, no clock: the caller passes the perception's age
   stack, like a training episode's reset, and forgets the memories, except driver control after
   autonomous (VEX AI's interaction period after its isolation period), with or without the
   field's disable between them: the same match goes on, with its stack and memories.
+- The pose is the Brain's (the GPS fused with wheel odometry and the IMU): the policy drives
+  while the State has one (pose_fix gps or odometry) and its pose_std is at most
+  `pose_max_std_m`, so a GPS dropout (the strip hidden by robots, goals or the platform) is
+  driven through on odometry until the Brain's trust runs out.
 - Anything that goes wrong (perception that raised on the newest frame, an observation that
-  cannot be built, a policy that raises or returns NaN, a GPS without a fix, an unknown alliance)
-  gives a stop with the reason named. A camera that stops delivering is not an error: its last
-  result ages into "no rings".
+  cannot be built, a policy that raises or returns NaN, no pose or a pose not trusted enough,
+  an unknown alliance) gives a stop with the reason named. A camera that stops delivering is
+  not an error: its last result ages into "no rings".
 """
 
 from __future__ import annotations
@@ -48,7 +52,15 @@ from jetson.autonomy.ring_memory import RingMemory
 from jetson.autonomy.skills import SkillDriver
 from jetson.errors import SettingsError
 from jetson.settings import DecisionConfig
-from protocol.messages import Alliance, ClampAction, GpsStatus, LiftAction, MatchPhase, State
+from protocol.messages import (
+    Alliance,
+    ClampAction,
+    GpsStatus,
+    LiftAction,
+    MatchPhase,
+    PoseFix,
+    State,
+)
 
 DEFAULT_DECISION_HZ = 12.0  # sim.config.WorldConfig.control_hz: what policies are trained at
 RINGS_UNKNOWN = 255  # State.rings_held when the Brain has no ring counter
@@ -197,8 +209,9 @@ class Decider:
                 self._driver.reset()
         if state.alliance == Alliance.UNKNOWN:
             return stop("alliance unknown: set it in the Brain's config")
-        if state.gps_status != GpsStatus.OK:
-            return stop(f"gps {state.gps_status.name.lower()}")
+        untrusted = self._pose_untrusted(state)
+        if untrusted is not None:
+            return stop(untrusted)
         self._poses.push(float(state.time_ms), state.x, state.y, state.heading)
         rings, seen = self._rings(perception)
         if seen == "fresh" and perception is not None and perception.error is not None:
@@ -231,6 +244,18 @@ class Decider:
         # Policies trained without an intake action had the intake always on.
         intake = True if i is None else bool(action[i] > 0)
         return Decision(linear, angular, intake, "policy", seen, len(rings))
+
+    def _pose_untrusted(self, state: State) -> str | None:
+        """Why the Brain's pose cannot be driven on, or None when it can: it rests on the GPS or,
+        through a dropout, on odometry and the IMU, while its standard deviation is within
+        pose_max_std_m."""
+        gps = state.gps_status.name.lower()
+        if state.pose_fix == PoseFix.LOST:
+            return "pose lost" if state.gps_status == GpsStatus.OK else f"gps {gps}"
+        limit = self.config.pose_max_std_m
+        if not state.pose_std <= limit:  # NaN never reaches here (the codec refuses it)
+            return f"pose uncertain: {state.pose_std:.2f} m > {limit:.2f} m (gps {gps})"
+        return None
 
     def _rings(self, perception: PerceptionInput | None) -> tuple[NDArray[np.float64], str]:
         if perception is None:

@@ -642,5 +642,6 @@ class Daemon:
             stop_reason=None if d is None or d.drove else d.reason,
             window={"states": w.states, "commands": w.commands, "stops": w.stops},
             counters=self.counters.as_dict(),
+            role=self.decider.config.role,
         )
         self.log.summary(summary_line(snap), **summary_fields(snap))

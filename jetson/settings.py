@@ -64,6 +64,9 @@ class LinkConfig:
             )
 
 
+ROLES = ("24in", "15in")  # a VEX AI alliance is one team's 24-inch and 15-inch robot
+
+
 @dataclass(frozen=True)
 class DecisionConfig:
     drive_phases: tuple[str, ...] = ("autonomous", "driver")
@@ -76,6 +79,12 @@ class DecisionConfig:
     # Place a camera result's rings from the pose the robot had when the frame was taken (the
     # States' poses over the last second), not from the newest one.
     frame_pose: bool = True
+    # Drive while the Brain's pose (the GPS fused with odometry and the IMU) is trusted this well:
+    # its State.pose_std at most this many metres; beyond it, or with no pose, a stop.
+    pose_max_std_m: float = 0.15
+    # The robot's role in its VEX AI alliance: the 24-inch or the 15-inch robot (a strategy that
+    # shares the work reads it; the summary reports it).
+    role: str = "24in"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "drive_phases", tuple(self.drive_phases))
@@ -102,6 +111,16 @@ class DecisionConfig:
             raise SettingsError("decision intake_fills must be true or false")
         if not isinstance(self.frame_pose, bool):
             raise SettingsError("decision frame_pose must be true or false")
+        std = self.pose_max_std_m
+        if not (isinstance(std, int | float) and not isinstance(std, bool) and 0 < std <= 2.0):
+            raise SettingsError(
+                f"decision pose_max_std_m must be a number of metres in (0, 2], got {std!r}"
+            )
+        if self.role not in ROLES:
+            raise SettingsError(
+                f"decision role must be one of {', '.join(ROLES)} (the robot's size), "
+                f"got {self.role!r}"
+            )
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)

@@ -7,7 +7,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
-from protocol.messages import Command, State
+from protocol.messages import Command, MatchPeriod, State
 
 
 @dataclass
@@ -54,6 +54,7 @@ class Snapshot:
     stop_reason: str | None  # why the last Command was a stop
     window: dict[str, int]
     counters: dict[str, int]
+    role: str = ""  # the robot's role in its alliance (decision.role: 24in or 15in)
 
 
 def summary_line(s: Snapshot) -> str:
@@ -67,7 +68,17 @@ def summary_line(s: Snapshot) -> str:
     else:
         st = s.state
         phase = f"{st.phase.name.lower()} {st.phase_ms / 1000:.1f} s" if st else "no State yet"
-        parts.append(f"up brain {s.brain_boot_id or 0:08X} | {phase}")
+        if st is not None and st.period != MatchPeriod.BEFORE:
+            phase += f" ({st.period.name.lower()})"
+        who = " ".join(w for w in (st.alliance.name.lower() if st else "", s.role) if w)
+        parts.append(
+            f"up brain {s.brain_boot_id or 0:08X} | {who} | {phase}"
+            if who
+            else f"up brain {s.brain_boot_id or 0:08X} | {phase}"
+        )
+        if st is not None:
+            fix = st.pose_fix.name.lower()
+            parts.append(f"pose {fix} {st.pose_std:.2f} m" if st.pose_fix else "pose lost")
     parts.append(f"{s.rate_hz:.0f} Hz")
     if s.latency["n"]:
         lat = s.latency
@@ -104,4 +115,10 @@ def summary_fields(s: Snapshot) -> dict[str, Any]:
         "window": s.window,
         "perception": perception,
         "counters": s.counters,
+        "role": s.role or None,
+        "alliance": s.state.alliance.name.lower() if s.state is not None else None,
+        "period": s.state.period.name.lower() if s.state is not None else None,
+        "pose": None
+        if s.state is None
+        else {"fix": s.state.pose_fix.name.lower(), "std_m": round(s.state.pose_std, 4)},
     }

@@ -39,7 +39,9 @@ from protocol.messages import (
     Hello,
     Log,
     LogLevel,
+    MatchPeriod,
     MatchPhase,
+    PoseFix,
     Role,
     State,
 )
@@ -87,6 +89,11 @@ def default_state(seq: int, t: float) -> dict[str, Any]:
         "heading": 90.0,
         "gps_error": 0.01,
         "gps_status": GpsStatus.OK,
+        "pose_fix": PoseFix.GPS,
+        "pose_std": 0.01,
+        "heading_std": 0.5,
+        "period": MatchPeriod.ISOLATION if t < 15.0 else MatchPeriod.INTERACTION,
+        "match_ms": int(t * 1000),
     }
 
 

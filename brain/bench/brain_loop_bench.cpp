@@ -91,19 +91,21 @@ std::size_t command_line(uint32_t seq, char* out, std::size_t cap) {
 struct Rig {
   host::FakeClock clock;
   host::FakeGps gps;
+  host::FakeImu imu;
   host::FakeDrivetrain drive;
   host::FakeIntake intake;
   host::FakeGoalClamp clamp;
   host::FakeLift lift;
   host::FakeCompetition competition;
   host::FakeDriverInput driver;
+  host::FakeScreen screen;
   BenchSerial serial;
   core::Robot robot;
   uint64_t t_ms = 0;
 
   Rig()
       : robot(core::kRobotConfig,
-              core::Hardware{clock, gps, drive, intake, clamp, lift, serial, competition, driver},
+              core::Hardware{clock, gps, imu, drive, intake, clamp, lift, serial, competition, driver, screen},
               0xB0B0CAFE) {
     drive.calls.reserve(host::FakeDrivetrain::kKeep);
     competition.set_phase(msg::MatchPhase::autonomous);

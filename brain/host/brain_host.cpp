@@ -46,7 +46,8 @@ struct Options {
   int side_in = 0;
   int side_out = 1;
   std::optional<pete::msg::MatchPhase> phase;
-  pete::msg::Alliance alliance = pete::core::kRobotConfig.alliance;
+  // The V5 screen pick brain_host starts with (red, as the simulator's robot 0 plays).
+  pete::msg::Alliance alliance = pete::msg::Alliance::red;
   std::optional<uint32_t> boot_id;
   bool jetson_in_auto = pete::core::kRobotConfig.jetson_drives_in_autonomous;
   bool jetson_in_driver = pete::core::kRobotConfig.jetson_drives_in_driver;
@@ -241,7 +242,6 @@ int main(int argc, char** argv) {
   ::signal(SIGPIPE, SIG_IGN);
 
   pete::core::Config config = pete::core::kRobotConfig;
-  config.alliance = opt.alliance;
   config.jetson_drives_in_autonomous = opt.jetson_in_auto;
   config.jetson_drives_in_driver = opt.jetson_in_driver;
   const uint32_t boot_id = opt.boot_id ? *opt.boot_id : random_boot_id();
@@ -254,6 +254,8 @@ int main(int argc, char** argv) {
   }
   FdSerial serial(link_rx, link_tx);
   pete::host::SimRig rig(config, serial, boot_id);
+  // --alliance is the driver's pick on the V5 screen (unknown: none, found from the GPS).
+  rig.screen.pick = opt.alliance;
   if (opt.phase) rig.competition.set_phase(*opt.phase);
   FdLinkIo io(serial);
   pete::host::SideChannel side(rig, opt.mode, io);

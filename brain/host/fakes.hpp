@@ -41,6 +41,14 @@ class FakeGps final : public core::PoseSource {
   uint32_t reads = 0;
 };
 
+/// The inertial sensor: reads what the caller sets (not fitted until told otherwise).
+class FakeImu final : public core::Imu {
+ public:
+  core::ImuReading read() override { return reading; }
+  void set_rotation(double deg) { reading = {true, deg}; }
+  core::ImuReading reading;
+};
+
 /// One thing the drivetrain was told.
 struct DriveCall {
   bool stop = false;
@@ -129,6 +137,13 @@ class FakeDriverInput final : public core::DriverInput {
  public:
   core::DriverSticks read() override { return sticks; }
   core::DriverSticks sticks;
+};
+
+/// The V5 screen's alliance pick: what the caller sets (none by default).
+class FakeScreen final : public core::AllianceInput {
+ public:
+  msg::Alliance read() override { return pick; }
+  msg::Alliance pick = msg::Alliance::unknown;
 };
 
 /// PROS's serial stream framing of one write(): COBS(stream id || payload) || 0x00.

@@ -14,7 +14,9 @@ constexpr const char* kHelp =
     "ok commands: get | advance MS [rx=BYTES] | until MS [rx=BYTES] | "
     "phase disabled|autonomous|driver | gps X Y HEADING [ERROR] | "
     "gps calibrating|error|absent | sticks FORWARD TURN [intake] [clamp] [lift] | sticks off | "
-    "measured LEFT_MPS RIGHT_MPS | measured auto | rings N|unknown | clamp 0|1|unknown | "
+    "measured LEFT_MPS RIGHT_MPS | measured auto | imu ROTATION_DEG | imu off | "
+    "screen red|blue|none | "
+    "rings N|unknown | clamp 0|1|unknown | "
     "motor_fault 0|1 | help | quit";
 
 std::vector<std::string> split(const std::string& line) {
@@ -176,6 +178,28 @@ std::string SideChannel::handle(const std::string& line) {
     rig_.drive.measured_override = true;
     rig_.drive.measured.left_rpm = model.wheel_to_motor_rpm(static_cast<float>(l));
     rig_.drive.measured.right_rpm = model.wheel_to_motor_rpm(static_cast<float>(r));
+    return "ok";
+  }
+  if (cmd == "screen") {
+    // The alliance the driver picks on the V5 screen (none: no pick, the GPS start pose decides).
+    if (n != 2 || (t[1] != "red" && t[1] != "blue" && t[1] != "none")) {
+      return error("screen red|blue|none");
+    }
+    rig_.screen.pick = t[1] == "red"    ? msg::Alliance::red
+                       : t[1] == "blue" ? msg::Alliance::blue
+                                        : msg::Alliance::unknown;
+    return "ok";
+  }
+  if (cmd == "imu") {
+    // The inertial sensor's cumulative clockwise rotation, or none (unplugged, calibrating).
+    if (n == 2 && t[1] == "off") {
+      rig_.imu.reading = {};
+      return "ok";
+    }
+    double deg = 0.0;
+    if (n != 2) return error("imu ROTATION_DEG | imu off");
+    if (!parse_number(t[1], deg)) return not_number("imu", t[1]);
+    rig_.imu.set_rotation(deg);
     return "ok";
   }
   if (cmd == "rings") {

@@ -34,7 +34,7 @@ std::string fault_names(msg::Fault faults) {
 
 SimRig::SimRig(const core::Config& config, core::SerialLink& serial, uint32_t boot_id)
     : robot(config,
-            core::Hardware{clock, gps, drive, intake, clamp, lift, serial, competition, driver},
+            core::Hardware{clock, gps, imu, drive, intake, clamp, lift, serial, competition, driver, screen},
             boot_id) {
   competition.status.connected = true;
 }
@@ -69,13 +69,14 @@ std::string SimRig::report() const {
   const core::DriveModel& model = robot.model();
   const float left_rpm = drive.last.stop ? 0.0f : drive.last.left_rpm;
   const float right_rpm = drive.last.stop ? 0.0f : drive.last.right_rpm;
-  char buf[640];
+  char buf[900];
   std::snprintf(
       buf, sizeof buf,
       "t=%llu last_step_ms=%u phase=%s phase_ms=%u link=%s source=%s stopped=%d "
       "left_rpm=%.6g right_rpm=%.6g left_mps=%.6g right_mps=%.6g linear=%.6g angular=%.6g "
       "intake=%d rings=%u clamp=%u clamp_closed=%d lift_up=%d gps=%s faults=%s last_command_seq=%u "
-      "steps=%u timeouts=%u",
+      "steps=%u timeouts=%u pose=%s pose_x=%.6g pose_y=%.6g pose_heading=%.6g pose_std=%.6g "
+      "period=%s match_ms=%u alliance=%s",
       static_cast<unsigned long long>(now_ms_), s.state.time_ms, msg::to_string(s.phase),
       s.phase_ms, core::to_string(robot.link().state()), core::to_string(s.source),
       s.stopped ? 1 : 0,
@@ -86,7 +87,10 @@ std::string SimRig::report() const {
       s.intake ? 1 : 0, static_cast<unsigned>(s.state.rings_held),
       static_cast<unsigned>(s.state.goal_clamped), s.clamp_closed ? 1 : 0, s.lift_up ? 1 : 0,
       msg::to_string(s.state.gps_status), fault_names(s.state.faults).c_str(),
-      s.state.last_command_seq, s.steps, s.command_timeouts);
+      s.state.last_command_seq, s.steps, s.command_timeouts, msg::to_string(s.state.pose_fix),
+      static_cast<double>(s.state.x), static_cast<double>(s.state.y),
+      static_cast<double>(s.state.heading), static_cast<double>(s.state.pose_std),
+      msg::to_string(s.state.period), s.state.match_ms, msg::to_string(s.state.alliance));
   return buf;
 }
 

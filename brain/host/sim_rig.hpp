@@ -28,12 +28,14 @@ class SimRig {
 
   FakeClock clock;
   FakeGps gps;
+  FakeImu imu;
   FakeDrivetrain drive;
   FakeIntake intake;
   FakeGoalClamp clamp;
   FakeLift lift;
   FakeCompetition competition;
   FakeDriverInput driver;
+  FakeScreen screen;
   core::Robot robot;
 
  private:

@@ -103,6 +103,35 @@ class ProsGps final : public core::PoseSource {
   std::optional<pros::Gps> gps_;
 };
 
+// --- inertial sensor -----------------------------------------------------------------------------
+
+/// The V5 inertial sensor (Ports::imu): its cumulative rotation about the vertical axis, degrees
+/// clockwise (pros::Imu::get_rotation). Calibration starts at power-up (reset(), not blocking,
+/// about 2 s); until it ends, and whenever the sensor fails, the reading is not ok and the pose
+/// filter turns with the wheels alone.
+class ProsImu final : public core::Imu {
+ public:
+  ProsImu() {
+    if (kPorts.imu != 0) {
+      imu_.emplace(kPorts.imu);
+      imu_->reset(false);
+    }
+  }
+
+  core::ImuReading read() override {
+    core::ImuReading r;
+    if (!imu_) return r;
+    const double rotation = imu_->get_rotation();  // PROS_ERR_F (EAGAIN) while calibrating
+    if (rotation == PROS_ERR_F) return r;
+    r.ok = true;
+    r.rotation_deg = rotation;
+    return r;
+  }
+
+ private:
+  std::optional<pros::Imu> imu_;
+};
+
 // --- motors --------------------------------------------------------------------------------------
 
 pros::MotorGears gears(float cartridge_rpm) {
@@ -397,11 +426,63 @@ class ProsDriverInput final : public core::DriverInput {
   std::atomic<std::uint32_t> stamp_ms_{0};
 };
 
+// --- the V5 screen: the alliance pick ------------------------------------------------------------
+
+/// Before the match the driver picks the alliance on the Brain's screen with LLEMU's three buttons:
+/// left = red, right = blue, centre = no pick (the Brain finds it from the GPS start pose). The
+/// screen shows the pick. LLEMU lives in PROS 4's liblvgl template (`pros conduct apply liblvgl`);
+/// without it this reads "no pick" and the GPS decides.
+#if __has_include("liblvgl/llemu.hpp")
+#include "liblvgl/llemu.hpp"
+#define PETE_HAS_LLEMU 1
+#else
+#define PETE_HAS_LLEMU 0
+#endif
+
+std::atomic<std::uint8_t> g_screen_pick{static_cast<std::uint8_t>(msg::Alliance::unknown)};
+
+class ProsScreen final : public core::AllianceInput {
+ public:
+  void start() {
+#if PETE_HAS_LLEMU
+    pros::lcd::initialize();
+    pros::lcd::register_btn0_cb(&ProsScreen::pick_red);
+    pros::lcd::register_btn1_cb(&ProsScreen::pick_none);
+    pros::lcd::register_btn2_cb(&ProsScreen::pick_blue);
+    show(msg::Alliance::unknown);
+#endif
+  }
+  msg::Alliance read() override {
+    const auto v = static_cast<msg::Alliance>(g_screen_pick.load(std::memory_order_relaxed));
+    return msg::is_valid(v) ? v : msg::Alliance::unknown;
+  }
+
+ private:
+  static void set(msg::Alliance a) {
+    g_screen_pick.store(static_cast<std::uint8_t>(a), std::memory_order_relaxed);
+    show(a);
+  }
+  static void pick_red() { set(msg::Alliance::red); }
+  static void pick_blue() { set(msg::Alliance::blue); }
+  static void pick_none() { set(msg::Alliance::unknown); }
+  static void show(msg::Alliance a) {
+#if PETE_HAS_LLEMU
+    pros::lcd::set_text(0, "pete: alliance (left red, right blue, centre GPS)");
+    pros::lcd::set_text(1, a == msg::Alliance::red    ? "picked: RED"
+                           : a == msg::Alliance::blue ? "picked: BLUE"
+                                                      : "picked: none - from the GPS start pose");
+#else
+    (void)a;
+#endif
+  }
+};
+
 // --- the robot -----------------------------------------------------------------------------------
 
 struct ProsHardware {
   ProsClock clock;
   ProsGps gps;
+  ProsImu imu;
   ProsDrivetrain drive;
   ProsIntake intake;
   ProsGoalClamp clamp;
@@ -409,9 +490,10 @@ struct ProsHardware {
   ProsSerial serial;
   ProsCompetition competition;
   ProsDriverInput driver;
+  ProsScreen screen;
 
   core::Hardware hal() {
-    return {clock, gps, drive, intake, clamp, lift, serial, competition, driver};
+    return {clock, gps, imu, drive, intake, clamp, lift, serial, competition, driver, screen};
   }
 };
 
@@ -461,6 +543,7 @@ void initialize() {
   // Everything that allocates happens here, once: device objects, the robot, the two tasks.
   static ProsHardware hardware;
   g_hardware = &hardware;
+  hardware.screen.start();
   if (!hardware.serial.open()) {
     std::fputs("pete: cannot open /ser/pete; the Jetson link is down\n", stderr);
   }

@@ -23,6 +23,9 @@ struct Clock final : core::Clock {
 struct Gps final : core::PoseSource {
   core::GpsReading read() override { return {}; }
 };
+struct Imu final : core::Imu {
+  core::ImuReading read() override { return {true, 0.0}; }
+};
 struct Drive final : core::Drivetrain {
   void drive_rpm(float l, float r) override { g_sink = l + r; }
   void stop() override { g_sink = 0.0f; }
@@ -53,12 +56,16 @@ struct Comp final : core::Competition {
 struct Sticks final : core::DriverInput {
   core::DriverSticks read() override { return {}; }
 };
+struct Screen final : core::AllianceInput {
+  msg::Alliance read() override { return msg::Alliance::unknown; }
+};
 
 }  // namespace
 
 int main() {
   static Clock clock;
   static Gps gps;
+  static Imu imu;
   static Drive drive;
   static Intake intake;
   static Clamp clamp;
@@ -66,9 +73,10 @@ int main() {
   static Serial serial;
   static Comp comp;
   static Sticks sticks;
+  static Screen screen;
   static core::Robot robot(
       core::kRobotConfig,
-      core::Hardware{clock, gps, drive, intake, clamp, lift, serial, comp, sticks}, 1u);
+      core::Hardware{clock, gps, imu, drive, intake, clamp, lift, serial, comp, sticks, screen}, 1u);
   const uint8_t hello[] = ":00\n";
   serial.rx.push(hello, sizeof hello - 1);
   for (uint32_t i = 0; i < 100; ++i) {

@@ -80,6 +80,14 @@ class BrainReport:
     clamp: int = CLAMP_UNKNOWN  # the State's goal_clamped: 1 holding a goal, 0 not, 255 no sensor
     clamp_closed: bool = False  # what the Brain told the goal clamp (its piston)
     lift_up: bool = False  # what the Brain told the lift
+    pose: str = "lost"  # the State's pose_fix: gps | odometry | lost
+    pose_x: float = 0.0  # the Brain's pose (its filter: GPS + odometry + IMU), field frame
+    pose_y: float = 0.0
+    pose_heading: float = 0.0
+    pose_std: float = 0.0  # m, along the position's worst axis
+    period: str = "before"  # the State's match period
+    match_ms: int = 0
+    alliance: str = "unknown"  # the State's alliance
 
     @classmethod
     def parse(cls, fields: dict[str, str]) -> BrainReport:
@@ -111,6 +119,14 @@ class BrainReport:
                 clamp=int(fields.get("clamp", CLAMP_UNKNOWN)),
                 clamp_closed=fields.get("clamp_closed", "0") == "1",
                 lift_up=fields.get("lift_up", "0") == "1",
+                pose=fields.get("pose", "lost"),
+                pose_x=float(fields.get("pose_x", 0.0)),
+                pose_y=float(fields.get("pose_y", 0.0)),
+                pose_heading=float(fields.get("pose_heading", 0.0)),
+                pose_std=float(fields.get("pose_std", 0.0)),
+                period=fields.get("period", "before"),
+                match_ms=int(fields.get("match_ms", 0)),
+                alliance=fields.get("alliance", "unknown"),
             )
         except (KeyError, ValueError) as exc:
             raise BrainHostError(
@@ -321,6 +337,14 @@ class BrainHost:
         return f"measured {_number(left_mps, 'left speed')} {_number(right_mps, 'right speed')}"
 
     @staticmethod
+    def imu_line(rotation_deg: float | None) -> str:
+        """The inertial sensor's cumulative clockwise rotation in degrees, or None for no
+        reading (none fitted, or calibrating)."""
+        if rotation_deg is None:
+            return "imu off"
+        return f"imu {_number(rotation_deg, 'imu rotation')}"
+
+    @staticmethod
     def rings_line(count: int | None) -> str:
         """The intake's ring counter: `count` rings held, or None for no counter fitted."""
         if count is None:
@@ -373,6 +397,9 @@ class BrainHost:
 
     def measured_auto(self) -> None:
         self.command("measured auto")
+
+    def set_imu(self, rotation_deg: float | None) -> None:
+        self.command(self.imu_line(rotation_deg))
 
     def set_rings(self, count: int | None) -> None:
         self.command(self.rings_line(count))

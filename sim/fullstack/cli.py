@@ -81,6 +81,12 @@ def add_match_command(sub: argparse._SubParsersAction) -> None:
         help="a robot without an intake ring counter (the State says 255; the daemon assumes 0)",
     )
     p.add_argument(
+        "--gps-occlusion",
+        action="store_true",
+        help="the GPS loses the field strip behind robots, goals and platforms (the Brain's pose "
+        "rides through on odometry and its IMU); default: a GPS that never fails",
+    )
+    p.add_argument(
         "--camera-size", type=_size, default=(240, 180), help="rendered frames (default: 240x180)"
     )
     p.add_argument("--camera-hz", type=float, default=10.0, help="frames per second")
@@ -149,6 +155,7 @@ def cmd_match(args: argparse.Namespace) -> int:
             scenario=args.scenario,
             camera=not args.no_camera,
             ring_counter=not args.no_ring_counter,
+            gps_occlusion=args.gps_occlusion,
             camera_width=args.camera_size[0],
             camera_height=args.camera_size[1],
             camera_hz=args.camera_hz,

@@ -3,8 +3,11 @@
 Each 10 ms loop step the Brain reads its sensors and drives its motors. Here:
 
     sensors  (World -> Brain)  the GPS reading (World.gps: the pose `latency_s` ago plus Gaussian
-                               noise), the wheel encoders (the speeds the robot really moved at
-                               over the last step, so a robot pushing a wall reads ~0), the
+                               noise; with `gps_occlusion`, none while robots, goals or the
+                               platform hide the field strip), the wheel encoders (the speeds the
+                               robot really moved at over the last step, so a robot pushing a
+                               wall reads ~0), the inertial sensor (the robot's cumulative
+                               clockwise rotation, with `imu_drift_deg_s` of drift), the
                                intake's ring counter (the rings the robot holds; optional, as on
                                a real robot), the goal clamp's sensor (whether the robot holds a
                                goal at its back; optional too) and the competition status from
@@ -27,6 +30,7 @@ drives in both: brain/include/pete/core/config.hpp); after the match it is disab
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,6 +59,7 @@ class SensorReading:
     phase: str
     rings: int | None = None  # the ring counter; None: no counter fitted
     goal_at_back: bool | None = None  # the clamp's sensor; None: no sensor fitted
+    imu_deg: float | None = None  # the IMU's cumulative clockwise rotation; None: no IMU
 
 
 class RobotHardware:
@@ -67,6 +72,9 @@ class RobotHardware:
         rng: np.random.Generator | None,
         ring_counter: bool = True,
         clamp_sensor: bool = True,
+        imu: bool = True,
+        imu_drift_deg_s: float = 0.0,
+        gps_occlusion: sensors.GpsOcclusion | None = None,
     ) -> None:
         if not 0 <= index < len(world.robots):
             raise ValueError(f"robot {index} is not in this world ({len(world.robots)} robots)")
@@ -76,6 +84,15 @@ class RobotHardware:
         self.gps_failure: str | None = None  # set to make the GPS fail this way
         self.ring_counter = ring_counter
         self.clamp_sensor = clamp_sensor
+        self.imu = imu
+        if not (math.isfinite(imu_drift_deg_s) and abs(imu_drift_deg_s) < 10.0):
+            raise ValueError(f"imu_drift_deg_s must be small and finite, got {imu_drift_deg_s}")
+        self.imu_drift_deg_s = imu_drift_deg_s
+        self.gps_occlusion = gps_occlusion
+        self.gps_hidden_steps = 0  # readings the occlusion model took away
+        self._imu_deg = 0.0
+        self._imu_heading: float | None = None
+        self._imu_time: float | None = None
         self._sent_phase: str | None = None
         self._sent_rings: int | None = None
         self._sent_goal: bool | None = None
@@ -92,15 +109,34 @@ class RobotHardware:
     def robot(self) -> RobotState:
         return self.world.robots[self.index]
 
+    def _imu_reading(self) -> float | None:
+        """The robot's cumulative clockwise rotation since the first reading, plus drift."""
+        if not self.imu:
+            return None
+        r = self.robot
+        t = float(self.world.time_s)
+        if self._imu_heading is not None and self._imu_time is not None:
+            self._imu_deg += (r.heading - self._imu_heading + 180.0) % 360.0 - 180.0
+            self._imu_deg += self.imu_drift_deg_s * (t - self._imu_time)
+        self._imu_heading, self._imu_time = r.heading, t
+        return self._imu_deg
+
     def read(self, phase: str) -> SensorReading:
         gps = None
-        if self.gps_failure is None:
-            g = sensors.gps(self.world, self.index, self.rng)
-            gps = (g.x, g.y, g.heading_deg, g.error_m)
+        failure = self.gps_failure
+        if failure is None:
+            g = sensors.gps_with_occlusion(self.world, self.index, self.rng, self.gps_occlusion)
+            if g is None:
+                failure = "error"  # the strip is hidden: the sensor has no fix
+                self.gps_hidden_steps += 1
+            else:
+                gps = (g.x, g.y, g.heading_deg, g.error_m)
         left, right = self.robot.wheel_speeds()
         rings = min(self.robot.held, 254) if self.ring_counter else None
         goal = (self.robot.carried_goal is not None) if self.clamp_sensor else None
-        return SensorReading(gps, self.gps_failure, left, right, phase, rings, goal)
+        return SensorReading(
+            gps, failure, left, right, phase, rings, goal, imu_deg=self._imu_reading()
+        )
 
     def sensor_lines(self, reading: SensorReading) -> list[str]:
         """Side-channel commands that put this reading into brain_host (the phase, the ring count
@@ -120,6 +156,7 @@ class RobotHardware:
             lines.append(BrainHost.gps_line(*reading.gps))
         else:
             lines.append(BrainHost.gps_failure_line(reading.gps_failure or "absent"))
+        lines.append(BrainHost.imu_line(reading.imu_deg))
         lines.append(BrainHost.measured_line(reading.left_mps, reading.right_mps))
         return lines
 

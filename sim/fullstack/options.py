@@ -40,6 +40,9 @@ class MatchOptions:
     scenario: str = "capped"
     camera: bool = True
     ring_counter: bool = True  # the simulated intake counts its rings (the State's rings_held)
+    # The GPS loses the field strip behind robots, goals and platforms (sim.world.sensors.
+    # GpsOcclusion) and the Brain rides through on odometry and its IMU; off: it never fails.
+    gps_occlusion: bool = False
     # A RealSense gives 30 frames/s; rendering costs ~20 ms a frame here, so the lockstep match
     # renders 10/s at 240x180 (perception places rings as well as at 320x240: F1 0.85 both).
     camera_width: int = 240

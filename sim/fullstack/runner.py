@@ -356,7 +356,11 @@ class FullStackMatch:
         self.opp_stack: Any = None
         self.opp_command: Any = None
         self.hardware = RobotHardware(
-            self.world, self.ia, np.random.default_rng((o.seed, 77)), o.ring_counter
+            self.world,
+            self.ia,
+            np.random.default_rng((o.seed, 77)),
+            o.ring_counter,
+            gps_occlusion=sensors.GpsOcclusion() if o.gps_occlusion else None,
         )
         limit = self.world.match_length_s if o.seconds is None else o.seconds
         self.match_len_ms = round(min(limit, self.world.match_length_s) * 1000 / LOOP_MS) * LOOP_MS

@@ -169,6 +169,9 @@ def rig(tmp_path: Path) -> Iterator[Lockstep]:
 def test_lockstep_handshake_and_commands_drive_the_brain(rig: Lockstep) -> None:
     rig.host.ok("phase autonomous")
     rig.host.ok(f"gps {X} {Y} {HEADING} 0.01")
+    # The wheels report standing still, as the fixed GPS says: the Brain's pose stays at X, Y
+    # (its filter fuses them), so the probe policy's Command stays the same.
+    rig.host.ok("measured 0 0")
     reports = [rig.step() for _ in range(100)]  # one simulated second
     last = reports[-1]
     assert last["link"] == "connected" and last["source"] == "jetson", last
@@ -270,6 +273,7 @@ def threaded_daemon(port: Path, policy: Any = None) -> Iterator[tuple[Daemon, io
 def realtime_host(boot_id: str) -> Host:
     host = Host("--phase", "autonomous", lockstep=False, boot_id=boot_id)
     host.ok(f"gps {X} {Y} {HEADING} 0.01")
+    host.ok("measured 0 0")  # standing still, as the GPS says: the Brain's pose stays at X, Y
     return host
 
 

@@ -30,6 +30,7 @@ from protocol.messages import (
     Hello,
     MatchPeriod,
     MatchPhase,
+    PoseFix,
     Role,
     State,
 )
@@ -46,7 +47,7 @@ def state(t_ms: int = 0, **kw) -> State:
     base = dict(
         seq=t_ms // 20 + 1, time_ms=t_ms, phase=MatchPhase.AUTONOMOUS, phase_ms=t_ms,
         alliance=Alliance.RED, x=0.5, y=-0.5, heading=90.0, gps_error=0.01,
-        gps_status=GpsStatus.OK,
+        gps_status=GpsStatus.OK, pose_fix=PoseFix.GPS, pose_std=0.01, heading_std=0.5,
     )  # fmt: skip
     base.update(kw)
     return State(**base)
@@ -213,6 +214,38 @@ def test_autonomous_into_driver_keeps_the_match_history() -> None:
     assert obs[0] == pytest.approx(15.0 / 105.0)  # the match clock continues
 
 
+def test_a_gps_dropout_is_driven_through_while_the_brain_trusts_its_pose() -> None:
+    d = Decider(ProbePolicy(), DecisionConfig(pose_max_std_m=0.15))
+    for status in (GpsStatus.ERROR, GpsStatus.CALIBRATING, GpsStatus.ABSENT):
+        dropout = state(gps_status=status, pose_fix=PoseFix.ODOMETRY, pose_std=0.08)
+        assert d.decide(dropout, None).drove, status
+    worn_pose = state(gps_status=GpsStatus.ERROR, pose_fix=PoseFix.ODOMETRY, pose_std=0.2)
+    worn = d.decide(worn_pose, None)
+    assert not worn.drove
+    assert worn.reason == "pose uncertain: 0.20 m > 0.15 m (gps error)"
+    lost = d.decide(state(pose_fix=PoseFix.LOST, pose_std=0.0), None)
+    assert not lost.drove and lost.reason == "pose lost"
+    # The limit is a setting: a stricter one stops sooner.
+    strict = Decider(ProbePolicy(), DecisionConfig(pose_max_std_m=0.05))
+    assert not strict.decide(state(pose_fix=PoseFix.ODOMETRY, pose_std=0.08), None).drove
+    assert strict.decide(state(pose_fix=PoseFix.GPS, pose_std=0.01), None).drove
+
+
+def test_the_role_is_a_setting_checked_and_reported() -> None:
+    assert DecisionConfig().role == "24in"
+    assert DecisionConfig(role="15in").role == "15in"
+    with pytest.raises(SettingsError, match="decision role must be one of 24in, 15in"):
+        DecisionConfig(role="18in")
+    settings = Settings.from_dict({"decision": {"role": "15in"}})
+    assert settings.decision.role == "15in"
+
+
+@pytest.mark.parametrize("bad", [0.0, -0.1, 3.0, float("nan"), "0.1", True])
+def test_pose_max_std_must_be_a_sane_number(bad: object) -> None:
+    with pytest.raises(SettingsError, match="pose_max_std_m"):
+        DecisionConfig(pose_max_std_m=bad)  # type: ignore[arg-type]
+
+
 def test_the_disable_between_isolation_and_interaction_keeps_the_match_history() -> None:
     policy = ProbePolicy()
     policy.keep_observations = True
@@ -294,7 +327,8 @@ def test_sync_perception_publishes_an_exception_as_an_error_result() -> None:
 
 def test_no_gps_fix_or_no_alliance_is_a_stop_with_the_reason() -> None:
     d = Decider(ProbePolicy())
-    assert d.decide(state(gps_status=GpsStatus.CALIBRATING), None).reason == "gps calibrating"
+    no_fix = state(gps_status=GpsStatus.CALIBRATING, pose_fix=PoseFix.LOST, pose_std=0.0)
+    assert d.decide(no_fix, None).reason == "gps calibrating"
     unknown = d.decide(state(alliance=Alliance.UNKNOWN), None)
     assert not unknown.drove and "alliance" in unknown.reason
 
@@ -484,10 +518,21 @@ def test_the_summary_line_says_what_a_person_needs_first() -> None:
     )  # fmt: skip
     up = Snapshot(**base)
     assert summary_line(up) == (
-        "up brain 5EED0001 | autonomous 12.3 s | 50 Hz | latency p50 0.40 p99 0.90 max 0.90 ms"
+        "up brain 5EED0001 | red | autonomous 12.3 s | pose gps 0.01 m | 50 Hz"
+        " | latency p50 0.40 p99 0.90 max 0.90 ms"
         " | rx 616 lost 2 | errors bad_crc=1 truncated=1 | rings 4 (35 ms old)"
         " | cmd +0.61 m/s -0.20 rad/s intake"
     )
+    # The robot's role, the match period and a pose riding through a GPS dropout.
+    dropout = state(12_300, period=MatchPeriod.ISOLATION, pose_fix=PoseFix.ODOMETRY, pose_std=0.083)
+    playing = Snapshot(**{**base, "state": dropout, "role": "15in"})
+    assert summary_line(playing).startswith(
+        "up brain 5EED0001 | red 15in | autonomous 12.3 s (isolation) | pose odometry 0.08 m |"
+    )
+    fields = summary_fields(playing)
+    assert fields["role"] == "15in" and fields["alliance"] == "red"
+    assert fields["period"] == "isolation"
+    assert fields["pose"] == {"fix": "odometry", "std_m": 0.083}
     assert summary_fields(up)["perception"] == {"rings": 4, "age_ms": 35.0}
     stopped = Snapshot(
         **{**base, "command": Command(9, 0, 0, False, 250), "stop_reason": "gps error"}

@@ -30,7 +30,7 @@ from jetson.recorder import CycleRecord, RecordingDir
 from jetson.replay import replay
 from jetson.settings import DecisionConfig, LinkConfig
 from jetson.testing import FakeBrain, ProbePolicy
-from protocol.messages import Alliance, Command, GpsStatus, MatchPhase, State
+from protocol.messages import Alliance, Command, GpsStatus, MatchPhase, PoseFix, State
 
 CUT_CYCLES = 4  # a small recording: it is replayed once per byte
 pytestmark = pytest.mark.filterwarnings("error::pytest.PytestUnhandledThreadExceptionWarning")
@@ -49,7 +49,7 @@ def state(i: int) -> State:
     return State(
         seq=i + 1, time_ms=20 * i, phase=MatchPhase.AUTONOMOUS, phase_ms=20 * i,
         alliance=Alliance.RED, x=0.5 + 0.001 * i, y=-0.5, heading=90.0, gps_error=0.01,
-        gps_status=GpsStatus.OK,
+        gps_status=GpsStatus.OK, pose_fix=PoseFix.GPS, pose_std=0.01, heading_std=0.5,
     )  # fmt: skip
 
 

@@ -48,7 +48,9 @@ Robot::Robot(const Config& config, const Hardware& hw, uint32_t boot_id)
       watchdog_(config.link),
       arbiter_(config),
       drive_(config.drive),
-      clamp_(config.clamp) {}
+      clamp_(config.clamp),
+      pose_(config.pose),
+      alliance_(config.find_alliance, config.alliance) {}
 
 void Robot::step() {
   const uint64_t t0_us = hw_.clock.now_us();
@@ -89,6 +91,7 @@ void Robot::step() {
     LogText t;
     t.add("phase ").add(msg::to_string(match_.phase()));
     link_.log(msg::LogLevel::info, now, t.c_str());
+    if (match_.match_began()) enabled_ms_ = 0;
     if (match_.period() != period_logged_ || match_.match_began()) {
       period_logged_ = match_.period();
       LogText m;
@@ -155,21 +158,60 @@ void Robot::step() {
   hw_.lift.set(lift_.up());
   if (lift_event != LiftEvent::none) link_.log(msg::LogLevel::info, now, to_string(lift_event));
 
-  // Report.
+  // The pose: odometry and the IMU every step, corrected by the GPS when it reads the strip.
   const WheelFeedback fb = hw_.drive.feedback();
   const DriveModel& model = drive_.model();
+  const float left_speed =
+      std::isfinite(fb.left_rpm) ? model.motor_rpm_to_wheel(fb.left_rpm) : 0.0f;
+  const float right_speed =
+      std::isfinite(fb.right_rpm) ? model.motor_rpm_to_wheel(fb.right_rpm) : 0.0f;
+  const ImuReading imu = hw_.imu.read();
+  pose_.predict(static_cast<double>(dt_s), static_cast<double>(left_speed),
+                static_cast<double>(right_speed), imu.ok, imu.rotation_deg,
+                static_cast<double>(config_.drive.track_width_m));
+  if (gps.status == msg::GpsStatus::ok) note_pose(pose_.correct(gps.x_m, gps.y_m,
+                                                                gps.heading_deg, gps.error_m, now),
+                                                  now);
+  const msg::PoseFix fix = pose_.fix(now);
+  if (fix != fix_logged_) {
+    fix_logged_ = fix;
+    LogText t;
+    t.add("pose ").add(msg::to_string(fix));
+    link_.log(fix == msg::PoseFix::lost ? msg::LogLevel::warning : msg::LogLevel::info, now,
+              t.c_str());
+  }
+
+  // The alliance: the V5 screen's pick, the configuration's, or the GPS start pose.
+  if (phase != msg::MatchPhase::disabled) {
+    enabled_ms_ += static_cast<uint32_t>(dt_s * 1000.0f + 0.5f);
+  }
+  if (alliance_.update(hw_.screen.read(), match_.period(), enabled_ms_,
+                       fix == msg::PoseFix::gps, pose_.x())) {
+    LogText t;
+    t.add("alliance ").add(msg::to_string(alliance_.alliance()));
+    if (alliance_.source() != AllianceSource::none) t.add(" from ").add(to_string(alliance_.source()));
+    link_.log(msg::LogLevel::info, now, t.c_str());
+  }
+
+  // Report.
   msg::State& s = status_.state;
   s.time_ms = now;
   s.phase = phase;
   s.phase_ms = match_.phase_ms(now);
-  s.alliance = config_.alliance;
-  s.x = static_cast<float>(gps.x_m);
-  s.y = static_cast<float>(gps.y_m);
-  s.heading = static_cast<float>(gps.heading_deg);
+  s.alliance = alliance_.alliance();
+  const bool posed = fix != msg::PoseFix::lost;
+  s.x = posed ? static_cast<float>(pose_.x()) : 0.0f;
+  s.y = posed ? static_cast<float>(pose_.y()) : 0.0f;
+  s.heading = posed ? static_cast<float>(pose_.heading_deg()) : 0.0f;
+  // float rounding can carry 359.99999 up to 360.0: fold it back.
+  if (s.heading >= 360.0f) s.heading = 0.0f;
+  s.pose_fix = fix;
+  s.pose_std = posed ? static_cast<float>(pose_.position_std_m()) : 0.0f;
+  s.heading_std = posed ? static_cast<float>(pose_.heading_std_deg()) : 0.0f;
   s.gps_error = static_cast<float>(gps.error_m);
   s.gps_status = gps.status;
-  s.left_speed = std::isfinite(fb.left_rpm) ? model.motor_rpm_to_wheel(fb.left_rpm) : 0.0f;
-  s.right_speed = std::isfinite(fb.right_rpm) ? model.motor_rpm_to_wheel(fb.right_rpm) : 0.0f;
+  s.left_speed = left_speed;
+  s.right_speed = right_speed;
   s.last_command_seq = last_command_seq_;
   s.rings_held = hw_.intake.rings_held();
   s.goal_clamped = clamp_.goal_clamped();
@@ -202,6 +244,26 @@ void Robot::step() {
     overrun_seen_ = true;
     overrun_ms_ = now;
     ++status_.overruns;
+  }
+}
+
+void Robot::note_pose(GpsUpdate update, uint32_t now_ms) {
+  switch (update) {
+    case GpsUpdate::none:
+    case GpsUpdate::accepted:
+      return;
+    case GpsUpdate::rejected:
+      // A jump can last several readings: one line a second is enough.
+      if (reject_logged_ && now_ms - reject_log_ms_ < kFaultHoldMs) return;
+      reject_logged_ = true;
+      reject_log_ms_ = now_ms;
+      link_.log(msg::LogLevel::warning, now_ms, to_string(update));
+      return;
+    case GpsUpdate::initialised:
+    case GpsUpdate::reanchored:
+      link_.log(update == GpsUpdate::reanchored ? msg::LogLevel::warning : msg::LogLevel::info,
+                now_ms, to_string(update));
+      return;
   }
 }
 

@@ -197,27 +197,66 @@ TEST(Robot, FingerprintMismatchKeepsTheRobotStopped) {
 
 TEST(Robot, ReportsGpsStatusAndNeverInventsAPose) {
   Rig r;
-  connected_in(r, msg::MatchPhase::disabled);
-  r.sim.gps.set_pose(1.25, -0.5, 271.5, 0.02);
+  r.sim.gps.set_status(msg::GpsStatus::calibrating);  // no fix yet: no pose at all
+  r.handshake();
   r.run(2 * kPeriod);
   msg::State s = last_state(r);
+  EXPECT_EQ(s.pose_fix, msg::PoseFix::lost);
+  EXPECT_EQ(s.x, 0.0f);
+  EXPECT_EQ(s.y, 0.0f);
+  EXPECT_EQ(s.heading, 0.0f);
+  EXPECT_EQ(s.pose_std, 0.0f);
+
+  r.sim.gps.set_pose(1.25, -0.5, 271.5, 0.02);
+  r.run(2 * kPeriod);
+  s = last_state(r);
   EXPECT_EQ(s.gps_status, msg::GpsStatus::ok);
-  EXPECT_FLOAT_EQ(s.x, 1.25f);
-  EXPECT_FLOAT_EQ(s.y, -0.5f);
-  EXPECT_FLOAT_EQ(s.heading, 271.5f);
+  EXPECT_EQ(s.pose_fix, msg::PoseFix::gps);
+  EXPECT_NEAR(s.x, 1.25f, 1e-4);
+  EXPECT_NEAR(s.y, -0.5f, 1e-4);
+  EXPECT_NEAR(s.heading, 271.5f, 1e-3);
   EXPECT_FLOAT_EQ(s.gps_error, 0.02f);
+  EXPECT_GT(s.pose_std, 0.0f);
+  EXPECT_LE(s.pose_std, 0.02f);
   EXPECT_FALSE(msg::has(s.faults, msg::Fault::gps_fault));
 
   for (auto status : {msg::GpsStatus::calibrating, msg::GpsStatus::error, msg::GpsStatus::absent}) {
-    r.sim.gps.set_status(status);  // the fake still holds the old numbers: they must not leak
-    r.run(2 * kPeriod);
+    // The fake holds other numbers: a GPS that is not ok must not leak them into the pose,
+    // which now rests on odometry (the robot stands still).
+    r.sim.gps.set_pose(-1.0, 1.0, 10.0, 0.02);
+    r.sim.gps.set_status(status);
+    r.run(30 * kPeriod);
     s = last_state(r);
     EXPECT_EQ(s.gps_status, status);
-    EXPECT_EQ(s.x, 0.0f);
-    EXPECT_EQ(s.y, 0.0f);
-    EXPECT_EQ(s.heading, 0.0f);
+    EXPECT_EQ(s.gps_error, 0.0f);
+    EXPECT_EQ(s.pose_fix, msg::PoseFix::odometry);
+    EXPECT_NEAR(s.x, 1.25f, 1e-3);
+    EXPECT_NEAR(s.y, -0.5f, 1e-3);
+    EXPECT_NEAR(s.heading, 271.5f, 1e-2);
     EXPECT_TRUE(msg::has(s.faults, msg::Fault::gps_fault));
   }
+}
+
+TEST(Robot, ThePoseRidesThroughAGpsDropoutOnOdometryAndTheImu) {
+  Rig r;
+  connected_in(r, msg::MatchPhase::autonomous);
+  r.sim.gps.set_pose(0.5, -1.0, 90.0, 0.013);  // facing +x
+  r.sim.imu.set_rotation(0.0);
+  r.run(10 * kPeriod);
+  r.sim.gps.set_status(msg::GpsStatus::error);  // the strip is blocked
+  // The wheels report 0.5 m/s on both sides for 2 s: 1 m further along +x.
+  r.sim.drive.measured_override = true;
+  const float rpm = r.sim.robot.model().wheel_to_motor_rpm(0.5f);
+  r.sim.drive.measured.left_rpm = rpm;
+  r.sim.drive.measured.right_rpm = rpm;
+  r.run(200 * kPeriod);
+  const msg::State s = last_state(r);
+  EXPECT_EQ(s.pose_fix, msg::PoseFix::odometry);
+  EXPECT_NEAR(s.x, 1.5f, 0.02);
+  EXPECT_NEAR(s.y, -1.0f, 0.02);
+  EXPECT_NEAR(s.heading, 90.0f, 0.5);
+  EXPECT_GT(s.pose_std, 0.02f) << "the uncertainty grows with the distance driven";
+  EXPECT_LT(s.pose_std, 0.2f);
 }
 
 TEST(Robot, ImpossibleGpsNumbersAreAnError) {

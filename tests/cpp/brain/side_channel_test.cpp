@@ -119,6 +119,36 @@ TEST(SideChannel, MeasuredSpeedsAndMotorFaultsReachTheState) {
   EXPECT_EQ(s.rig.robot.status().state.left_speed, 0.0f);
 }
 
+TEST(SideChannel, TheImuAndTheGpsFeedThePoseInTheReport) {
+  SideRig s;
+  std::string r = s("advance 20");
+  EXPECT_TRUE(has(r, " pose=lost ")) << "no GPS reading yet: " << r;
+  EXPECT_EQ(s("gps 0.5 -1 90 0.013"), "ok");
+  EXPECT_EQ(s("imu 0"), "ok");
+  r = s("advance 20");
+  EXPECT_TRUE(has(r, " pose=gps pose_x=0.5 pose_y=-1 pose_heading=90 ")) << r;
+  EXPECT_EQ(s("gps error"), "ok");
+  EXPECT_EQ(s("measured 0.5 0.5"), "ok");
+  EXPECT_EQ(s("imu 0.0"), "ok");
+  r = s("advance 1000");
+  EXPECT_TRUE(has(r, " pose=odometry pose_x=1 ")) << "0.5 m/s for 1 s along +x: " << r;
+  EXPECT_EQ(s("imu off"), "ok");
+  EXPECT_EQ(s("imu nan"), "error imu: 'nan' is not a finite number");
+  EXPECT_EQ(s("imu"), "error imu ROTATION_DEG | imu off");
+  EXPECT_TRUE(has(s("help"), "imu ROTATION_DEG | imu off"));
+}
+
+TEST(SideChannel, TheScreenPicksTheAlliance) {
+  SideRig s;
+  EXPECT_TRUE(has(s("advance 20"), " alliance=unknown")) << "no pick, no GPS fix";
+  EXPECT_EQ(s("screen blue"), "ok");
+  EXPECT_TRUE(has(s("advance 20"), " alliance=blue"));
+  EXPECT_EQ(s("screen none"), "ok");
+  EXPECT_EQ(s("gps -1.5 0 90 0.013"), "ok");  // red's half
+  EXPECT_TRUE(has(s("advance 20"), " alliance=red"));
+  EXPECT_EQ(s("screen green"), "error screen red|blue|none");
+}
+
 TEST(SideChannel, ClampSensorAndButtonReachTheStateAndTheReport) {
   SideRig s;
   s.io.deliver(downlink(jetson_hello()));

@@ -19,6 +19,7 @@ from protocol.messages import (
     GpsStatus,
     Hello,
     MatchPhase,
+    PoseFix,
     Role,
     State,
 )
@@ -113,7 +114,11 @@ def test_handshake_and_a_command_drive_the_wheels(brain: BrainHost, port: Port) 
     assert states, "States follow the handshake"
     last = states[-1]
     assert last.phase == MatchPhase.DRIVER and last.gps_status == GpsStatus.OK
-    assert (last.x, last.y, last.heading) == pytest.approx((0.5, -1.25, 90.0), abs=1e-5)
+    # The pose is the Brain's filter's: here the GPS says the robot stands still while its
+    # (ideal) wheels drive at up to 0.4 m/s, so the pose sits between them, within 2 cm.
+    assert last.pose_fix == PoseFix.GPS
+    assert (last.x, last.y, last.heading) == pytest.approx((0.5, -1.25, 90.0), abs=0.02)
+    assert 0.0 < last.pose_std < 0.02
 
 
 def test_the_command_expires_after_its_validity_window(brain: BrainHost, port: Port) -> None:

@@ -8,7 +8,9 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "pete/core/alliance.hpp"
 #include "pete/core/match_clock.hpp"
+#include "pete/core/pose_filter.hpp"
 #include "pete/messages.hpp"
 
 namespace pete::core {
@@ -57,10 +59,12 @@ struct Config {
   DriverConfig driver;
   ClampConfig clamp;
   uint32_t loop_period_ms;           // control loop period; the loop never runs faster or slower
-  msg::Alliance alliance;            // reported in every State (PROS cannot read it from the field)
+  msg::Alliance alliance;            // unknown: found at run time (alliance.hpp); red/blue: fixed
   bool jetson_drives_in_autonomous;  // VEX AI: both periods are autonomous, so both default to true
   bool jetson_drives_in_driver;
   MatchTiming match;                 // VEX AI: isolation 15 s, interaction 105 s
+  PoseFilterConfig pose;             // the GPS + odometry + IMU filter (pose_filter.hpp)
+  AllianceConfig find_alliance;      // how the alliance is found at run time
 };
 
 /// Motor and sensor ports: used only by src/pros_adapter.cpp. 0 = unused slot; a negative port
@@ -88,6 +92,7 @@ struct Ports {
   int8_t lift_motor;         // smart port of a lift motor; 0 = none
   float lift_motor_up_deg;   // motor-shaft angle of the raised lift, from the lowered one at power-up
   float actuator_motor_rpm;  // speed of a clamp or lift motor while it moves (green cartridge)
+  uint8_t imu;               // the V5 inertial sensor's smart port; 0 = none (wheels alone turn)
 };
 
 // --- this robot ---------------------------------------------------------------------------------
@@ -120,10 +125,31 @@ inline constexpr Config kRobotConfig{
         /*confirm_ms=*/0,  // the simulator's clamp closes at the first touch too
     },
     /*loop_period_ms=*/10,
-    /*alliance=*/msg::Alliance::red,
+    /*alliance=*/msg::Alliance::unknown,  // found at run time: the V5 screen or the GPS
     /*jetson_drives_in_autonomous=*/true,
     /*jetson_drives_in_driver=*/true,
     /*match=*/{/*isolation_ms=*/15000, /*interaction_ms=*/105000},
+    /*pose=*/{
+        /*gps_min_std_m=*/0.013,          // VEX quotes about +-13 mm with the strip in view
+        /*gps_heading_std_deg=*/1.0,
+        /*gps_max_error_m=*/0.3,          // the sensor's own RMS error above this: not used
+        /*gps_latency_ms=*/30,
+        /*odom_var_per_m=*/0.0025,        // 5 cm std of slip per metre driven
+        /*pos_var_per_s=*/2e-5,
+        /*heading_var_per_rad_imu=*/1e-4, // 1 % of the angle turned
+        /*heading_var_per_s_imu=*/3e-6,   // the IMU's drift, about 0.1 deg/s^0.5
+        /*heading_var_per_rad_wheels=*/0.01,
+        /*heading_var_per_m_wheels=*/0.002,
+        /*gate_chi2=*/16.27,              // 99.9 % of good readings pass (3 degrees of freedom)
+        /*reanchor_ms=*/1000,
+        /*gps_fix_hold_ms=*/250,
+        /*lost_std_m=*/1.0,
+    },
+    /*find_alliance=*/{
+        /*red_side_x_sign=*/-1.0f,   // red's half is x < 0 (the simulator's field file)
+        /*center_margin_m=*/0.3f,
+        /*lock_after_ms=*/1000,
+    },
 };
 
 inline constexpr Ports kRobotPorts{
@@ -144,6 +170,7 @@ inline constexpr Ports kRobotPorts{
     /*lift_motor=*/0,    // or a motor lift, e.g. 9 with lift_motor_up_deg = 600
     /*lift_motor_up_deg=*/600.0f,
     /*actuator_motor_rpm=*/150.0f,
+    /*imu=*/11,
 };
 
 // --- checks -------------------------------------------------------------------------------------
@@ -183,7 +210,25 @@ constexpr const char* config_error(const Config& c) {
   }
   if (!(dr.deadband >= 0.0f && dr.deadband < 0.5f)) return "driver deadband must be in [0, 0.5)";
   if (!msg::is_valid(c.alliance)) return "alliance is not a valid Alliance";
+  if (c.find_alliance.red_side_x_sign != 1.0f && c.find_alliance.red_side_x_sign != -1.0f) {
+    return "find_alliance.red_side_x_sign must be 1 or -1";
+  }
+  if (!(c.find_alliance.center_margin_m >= 0.0f && c.find_alliance.center_margin_m < 1.5f)) {
+    return "find_alliance.center_margin_m must be in [0, 1.5)";
+  }
   if (c.clamp.confirm_ms > 1000) return "clamp confirm_ms must be at most 1000";
+  const PoseFilterConfig& f = c.pose;
+  const double pose_numbers[] = {f.gps_min_std_m, f.gps_heading_std_deg, f.gps_max_error_m,
+                                 f.odom_var_per_m, f.pos_var_per_s, f.heading_var_per_rad_imu,
+                                 f.heading_var_per_s_imu, f.heading_var_per_rad_wheels,
+                                 f.heading_var_per_m_wheels, f.gate_chi2, f.lost_std_m};
+  for (double v : pose_numbers) {
+    if (!(v >= 0.0 && v < 1e6)) return "pose filter numbers must be finite and not negative";
+  }
+  if (!(f.gps_min_std_m > 0.0) || !(f.gps_heading_std_deg > 0.0) || !(f.gate_chi2 > 0.0)) {
+    return "pose filter: GPS stds and the gate must be positive";
+  }
+  if (f.gps_latency_ms > 100) return "pose filter: gps_latency_ms must be at most 100";
   if (c.match.isolation_ms == 0 || c.match.interaction_ms <= MatchClock::kEndSlackMs ||
       c.match.isolation_ms > 600000 || c.match.interaction_ms > 600000) {
     return "match periods must be 1..600000 ms (interaction longer than 5 s)";
@@ -217,6 +262,8 @@ constexpr const char* ports_error(const Ports& p) {
   if (p.left[0] == 0 || p.right[0] == 0) return "each drive side needs at least one motor";
   if (p.gps > 21) return "gps port out of range 1..21";
   if (p.gps != 0 && used[p.gps]) return "the gps port is also a motor port";
+  if (p.imu > 21) return "imu port out of range 1..21";
+  if (p.imu != 0 && (used[p.imu] || p.imu == p.gps)) return "the imu port is used by another device";
   const int piston = adi_port_index(p.clamp_piston);
   const int sensor = adi_port_index(p.clamp_sensor);
   if (piston < 0 || sensor < 0) return "clamp ADI ports must be 0, 1..8 or 'A'..'H'";

@@ -41,6 +41,21 @@ class PoseSource {
   ~PoseSource() = default;
 };
 
+/// The V5 inertial sensor: its cumulative clockwise rotation in degrees (pros::Imu::get_rotation),
+/// valid only when `ok` (false while it calibrates, when it is unplugged or none is fitted).
+struct ImuReading {
+  bool ok = false;
+  double rotation_deg = 0.0;
+};
+
+class Imu {
+ public:
+  virtual ImuReading read() = 0;
+
+ protected:
+  ~Imu() = default;
+};
+
 /// What the drive motors report back.
 struct WheelFeedback {
   float left_rpm = 0.0f;   // motor output shaft, averaged over the side's motors
@@ -156,10 +171,21 @@ class DriverInput {
   ~DriverInput() = default;
 };
 
+/// The alliance the driver picked on the V5 screen before the match (the PROS adapter's LLEMU
+/// buttons): red, blue, or unknown for no pick (then the Brain finds it: alliance.hpp).
+class AllianceInput {
+ public:
+  virtual msg::Alliance read() = 0;
+
+ protected:
+  ~AllianceInput() = default;
+};
+
 /// Everything the core drives or reads, bundled so Robot takes one argument.
 struct Hardware {
   Clock& clock;
   PoseSource& gps;
+  Imu& imu;
   Drivetrain& drive;
   Intake& intake;
   GoalClamp& clamp;
@@ -167,6 +193,7 @@ struct Hardware {
   SerialLink& serial;
   Competition& competition;
   DriverInput& driver;
+  AllianceInput& screen;
 };
 
 }  // namespace pete::core

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 
+#include "pete/core/alliance.hpp"
 #include "pete/core/arbiter.hpp"
 #include "pete/core/clamp.hpp"
 #include "pete/core/config.hpp"
@@ -15,14 +16,16 @@
 #include "pete/core/lift.hpp"
 #include "pete/core/link.hpp"
 #include "pete/core/match_clock.hpp"
+#include "pete/core/pose_filter.hpp"
 #include "pete/core/watchdog.hpp"
 #include "pete/messages.hpp"
 
 namespace pete::core {
 
-/// The GPS reading as the core will report it: an `ok` reading with non-finite or impossible
+/// The GPS reading as the core will use it: an `ok` reading with non-finite or impossible
 /// numbers becomes `error`, and any reading that is not `ok` carries zeros, never a stale or
-/// invented pose. Heading is folded into [0, 360).
+/// invented pose. Heading is folded into [0, 360). The State's pose is the PoseFilter's, which
+/// takes only `ok` readings.
 GpsReading checked_gps(const GpsReading& raw);
 
 /// Everything the last step decided, for brain_host's side channel and the tests.
@@ -55,9 +58,12 @@ class Robot {
   const Link& link() const { return link_; }
   const Config& config() const { return config_; }
   const DriveModel& model() const { return drive_.model(); }
+  const PoseFilter& pose() const { return pose_; }
+  const AllianceFinder& alliance() const { return alliance_; }
 
  private:
   void note_gps(msg::GpsStatus status, uint32_t now_ms);
+  void note_pose(GpsUpdate update, uint32_t now_ms);
   msg::Fault faults(uint32_t now_ms, const GpsReading& gps, const WheelFeedback& fb) const;
 
   Config config_;
@@ -70,6 +76,8 @@ class Robot {
   DriveController drive_;
   ClampControl clamp_;
   LiftControl lift_;
+  PoseFilter pose_;
+  AllianceFinder alliance_;
   RobotStatus status_;
 
   bool started_ = false;
@@ -82,6 +90,10 @@ class Robot {
   uint32_t overrun_log_ms_ = 0;
   uint32_t last_command_seq_ = 0;
   msg::MatchPeriod period_logged_ = msg::MatchPeriod::before;
+  uint32_t reject_log_ms_ = 0;
+  bool reject_logged_ = false;
+  msg::PoseFix fix_logged_ = msg::PoseFix::lost;
+  uint32_t enabled_ms_ = 0;  // time enabled in the current match
 };
 
 }  // namespace pete::core
