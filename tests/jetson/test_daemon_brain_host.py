@@ -14,6 +14,7 @@ import io
 import json
 import os
 import pty
+import re
 import select
 import signal
 import subprocess
@@ -36,7 +37,7 @@ from jetson.loop import Daemon
 from jetson.service import build
 from jetson.settings import LinkConfig, Settings
 from jetson.testing import ProbePolicy, write_mlp_policy
-from protocol.messages import FINGERPRINT, Alliance, GpsStatus, MatchPhase, State
+from protocol.messages import FINGERPRINT, Alliance, GpsStatus, MatchPhase, PoseFix, State
 
 ROOT = Path(__file__).resolve().parents[2]
 BRAIN_HOST = ROOT / "build" / "host" / "bin" / "brain_host"
@@ -346,6 +347,56 @@ class CorruptingRelay:
         self._thread.join(2.0)
         for fd in (self.brain, self.master, self._slave):
             os.close(fd)
+
+
+def test_a_gps_dropout_is_driven_through_until_the_brains_trust_runs_out(rig: Lockstep) -> None:
+    """The field strip hidden (issue 44): the real Brain core keeps its pose on the wheels and the
+    IMU, the daemon keeps driving on it, and stops, naming why, once pose_std passes
+    [decision] pose_max_std_m (0.15 m)."""
+    rig.host.ok("phase autonomous")
+    rig.host.ok(f"gps {X} {Y} {HEADING} 0.01")
+    rig.host.ok("imu 0")
+    rig.host.ok("measured 0 0")
+    for _ in range(50):
+        rig.step()
+    assert rig.daemon.last_decision is not None and rig.daemon.last_decision.drove
+    rig.host.ok("gps error")  # the strip is out of sight from here on
+
+    def shuttle(steps: int) -> list[dict[str, str]]:
+        """The wheels say 1.5 m/s forward for a second, then back for one, and so on (the
+        Brain's odometry, whatever the probe policy asks): 1.5 m out along +x and back."""
+        out = []
+        for k in range(steps):
+            if k % 100 == 0:
+                rig.host.ok("measured 1.5 1.5" if (k // 100) % 2 == 0 else "measured -1.5 -1.5")
+            out.append(rig.step())
+        return out
+
+    reports = shuttle(200)  # 2 s, 3 m driven
+    assert all(r["source"] == "jetson" for r in reports), "driven through the dropout"
+    assert reports[-1]["pose"] == "odometry" and reports[-1]["gps"] == "error"
+    state = rig.daemon.last_state
+    assert state is not None and state.pose_fix == PoseFix.ODOMETRY
+    assert float(reports[-1]["pose_x"]) == pytest.approx(X, abs=0.05)  # out and back along +x
+    assert 0.03 < state.pose_std <= 0.15
+    decision = rig.daemon.last_decision
+    for _ in range(6):  # up to 12 s more: the uncertainty passes 0.15 m
+        shuttle(200)
+        decision = rig.daemon.last_decision
+        if decision is not None and not decision.drove:
+            break
+    assert decision is not None and not decision.drove
+    why = re.fullmatch(r"pose uncertain: (0\.\d\d) m > 0\.15 m \(gps error\)", decision.reason)
+    assert why is not None and float(why.group(1)) >= 0.15, decision.reason
+    # The strip comes back where the odometry says the robot is: the pose rests on the GPS again
+    # and the robot drives.
+    report = rig.step()
+    rig.host.ok("measured 0 0")
+    rig.host.ok(f"gps {report['pose_x']} {report['pose_y']} {report['pose_heading']} 0.01")
+    for _ in range(30):
+        report = rig.step()
+    assert report["pose"] == "gps" and report["source"] == "jetson"
+    assert rig.daemon.last_decision is not None and rig.daemon.last_decision.drove
 
 
 def test_one_percent_of_bytes_corrupted_both_ways_is_counted_and_never_applied(
