@@ -15,6 +15,7 @@ import argparse
 import json
 import signal
 import sys
+import threading
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -76,14 +77,21 @@ class Service:
     stop_event: StopFlag = field(default_factory=StopFlag)
     _files: list[TextIO] = field(default_factory=list)
     dashboard: Any | None = None  # jetson.dashboard.process.DashboardProcess, not started yet
+    _camera_started: bool = False
 
     def stop(self) -> None:
         self.stop_event.set()
 
+    def start_camera(self) -> None:
+        """Start the camera thread (once; run() starts it when no one has)."""
+        if self.camera is not None and not self._camera_started:
+            self._camera_started = True
+            self.camera.start()
+
     def run(self) -> int:
         sys.setswitchinterval(SWITCH_INTERVAL_S)
-        if self.camera is not None and not self.stop_event.is_set():
-            self.camera.start()
+        if not self.stop_event.is_set():
+            self.start_camera()
         self.start_dashboard()
         try:
             self.daemon.run(self.stop_event)
@@ -97,23 +105,36 @@ class Service:
         return 0
 
     def start_dashboard(self) -> None:
-        """Start the dashboard's server (on its own thread), if there is one. One that cannot
-        listen is logged and left off: the robot drives without it."""
-        if self.dashboard is None:
+        """Launch the dashboard's process, if there is one, and go on: a thread waits for it to
+        listen and logs where, or why it cannot; a dashboard that cannot listen is left off and
+        the robot drives without it."""
+        dashboard = self.dashboard
+        if dashboard is None:
             return
-        log = self.daemon.log
         try:
-            self.dashboard.start()
+            dashboard.launch()
         except OSError as exc:
-            log.error("dashboard", f"no dashboard: {exc}")
-            self.daemon.observer = None
-            if self.daemon.frames is not None:
-                self.daemon.frames.sink = None
-            self.dashboard = None
+            self._no_dashboard(str(exc))
             return
-        log.info(
-            "dashboard", f"dashboard (read-only) at {self.dashboard.url}", url=self.dashboard.url
-        )
+        threading.Thread(
+            target=self._await_dashboard, args=(dashboard,), name="pete-dashboard-start",
+            daemon=True,
+        ).start()  # fmt: skip
+
+    def _await_dashboard(self, dashboard: Any) -> None:
+        why = dashboard.await_ready()
+        if why is not None:
+            self._no_dashboard(why)
+            return
+        url = dashboard.url
+        self.daemon.log.info("dashboard", f"dashboard (read-only) at {url}", url=url)
+
+    def _no_dashboard(self, why: str) -> None:
+        self.daemon.log.error("dashboard", f"no dashboard: {why}")
+        self.daemon.observer = None
+        if self.daemon.frames is not None:
+            self.daemon.frames.sink = None
+        self.dashboard = None
 
     def install_signal_handlers(self) -> None:
         """SIGTERM (systemd stop) and SIGINT (Ctrl-C) end the loop, which sends a stop first."""
@@ -312,7 +333,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--camera-source",
-        help=f"realsense[:SERIAL], unix:PATH, tcp:HOST:PORT, ... (default: {d.camera.source})",
+        help="realsense[:SERIAL], unix:PATH, tcp:HOST:PORT, a recording or image folder, a "
+        f"video, synthetic[:FPS] (default: {d.camera.source})",
     )
     p.add_argument(
         "--camera-config",

@@ -137,8 +137,10 @@ def child_main(conn: Connection, bridge: Bridge, options: ProcessOptions) -> Non
 class DashboardProcess:
     """The daemon's handle on its dashboard's process (see the module doc). start() returns once
     the server listens, or raises OSError saying why it cannot (a port taken, an address this
-    machine does not have); `url` says where it listens. `sent`, `clients` and `refused` are the
-    server's counts as its process last reported them (twice a second)."""
+    machine does not have); or launch() now and await_ready() on another thread, so that the
+    robot's loop never waits for the dashboard to start. `url` says where it listens. `sent`,
+    `clients` and `refused` are the server's counts as its process last reported them (twice a
+    second)."""
 
     def __init__(self, options: ProcessOptions, bridge: Bridge, log: Any = None) -> None:
         self.options = options
@@ -149,6 +151,7 @@ class DashboardProcess:
         self._process: Any = None
         self._conn: Connection | None = None
         self._stats = Latest(bridge.stats)
+        self.ready = False  # listening (set by start() or await_ready())
 
     @property
     def url(self) -> str:
@@ -178,6 +181,15 @@ class DashboardProcess:
         return self._process is not None and self._process.is_alive()
 
     def start(self, timeout_s: float = START_TIMEOUT_S) -> DashboardProcess:
+        """Start the process and wait until it listens (OSError when it cannot)."""
+        self.launch()
+        why = self.await_ready(timeout_s)
+        if why is not None:
+            raise OSError(why)
+        return self
+
+    def launch(self) -> None:
+        """Start the process without waiting for it (await_ready() says how it went)."""
         ctx = multiprocessing.get_context("spawn")
         ours, theirs = ctx.Pipe()
         process = ctx.Process(
@@ -189,18 +201,26 @@ class DashboardProcess:
         process.start()
         theirs.close()
         self._process, self._conn = process, ours
+
+    def await_ready(self, timeout_s: float = START_TIMEOUT_S) -> str | None:
+        """Wait for the launched process to listen: None when it does (`port` is then where),
+        else why it cannot (it is stopped)."""
+        process, conn = self._process, self._conn
+        if process is None or conn is None:
+            return "the dashboard's process was not launched"
         reply: Any = None
         deadline = time.monotonic() + timeout_s
         while reply is None and time.monotonic() < deadline and process.is_alive():
-            with contextlib.suppress(EOFError):
-                if ours.poll(0.1):
-                    reply = ours.recv()
+            with contextlib.suppress(EOFError, OSError):
+                if conn.poll(0.1):
+                    reply = conn.recv()
         if reply is None or reply[0] != "ready":
             self.stop(0.5)
             why = reply[1] if reply else "its process did not start in time"
-            raise OSError(f"the dashboard cannot listen on {self.host}:{self.port}: {why}")
+            return f"the dashboard cannot listen on {self.host}:{self.port}: {why}"
         self.port = int(reply[1])
-        return self
+        self.ready = True
+        return None
 
     def stop(self, timeout_s: float = 1.0) -> None:
         process, conn = self._process, self._conn

@@ -15,6 +15,8 @@ from tests.jetson.dashboard.stack import Live, live_stack, wait_for
 def live(tmp_path: Path) -> Iterator[Live]:
     with live_stack(tmp_path) as running:
         assert wait_for(lambda: running.daemon.counters.states >= 10), running.out.getvalue()
+        # The dashboard's process starts beside the loop, which never waits for it.
+        assert wait_for(lambda: running.dashboard_ready, 60.0), running.out.getvalue()
         yield running
 
 

@@ -78,6 +78,11 @@ class Live:
     def url(self) -> str:
         return self.service.dashboard.url
 
+    @property
+    def dashboard_ready(self) -> bool:
+        dashboard = self.service.dashboard
+        return dashboard is not None and dashboard.ready
+
     def records(self, event: str | None = None) -> list[dict[str, Any]]:
         lines = [json.loads(x) for x in self.out.getvalue().splitlines() if x]
         return [r for r in lines if event is None or r["event"] == event]

@@ -178,7 +178,11 @@ def test_a_port_taken_leaves_the_robot_driving(stack: Any, waiter: Any) -> None:
     try:
         with stack(dashboard=f"127.0.0.1:{port}") as running:
             assert waiter(lambda: running.daemon.counters.states >= 10)
-            assert running.service.dashboard is None and running.daemon.observer is None
+            # The loop drives while the dashboard's process finds the port taken.
+            assert waiter(lambda: running.service.dashboard is None, 60.0)
+            assert running.daemon.observer is None
+            n = running.daemon.counters.states
+            assert waiter(lambda: running.daemon.counters.states >= n + 10)
             errors = running.records("dashboard")
             assert errors and errors[0]["level"] == "error" and "no dashboard" in errors[0]["msg"]
     finally:
