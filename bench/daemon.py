@@ -11,8 +11,9 @@ its own part (State bytes read -> Command bytes written) and records it per cycl
 sleeps between them as it does at 50 Hz).
 
 A second scenario runs the camera thread beside the loop, in the daemon's process as on the
-robot: the classical detector on a 640x480 synthetic frame at 30 frames/s, to show what sharing
-the interpreter with perception costs the loop.
+robot (built from the settings as `pete-jetson run --camera-source synthetic` builds it): the
+classical detector on synthetic 640x480 frames at 30 a second, to show what perception beside
+it costs the loop.
 
 Both processes run at nice -10 when root (--nice): the daemon as the systemd unit runs it, the
 Brain stand-in because a real Brain has its own CPU. Targets: p99 <= 5 ms for the daemon's own
@@ -39,30 +40,14 @@ RINGS = [[0.1, 0.6], [-0.3, 0.9], [0.5, 1.2], [-0.8, 1.5], [0.2, 2.0], [1.0, 2.4
 TARGET_P99_MS = 5.0
 
 
-def synthetic_camera(clock: Any, log: Any) -> Any:
-    """The camera thread on a synthetic 640x480 frame, 30 frames a second."""
-    import numpy as np
+CAMERA = {"source": "synthetic:30", "detector": "classical"}  # 640x480 frames, 30 a second
 
-    from jetson.camera_feed import CameraWorker
-    from jetson.perception.camera import CameraConfig
-    from jetson.perception.pipeline import Pipeline, make_detector
-    from jetson.perception.synthetic import random_frame
 
-    camera = CameraConfig()
-    frame = random_frame(np.random.default_rng(1), camera.intrinsics, camera.mount).frame
-    pipeline = Pipeline(make_detector("classical", camera), camera)
-
-    class Source:
-        description = "synthetic 30 fps"
-
-        def read(self) -> Any:
-            time.sleep(1 / 30)
-            return frame
-
-        def close(self) -> None:
-            pass
-
-    return CameraWorker(Source, pipeline.process, clock, log)
+def start_camera(service: Any) -> None:
+    """Start the daemon's camera thread and wait for its first result."""
+    service.start_camera()
+    while service.camera.latest() is None:
+        time.sleep(0.01)
 
 
 def serve(port: str, policy_path: str, record_dir: str, camera: bool) -> None:
@@ -70,7 +55,6 @@ def serve(port: str, policy_path: str, record_dir: str, camera: bool) -> None:
     run as `pete-jetson run` does, until SIGTERM."""
     from jetson.camera_feed import FixedPerception
     from jetson.clock import MonotonicClock
-    from jetson.log import EventLog
     from jetson.service import build
     from jetson.settings import Settings
 
@@ -80,19 +64,15 @@ def serve(port: str, policy_path: str, record_dir: str, camera: bool) -> None:
         policy={"path": policy_path},
         record={"dir": record_dir, "compress": False},
         log={"summary": False},
+        camera=CAMERA if camera else {"enabled": False},
     )
     devnull = open(os.devnull, "w")  # noqa: SIM115 - lives as long as the process
-    worker = synthetic_camera(clock, EventLog(devnull)) if camera else None
-    perception = worker or FixedPerception(RINGS, clock)
+    perception = None if camera else FixedPerception(RINGS, clock)
     service = build(settings, clock, devnull, perception=perception)
     service.install_signal_handlers()
-    if worker is not None:
-        worker.start()
-        while worker.latest() is None:  # "perception ready": the first result is in
-            time.sleep(0.01)
+    if camera:
+        start_camera(service)  # "perception ready": the first result is in
     service.run()
-    if worker is not None:
-        worker.stop()
 
 
 def renice(nice: int, who: str = "bench.daemon") -> None:

@@ -4,10 +4,10 @@
                               [--out DIR]
 
 The daemon runs in its own process as on the robot (built as `pete-jetson run` builds it, the
-shipped policy, the camera thread on a synthetic 640x480 frame at 30 frames/s with the classical
-detector, a session recording keeping its frames); this process plays the Brain
-(jetson.testing.FakeBrain): a State every 1/--rate s, each answered by a Command. Two scenarios,
-`--rounds` times each, in turn (the order alternating from round to round):
+shipped policy, the camera thread on synthetic 640x480 frames at 30 a second with the classical
+detector (`--camera-source synthetic`), a session recording keeping its frames); this process
+plays the Brain (jetson.testing.FakeBrain): a State every 1/--rate s, each answered by a
+Command. Two scenarios, `--rounds` times each, in turn (the order alternating from round to round):
 
 - without: the daemon as it runs by default, no dashboard;
 - with: `--dashboard` on a loopback port and the page open in headless Chromium (Debian's,
@@ -43,7 +43,7 @@ from typing import Any
 
 from bench.browser import Browser, missing_reason
 from bench.common import RESULTS_DIR, Result
-from bench.daemon import renice, synthetic_camera
+from bench.daemon import CAMERA, renice, start_camera
 from jetson.models import DEFAULT_POLICY
 
 TARGET_P99_MS = 5.0
@@ -55,7 +55,6 @@ TARGET_FRAME_HZ = 5.0
 def serve(port: str, record_dir: str, dashboard: str) -> None:
     """The daemon in a child process until SIGTERM; `dashboard` "" is off."""
     from jetson.clock import MonotonicClock
-    from jetson.log import EventLog
     from jetson.service import build
     from jetson.settings import Settings
 
@@ -66,16 +65,13 @@ def serve(port: str, record_dir: str, dashboard: str) -> None:
         record={"dir": record_dir, "compress": False},
         log={"summary": False},
         dashboard={"address": dashboard or None},
+        camera=CAMERA,
     )
     devnull = open(os.devnull, "w")  # noqa: SIM115 - lives as long as the process
-    worker = synthetic_camera(clock, EventLog(devnull))
-    service = build(settings, clock, devnull, perception=worker)
+    service = build(settings, clock, devnull)
     service.install_signal_handlers()
-    worker.start()
-    while worker.latest() is None:
-        time.sleep(0.01)
+    start_camera(service)
     service.run()
-    worker.stop()
 
 
 def _free_port() -> int:

@@ -4,6 +4,7 @@ realsense[:SERIAL]        a live RealSense camera (needs pyrealsense2)
 PATH.bag                  a RealSense recording
 DIR with recording.json   our own recording (recording.py)
 unix:PATH | tcp:HOST:PORT a frame stream from another process (stream.py)
+synthetic[:FPS]           rings on a floor, rendered, at FPS (30) a second (synthetic.py)
 DIR of images             plain images (a dataset folder's depth/ is used when present)
 PATH.mp4 (.avi, ...)      a video file
 """
@@ -31,6 +32,15 @@ def open_source(
 
         serial = spec.partition(":")[2] or None
         return RealSenseSource(serial)
+    if spec == "synthetic" or spec.startswith("synthetic:"):
+        from jetson.perception.sources.synthetic import DEFAULT_FPS, SyntheticSource
+
+        rate = spec.partition(":")[2]
+        try:
+            fps = float(rate) if rate else DEFAULT_FPS
+            return SyntheticSource(fps, intrinsics)
+        except ValueError as exc:
+            raise SourceError(f"source {spec}: {exc}") from exc
     if spec.startswith(("unix:", "tcp:")):
         from jetson.perception.sources.stream import StreamSource
 
@@ -43,7 +53,7 @@ def open_source(
     if not path.exists():
         raise SourceError(
             f"source {spec} does not exist (give realsense, a .bag, a recording or image "
-            "folder, a video, or unix:/path / tcp:host:port for a frame stream)"
+            "folder, a video, unix:/path / tcp:host:port for a frame stream, or synthetic)"
         )
     from jetson.perception.sources.images import VIDEO_SUFFIXES, ImageFolderSource, VideoSource
     from jetson.perception.sources.recording import RecordingSource, is_recording

@@ -332,3 +332,25 @@ def test_realsense_bag_playback_converts_frames_and_ends(tmp_path: Path) -> None
     assert f.depth_m is not None and float(f.depth_m[0, 0]) == pytest.approx(1.5)
     assert f.timestamp_s == pytest.approx(2.0) and f.index == 1
     assert f.intrinsics == Intrinsics(64, 48, 60.0, 61.0, 31.5, 23.5)
+
+
+def test_synthetic_frames_come_at_their_rate_with_rings_and_depth() -> None:
+    import time
+
+    from jetson.perception.camera import CameraConfig
+    from jetson.perception.pipeline import Pipeline, make_detector
+
+    src = open_source("synthetic:40")
+    t0 = time.monotonic()
+    frames = [src.read() for _ in range(20)]
+    spent = time.monotonic() - t0
+    assert 0.4 <= spent < 1.5, spent  # 20 frames at 40 a second: half a second, never faster
+    assert [f.index for f in frames] == list(range(1, 21))
+    f = frames[0]
+    assert f.color.shape == (480, 640, 3) and f.depth_m is not None and f.depth_m.max() > 0
+    camera = CameraConfig()
+    found = Pipeline(make_detector("classical", camera), camera).process(f)
+    assert len(found.rings_robot_xy) > 0  # the scenes hold rings the detector finds
+    for bad in ("synthetic:abc", "synthetic:0", "synthetic:-5"):
+        with pytest.raises(SourceError, match="synthetic"):
+            open_source(bad)
