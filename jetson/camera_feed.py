@@ -3,7 +3,9 @@
 The control loop never waits for the camera: each State takes whatever result is newest and
 judges its age (decide.py treats an old one as no rings, as the policy was trained to see them).
 The thread owns the camera: it opens the source, runs the perception pipeline on every frame, and
-when the camera fails or ends it logs why, closes it and opens it again, forever.
+when the camera fails or ends it logs why, closes it and opens it again, forever. It runs at a
+lower priority than the control loop (jetson/threads.py): the loop first, perception with the
+rest of the CPU.
 
 Feeds other than the thread (all meet PerceptionFeed):
   SyncPerception   frames submitted by the caller and processed at once (a lockstep simulator
@@ -26,6 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from jetson.clock import Clock
 from jetson.log import EventLog
+from jetson.threads import lower_this_thread
 
 
 @dataclass(frozen=True)
@@ -140,6 +143,7 @@ class CameraWorker:
             self._last_error = (text, now)
 
     def _run(self) -> None:
+        lower_this_thread()  # the control loop first (jetson/threads.py)
         source: SourceLike | None = None
         try:
             while not self._stop.is_set():

@@ -43,6 +43,7 @@ from pathlib import Path
 from typing import Any
 
 from jetson.frames import FrameView, view_record
+from jetson.threads import lower_this_thread
 from protocol.framing import message_to_dict
 
 FORMAT = "pete-jetson-session"
@@ -188,6 +189,7 @@ class Recorder:
             return None
 
     def _run(self) -> None:
+        lower_this_thread()  # the control loop first (jetson/threads.py)
         last_flush = time.monotonic()
         while True:
             try:
