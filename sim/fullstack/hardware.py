@@ -62,6 +62,40 @@ class SensorReading:
     imu_deg: float | None = None  # the IMU's cumulative clockwise rotation; None: no IMU
 
 
+@dataclass
+class PoseTrack:
+    """How the Brain's pose (its filter: GPS, odometry, IMU) compared with the truth, per step."""
+
+    steps: int = 0
+    gps_hidden: int = 0  # steps the occlusion model took the GPS reading away
+    by_fix: dict[str, int] | None = None  # steps per State pose_fix (gps, odometry, lost)
+    error_sum: float = 0.0
+    error_max: float = 0.0
+    std_max: float = 0.0
+
+    def add(self, report: BrainReport, truth_x: float, truth_y: float) -> None:
+        self.steps += 1
+        if self.by_fix is None:
+            self.by_fix = {}
+        self.by_fix[report.pose] = self.by_fix.get(report.pose, 0) + 1
+        if report.pose != "lost":
+            err = math.hypot(report.pose_x - truth_x, report.pose_y - truth_y)
+            self.error_sum += err
+            self.error_max = max(self.error_max, err)
+            self.std_max = max(self.std_max, report.pose_std)
+
+    def as_dict(self) -> dict[str, object]:
+        posed = self.steps - (self.by_fix or {}).get("lost", 0)
+        return {
+            "steps": self.steps,
+            "gps_hidden_steps": self.gps_hidden,
+            "by_fix": dict(self.by_fix or {}),
+            "error_mean_m": round(self.error_sum / posed, 4) if posed else None,
+            "error_max_m": round(self.error_max, 4),
+            "std_max_m": round(self.std_max, 4),
+        }
+
+
 class RobotHardware:
     """One simulated robot's GPS, encoders, motors and competition switch."""
 
@@ -90,6 +124,7 @@ class RobotHardware:
         self.imu_drift_deg_s = imu_drift_deg_s
         self.gps_occlusion = gps_occlusion
         self.gps_hidden_steps = 0  # readings the occlusion model took away
+        self.pose_track = PoseTrack()
         self._imu_deg = 0.0
         self._imu_heading: float | None = None
         self._imu_time: float | None = None
@@ -174,6 +209,9 @@ class RobotHardware:
         """The Brain's motor outputs as the simulator's command for this robot. Stopped motors
         (brake) are zero speed; the intake runs only when the Brain runs it."""
         clamp = self._clamp(report)
+        if report.link != "off":  # a rebooting Brain reports nothing
+            self.pose_track.gps_hidden = self.gps_hidden_steps
+            self.pose_track.add(report, self.robot.x, self.robot.y)
         if report.stopped:
             cmd = DriveCommand(0.0, 0.0, intake=report.intake, clamp=clamp)
         else:

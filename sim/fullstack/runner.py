@@ -860,6 +860,7 @@ class FullStackMatch:
             brain={
                 **self.brain_track.as_dict(),
                 "exit_status": getattr(self, "brain_status", None),
+                "pose": self.hardware.pose_track.as_dict(),
             },
             daemon=daemon,
             settings=_settings(o, self.detector),

@@ -82,6 +82,7 @@ void PoseFilter::start(double x_m, double y_m, double heading_rad, double std_m)
   hist_head_ = 0;
   remember();
   rejecting_ = false;
+  push_var_ = 0.0;
 }
 
 void PoseFilter::remember() {
@@ -193,12 +194,23 @@ GpsUpdate PoseFilter::correct(double x_m, double y_m, double heading_deg, double
     if (!rejecting_) {
       rejecting_ = true;
       rejecting_since_ms_ = now_ms;
+      push_var_ = 0.0;
     }
-    if (now_ms - rejecting_since_ms_ >= config_.reanchor_ms) {
+    const uint32_t for_ms = now_ms - rejecting_since_ms_;
+    if (for_ms >= config_.reanchor_ms) {
       start(x_m, y_m, hz, sigma);
       ++reanchors_;
       last_fix_ms_ = now_ms;
       return GpsUpdate::reanchored;
+    }
+    // The robot may be moving without its wheels saying so: widen the position's uncertainty
+    // to what push_mps covers in the time the readings have disagreed.
+    const double spread = config_.push_mps * static_cast<double>(for_ms) / 1000.0;
+    const double add = spread * spread - push_var_;
+    if (add > 0.0) {
+      p_[0][0] += add;
+      p_[1][1] += add;
+      push_var_ += add;
     }
     return GpsUpdate::rejected;
   }

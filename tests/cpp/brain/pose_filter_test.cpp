@@ -162,16 +162,42 @@ TEST(PoseFilter, RejectsAGpsJumpAndReanchorsWhenItPersists) {
     sim.gps();
   }
   EXPECT_LT(sim.error_m(), 0.02);
-  // The robot was really moved (picked up): after reanchor_ms of rejections, the GPS wins.
+  // The robot was really moved (pushed sideways, picked up): the first readings are rejected,
+  // the pose's uncertainty grows while they disagree, and within reanchor_ms the GPS wins.
   sim.truth().x += 0.8;
-  GpsUpdate last = GpsUpdate::none;
-  for (int step = 0; step < 120 && last != GpsUpdate::reanchored; ++step) {
+  const uint32_t rejected_before = f.rejected();
+  int steps = 0;
+  for (; steps < 120 && sim.error_m() > 0.05; ++steps) {
     sim.drive(0.0, 0.0);
-    last = sim.gps();
+    sim.gps();
   }
-  EXPECT_EQ(last, GpsUpdate::reanchored);
-  EXPECT_EQ(f.reanchors(), 1u);
   EXPECT_LT(sim.error_m(), 0.05);
+  EXPECT_LE(steps, 105) << "followed within a second (and the GPS's 30 ms)";
+  EXPECT_GT(steps, 40) << "but not at once: a glitch of 400 ms is not believed";
+  EXPECT_GT(f.rejected() - rejected_before, 35u);
+}
+
+TEST(PoseFilter, RejectionsWidenTheUncertaintyAndASidewaysPushIsFollowedQuickly) {
+  PoseFilter f(kRobotConfig.pose);
+  Sim sim(f, 5);
+  sim.gps();
+  for (int step = 0; step < 100; ++step) {
+    sim.drive(0.0, 0.0);
+    sim.gps();
+  }
+  const double std0 = f.position_std_m();
+  sim.truth().y += 0.15;  // shoved 15 cm sideways by another robot, wheels still
+  int steps = 0;
+  double std_max = std0;
+  for (; steps < 100 && sim.error_m() > 0.03; ++steps) {
+    sim.drive(0.0, 0.0);
+    sim.gps();
+    std_max = std::max(std_max, f.position_std_m());
+  }
+  EXPECT_LT(sim.error_m(), 0.03);
+  EXPECT_LE(steps, 30) << "a 15-cm push is followed within 0.3 s";
+  EXPECT_GT(std_max, 2.0 * std0) << "and the pose said it was less sure meanwhile";
+  EXPECT_EQ(f.reanchors(), 0u);
 }
 
 TEST(PoseFilter, HeadingWrapsAroundNorth) {

@@ -141,6 +141,7 @@ inline constexpr Config kRobotConfig{
         /*heading_var_per_rad_wheels=*/0.01,
         /*heading_var_per_m_wheels=*/0.002,
         /*gate_chi2=*/16.27,              // 99.9 % of good readings pass (3 degrees of freedom)
+        /*push_mps=*/0.3,                 // a pushed robot's unseen motion, while readings disagree
         /*reanchor_ms=*/1000,
         /*gps_fix_hold_ms=*/250,
         /*lost_std_m=*/1.0,
@@ -221,7 +222,8 @@ constexpr const char* config_error(const Config& c) {
   const double pose_numbers[] = {f.gps_min_std_m, f.gps_heading_std_deg, f.gps_max_error_m,
                                  f.odom_var_per_m, f.pos_var_per_s, f.heading_var_per_rad_imu,
                                  f.heading_var_per_s_imu, f.heading_var_per_rad_wheels,
-                                 f.heading_var_per_m_wheels, f.gate_chi2, f.lost_std_m};
+                                 f.heading_var_per_m_wheels, f.gate_chi2, f.push_mps,
+                                 f.lost_std_m};
   for (double v : pose_numbers) {
     if (!(v >= 0.0 && v < 1e6)) return "pose filter numbers must be finite and not negative";
   }

@@ -10,9 +10,11 @@
 //            (never below gps_min_std_m). The reading is compared with the filter's pose of
 //            gps_latency_ms ago, when the sensor saw the strip, and the correction applied to
 //            the pose now. A reading too far from the pose for its uncertainty (a chi-square gate
-//            on all three numbers) is rejected as a jump; when readings keep being rejected for
-//            reanchor_ms the filter starts again from the GPS (the robot was moved, or the
-//            odometry was wrong), and says so.
+//            on all three numbers) is rejected as a jump. While readings keep being rejected, the
+//            position's uncertainty grows at push_mps (a robot pushed sideways moves without its
+//            wheels turning), so a GPS that stays put is believed again within a fraction of a
+//            second while a short glitch is not; after reanchor_ms of rejections the filter
+//            starts again from the GPS, and says so.
 //
 // The pose's trust: position_std_m() is the standard deviation along the position's worst axis,
 // heading_std_deg() the heading's; fix() says what the pose rests on (lost: nothing yet, or the
@@ -41,6 +43,8 @@ struct PoseFilterConfig {
   double heading_var_per_rad_wheels;  // rad^2 per radian turned, from the wheels alone
   double heading_var_per_m_wheels;    // rad^2 per metre driven, from the wheels alone
   double gate_chi2;                 // chi-square gate on a reading's innovation (3 degrees of freedom)
+  double push_mps;                  // while readings are rejected, the pose may be moving unseen
+                                    //   (pushed sideways): its std grows this fast
   uint32_t reanchor_ms;             // readings rejected this long in a row: start from the GPS
   uint32_t gps_fix_hold_ms;         // fix() says gps this long after an accepted reading
   double lost_std_m;                // position std beyond this: fix() says lost
@@ -102,6 +106,7 @@ class PoseFilter {
   uint32_t last_fix_ms_ = 0;
   bool rejecting_ = false;
   uint32_t rejecting_since_ms_ = 0;
+  double push_var_ = 0.0;  // position variance added for unseen motion during the rejections
   uint32_t accepted_ = 0;
   uint32_t rejected_ = 0;
   uint32_t reanchors_ = 0;
