@@ -173,6 +173,36 @@ def test_the_clamp_sensor_reaches_the_state(brain: BrainHost, port: Port) -> Non
     assert report.clamp == 255 and report.clamp_closed
     assert BrainHost.clamp_line(True) == "clamp 1"
     assert BrainHost.sticks_line(0.0, 0.0, clamp=True) == "sticks 0.0 0.0 clamp"
+    assert BrainHost.sticks_line(0.0, 0.0, lift=True) == "sticks 0.0 0.0 lift"
+
+
+def test_the_imu_and_a_gps_dropout_reach_the_pose(brain: BrainHost, port: Port) -> None:
+    port.send(hello())
+    brain.set_gps(-1.2, 0.5, 90.0, 0.013)  # in red's half
+    brain.set_imu(0.0)
+    brain.set_measured(0.0, 0.0)
+    report = brain.until(100, rx=port.written)
+    assert report.pose == "gps" and report.pose_x == pytest.approx(-1.2, abs=1e-3)
+    assert report.period == "before" and report.alliance == "red"  # brain_host's screen pick
+    brain.set_gps_failure("error")
+    brain.set_measured(0.5, 0.5)  # facing +x at 0.5 m/s
+    report = brain.until(1100)
+    assert report.pose == "odometry" and report.gps == "error"
+    assert report.pose_x == pytest.approx(-0.7, abs=0.02) and report.pose_std > 0.02
+    port.collect(report.tx)
+    last = port.states()[-1]
+    assert last.pose_fix == PoseFix.ODOMETRY and last.x == pytest.approx(-0.7, abs=0.02)
+    assert BrainHost.imu_line(12.5) == "imu 12.5" and BrainHost.imu_line(None) == "imu off"
+    with pytest.raises(ValueError, match="imu rotation"):
+        BrainHost.imu_line(float("nan"))
+
+
+def test_without_a_screen_pick_the_alliance_comes_from_the_gps_start_pose() -> None:
+    with BrainHost.start(alliance="unknown") as host:
+        host.set_gps(1.3, -1.2, 270.0, 0.013)  # blue's half
+        assert host.until(50).alliance == "blue"
+        host.command("screen red")
+        assert host.until(100).alliance == "red"
 
 
 def test_a_batch_is_one_round_trip(brain: BrainHost) -> None:

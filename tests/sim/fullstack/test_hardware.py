@@ -13,7 +13,15 @@ import pytest
 
 from protocol import framing
 from protocol.framing import Received
-from protocol.messages import FINGERPRINT, PROTOCOL_VERSION, Hello, Role, State
+from protocol.messages import (
+    FINGERPRINT,
+    PROTOCOL_VERSION,
+    ClampAction,
+    Command,
+    Hello,
+    Role,
+    State,
+)
 from sim.config import WorldConfig
 from sim.fullstack.brain_host import DEFAULT_BINARY, BrainHost, BrainReport
 from sim.fullstack.hardware import RobotHardware, competition_phase
@@ -191,3 +199,72 @@ def test_encoders_read_what_the_robot_did(world: World) -> None:
 def test_a_robot_that_is_not_there_is_refused(world: World) -> None:
     with pytest.raises(ValueError, match="not in this world"):
         RobotHardware(world, 3, rng=None)
+
+
+def test_the_jetsons_release_makes_the_world_let_go(world: World) -> None:
+    """Command.clamp release -> the Brain opens its clamp -> the World releases the goal and
+    keeps its clamp open until the Brain closes it again (issue 44)."""
+    hw = RobotHardware(world, 0, rng=None)
+    held = hw.command(report(clamp_closed=True))
+    assert held.clamp is None, "closed: the World's own clamp as before"
+    released = hw.command(report(clamp_closed=False))
+    assert released.clamp is False, "the Brain opened it: release"
+    assert hw.command(report(clamp_closed=False, stopped=True)).clamp is False, "kept open"
+    assert hw.command(report(clamp_closed=True)).clamp is None, "closed again: the World grabs"
+    fresh = RobotHardware(world, 0, rng=None)
+    assert fresh.command(report(clamp_closed=False)).clamp is None, "never closed: auto clamp"
+
+
+def test_the_pose_track_compares_the_brains_pose_with_the_truth(world: World) -> None:
+    hw = RobotHardware(world, 0, rng=None)
+    r = world.robots[0]
+    hw.command(report(pose="gps", pose_x=r.x + 0.03, pose_y=r.y + 0.04, pose_std=0.02))
+    hw.command(report(pose="odometry", pose_x=r.x, pose_y=r.y, pose_std=0.05))
+    hw.command(report(pose="lost"))
+    hw.command(BrainReport.off(100))  # a rebooting Brain is not counted
+    d = hw.pose_track.as_dict()
+    assert d["steps"] == 3 and d["by_fix"] == {"gps": 1, "odometry": 1, "lost": 1}
+    assert d["error_max_m"] == pytest.approx(0.05) and d["error_mean_m"] == pytest.approx(0.025)
+    assert d["std_max_m"] == pytest.approx(0.05) and d["gps_hidden_steps"] == 0
+
+
+def test_a_release_through_brain_host_opens_the_clamp_in_the_world() -> None:
+    """The whole path: a Jetson's Command with clamp release, the real Brain core, the World."""
+    with World(WorldConfig(blue=())) as w, BrainHost.start(boot_id=0xC1A4) as brain:
+        w.reset(np.random.default_rng(0))
+        r, g = w.robots[0], w.goals[0]
+        w.place_goal(0, -1.0, 0.0)
+        w.place_robot(0, -1.0 + g.spec.base_radius + r.config.length_m / 2 + 0.05, 0.0, 90.0)
+        hw = RobotHardware(w, 0, rng=None)
+        fd = os.open(brain.pty_path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+        written, t_ms, seq = 0, 0, 0
+
+        def brain_step(linear: float, clamp: ClampAction) -> BrainReport:
+            nonlocal written, t_ms, seq
+            seq += 1
+            cmd = Command(seq, linear, 0.0, False, 250, clamp=clamp)
+            written += os.write(fd, framing.encode_downlink(cmd, seq & 0xFF))
+            lines = hw.sensor_lines(hw.read("autonomous"))
+            t_ms += 20
+            replies = brain.run_batch([*lines, BrainHost.step_line("until", t_ms, written)])
+            report = BrainReport.parse(replies[-1])
+            w.step([hw.command(report)])
+            return report
+
+        try:
+            hello = Hello(FINGERPRINT, PROTOCOL_VERSION, Role.JETSON, 0xA11CE, "test")
+            written += os.write(fd, framing.encode_downlink(hello, 0))
+            for _ in range(30):  # back onto the goal: the World grabs it, the Brain closes
+                report = brain_step(-0.3, ClampAction.LEAVE)
+                if r.carried_goal is not None and report.clamp_closed:
+                    break
+            assert r.carried_goal == 0 and report.clamp_closed
+            for _ in range(3):
+                report = brain_step(0.0, ClampAction.RELEASE)
+            assert not report.clamp_closed, "the Brain opened its clamp"
+            assert r.carried_goal is None, "and the World let the goal go"
+            for _ in range(10):  # the goal still touches the back: release keeps it let go
+                brain_step(0.0, ClampAction.RELEASE)
+            assert r.carried_goal is None
+        finally:
+            os.close(fd)
