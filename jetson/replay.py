@@ -271,6 +271,20 @@ def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e
     return report
 
 
+def _protocol_v3_pose(state: dict[str, Any]) -> dict[str, Any]:
+    """A State recorded before protocol v4 has no pose_fix: its x, y, heading were the GPS's,
+    valid while gps_status was ok. Give it the v4 fields that mean the same, so an old recording
+    replays as it was decided."""
+    if "pose_fix" in state:
+        return state
+    ok = state.get("gps_status", "ok") in ("ok", 0)
+    return {
+        **state,
+        "pose_fix": "gps" if ok else "lost",
+        "pose_std": float(state.get("gps_error", 0.0)) if ok else 0.0,
+    }
+
+
 def _compare(
     report: ReplayReport,
     decider: Decider,
@@ -282,7 +296,7 @@ def _compare(
     index = report.cycles
     report.cycles += 1
     try:
-        state = message_from_dict(State, rec["state"])
+        state = message_from_dict(State, _protocol_v3_pose(rec["state"]))
         cmd = rec["cmd"]
     except (KeyError, ValueError, TypeError) as exc:
         raise ReplayError(f"{path}: cycle {index} is malformed: {exc}") from exc

@@ -12,6 +12,7 @@ import threading
 import time
 import zlib
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -294,6 +295,36 @@ def test_replay_reports_the_cut_and_exits_0_when_what_is_whole_matches(
     assert cli.main(["replay", str(rec.path)]) == 0
     text = capsys.readouterr().out
     assert "cut off" in text and "whole cycles before the cut were replayed" in text
+
+
+def test_a_recording_from_before_protocol_v4_replays_as_it_was_decided(tmp_path: Path) -> None:
+    """A v3 State has no pose_fix: its x, y, heading were the GPS's while gps_status was ok."""
+    decider = Decider(ProbePolicy())
+    rec = RecordingDir(tmp_path, compress=False).open(header(decider))
+    rec.reset(0.0)
+    for i in range(6):
+        if i < 4:  # a GPS fix: the v3 daemon drove, as this one does
+            st = state(i)
+            d = decider.decide(st, None)
+            cmd, why = Command(i + 1, d.linear, d.angular, d.intake, 250), d.reason
+        else:  # no fix: the v3 daemon stopped ("gps error"); its State had zeros for the pose
+            st = replace(state(i), gps_status=GpsStatus.ERROR, x=0.0, y=0.0, heading=0.0)
+            cmd, why = Command(i + 1, 0.0, 0.0, False, 250), "gps error"
+        rec.cycle(CycleRecord(0.0, st, None, None, cmd, why, "-", 0, None, 0.5, 0.1))
+    rec.close(1.0)
+    v4 = ("pose_fix", "pose_std", "heading_std", "period", "match_ms", "clamp", "lift")
+    lines = []
+    for line in rec.path.read_text().splitlines():
+        r = json.loads(line)
+        if r.get("kind") == "cycle":
+            r["state"] = {k: v for k, v in r["state"].items() if k not in v4}
+        lines.append(json.dumps(r))
+    rec.path.write_text("\n".join(lines) + "\n")
+    report = replay(rec.path, ProbePolicy())
+    assert report.cycles == 6
+    # The four with a GPS fix drove then and drive now; the two without stopped then, and stop
+    # now (no pose, "gps error"): the same Commands.
+    assert report.identical == 6, report.differences
 
 
 def test_a_damaged_line_before_the_end_is_still_an_error(tmp_path: Path) -> None:
