@@ -80,6 +80,18 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
+def _wait_listening(port: int, timeout_s: float) -> None:
+    deadline = time.monotonic() + timeout_s
+    while True:
+        try:
+            with socket.create_connection(("127.0.0.1", port), timeout=1.0):
+                return
+        except OSError:
+            if time.monotonic() > deadline:
+                raise SystemExit(f"bench.dashboard: nothing listens on port {port}") from None
+            time.sleep(0.1)
+
+
 def _cpu_s(pid: int) -> float:
     """utime + stime of a process, seconds."""
     with open(f"/proc/{pid}/stat") as f:
@@ -120,6 +132,7 @@ def run_scenario(
             if daemon_cpus:
                 os.sched_setaffinity(child.pid, daemon_cpus)
             if dashboard:
+                _wait_listening(port, 60.0)  # the dashboard's process starts beside the loop
                 browser = Browser()
                 browser.renice(19)
                 if browser_cpus:
