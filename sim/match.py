@@ -52,8 +52,9 @@ class EnvConfig:
     default layout. obs_noise applies the spec's uniform noise; gps_noise makes the robot's own
     pose a GPS reading (Gaussian noise and latency) instead of the truth. Actions are
     [linear, angular] in [-1, 1], scaled to the robot's speed limits (angular positive =
-    clockwise), plus [intake] and/or [clamp] when action_intake / action_clamp (> 0 means on;
-    clamp < 0 releases). max_steps truncates episodes early (None: the match's own length).
+    clockwise), or with `skills` one score per skill, either followed by [intake] and/or [clamp]
+    when action_intake / action_clamp (> 0 means on; clamp <= 0 releases). max_steps truncates
+    episodes early (None: the match's own length).
     goal_start_share is a training curriculum: the share of episodes in which each robot starts
     with its back to one of its alliance's goals (clamp point 0.05-0.5 m from it, +-30 deg),
     so that a policy discovers the clamp, which an untrained robot driving forward never backs
@@ -113,9 +114,28 @@ class EnvConfig:
 
     @property
     def action_size(self) -> int:
-        if self.skills is not None:
-            return self.skills.n_options
-        return 2 + int(self.action_intake) + int(self.action_clamp)
+        """[linear, angular] or one score per skill, then [intake] and/or [clamp]."""
+        head = self.skills.n_options if self.skills is not None else 2
+        return head + self.actuator_size
+
+    @property
+    def actuator_size(self) -> int:
+        """How many actuator inputs (intake, clamp) follow the drive or the skill scores."""
+        return int(self.action_intake) + int(self.action_clamp)
+
+    def actuators(self, tail: np.ndarray) -> tuple[bool, bool | None]:
+        """(intake, clamp) from the action's last actuator_size values in [-1, 1]: the intake
+        runs when > 0 (always, without action_intake); the clamp grabs when > 0 and releases
+        otherwise (None, left to the auto clamp, without action_clamp)."""
+        k = 0
+        intake = True
+        clamp = None
+        if self.action_intake:
+            intake = bool(tail[k] > 0)
+            k += 1
+        if self.action_clamp:
+            clamp = bool(tail[k] > 0)
+        return intake, clamp
 
 
 def make_config(config: EnvConfig | dict[str, Any] | None = None, **overrides: Any) -> EnvConfig:
@@ -204,6 +224,21 @@ def skill_settings(field: FieldSpec, alliance: AllianceName, robot: RobotConfig)
     }
 
 
+def skill_command(
+    config: EnvConfig, driver: SkillDriver, obs: np.ndarray, action: np.ndarray
+) -> DriveCommand:
+    """A skill action (one score per skill, then the actuators: EnvConfig.actuators) -> the
+    DriveCommand the skill's controller drives, carrying the intake and the clamp, so that a
+    skill-driven robot releases a goal as a drive-action one does. Non-finite: a stop."""
+    a = np.asarray(action, dtype=np.float64).reshape(-1)
+    if not np.all(np.isfinite(a)):
+        return DriveCommand(0.0, 0.0, intake=False, clamp=None)
+    n = config.skills.n_options if config.skills is not None else len(a)
+    v, w = driver.command(obs, a[:n])
+    intake, clamp = config.actuators(np.clip(a[n:], -1.0, 1.0))
+    return DriveCommand(v, w, intake, clamp)
+
+
 class MatchCore:
     def __init__(self, config: EnvConfig, world_config: WorldConfig | None = None, client=None):
         self.config = config
@@ -265,17 +300,11 @@ class MatchCore:
             return DriveCommand(0.0, 0.0, intake=False, clamp=None)
         rc = self.world.robots[index].config
         if self.config.skills is not None:
-            v, w = self.drivers[index].command(self.stacks[index].observation(), a)
-            return DriveCommand(v, w)
+            return skill_command(
+                self.config, self.drivers[index], self.stacks[index].observation(), a
+            )
         a = np.clip(a, -1.0, 1.0)
-        k = 2
-        intake = True
-        clamp = None
-        if self.config.action_intake:
-            intake = bool(a[k] > 0)
-            k += 1
-        if self.config.action_clamp:
-            clamp = bool(a[k] > 0)
+        intake, clamp = self.config.actuators(a[2:])
         return DriveCommand(
             float(a[0]) * rc.max_linear_mps, float(a[1]) * rc.max_angular_rad_s, intake, clamp
         )
