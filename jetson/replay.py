@@ -271,6 +271,11 @@ def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e
     return report
 
 
+def recorded_state(data: dict[str, Any]) -> State:
+    """A recording's State (its JSON form), from any protocol version this replay reads."""
+    return message_from_dict(State, _protocol_v3_pose(data))
+
+
 def _protocol_v3_pose(state: dict[str, Any]) -> dict[str, Any]:
     """A State recorded before protocol v4 has no pose_fix: its x, y, heading were the GPS's,
     valid while gps_status was ok. Give it the v4 fields that mean the same, so an old recording
@@ -296,7 +301,7 @@ def _compare(
     index = report.cycles
     report.cycles += 1
     try:
-        state = message_from_dict(State, _protocol_v3_pose(rec["state"]))
+        state = recorded_state(rec["state"])
         cmd = rec["cmd"]
     except (KeyError, ValueError, TypeError) as exc:
         raise ReplayError(f"{path}: cycle {index} is malformed: {exc}") from exc

@@ -2,7 +2,7 @@
 
 The dashboard's server runs in its own process (jetson/dashboard/process.py) so that a browser
 never takes the daemon's interpreter (Python runs one thread at a time per process) or its CPU
-share: the dashboard's process runs at the lowest priority. The two processes share:
+share: the dashboard's process runs below the control loop. The two processes share:
 
 - a snapshot slot: the daemon's thread writes its newest snapshot (Observer.take(), pickled);
 - a frame slot: the camera thread writes each frame view the FrameTap keeps (pickled);

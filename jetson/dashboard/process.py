@@ -1,11 +1,12 @@
-"""The live dashboard in its own process, at the lowest priority.
+"""The live dashboard in its own process, below the robot's loop.
 
 A browser watching the robot must never slow it. Python runs one thread at a time in a process,
 so a server thread beside the daemon's loop (building pages, encoding JPEGs, talking WebSocket)
 makes the loop wait for the interpreter; and on a 2-core Jetson the server's CPU is the robot's.
 So the server (jetson/dashboard/server.py) runs in a process of its own, started with `spawn`
-(nothing of the daemon's threads is copied) at nice 19: the daemon's process, at its own
-priority, always runs first.
+(nothing of the daemon's threads is copied) at the priority of the daemon's helper threads
+(jetson/threads.py: 10 nice steps below the control loop, as the camera thread): the loop always
+runs first, and the dashboard shares what it leaves with the camera.
 
 What the daemon's side does for the dashboard: when the dashboard has asked (a shared flag), the
 daemon's thread takes a snapshot (references and numbers, jetson/dashboard/snapshot.py) and
@@ -31,10 +32,10 @@ from typing import Any
 
 from jetson.dashboard.address import parse_address
 from jetson.dashboard.bridge import Bridge, Latest, frame_bytes_for
+from jetson.threads import lower_this_thread
 
 __all__ = ["DashboardProcess", "live_server"]
 
-DASHBOARD_NICE = 19  # the lowest priority: the robot's processes always come first
 SNAPSHOT_BYTES = 1 << 20  # room for one pickled snapshot (a few kB to a few tens of kB)
 START_TIMEOUT_S = 30.0  # a Jetson imports the server's libraries in a few seconds
 STATS_PERIOD_S = 0.5
@@ -97,8 +98,7 @@ class RemoteFrames:
 
 def child_main(conn: Connection, bridge: Bridge, options: ProcessOptions) -> None:
     """The dashboard's process: serve until told to stop or the daemon's process is gone."""
-    with contextlib.suppress(OSError):
-        os.setpriority(os.PRIO_PROCESS, 0, DASHBOARD_NICE)
+    lower_this_thread()  # before any other thread starts: they inherit it
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the daemon's to handle
     from jetson.dashboard.server import DashboardServer, LiveSource
     from jetson.dashboard.system import SystemStats

@@ -34,7 +34,7 @@ from jetson.dashboard.snapshot import (
 from jetson.decide import Decider, PerceptionInput
 from jetson.errors import ReplayError
 from jetson.recorder import FORMAT, READABLE_VERSIONS
-from jetson.replay import Records, recorded_decision
+from jetson.replay import Records, recorded_decision, recorded_state
 from protocol.framing import message_from_dict
 from protocol.messages import Command, State
 
@@ -113,7 +113,7 @@ class Timeline:
                 lines.append([round(t, 3), "event", text.strip(), next(n_lines)])
             elif kind == "cycle":
                 t = float(rec["t"])
-                state = message_from_dict(State, rec["state"])
+                state = recorded_state(rec["state"])
                 cmd = message_from_dict(Command, rec["cmd"])
                 pin = None
                 pid = rec.get("p")

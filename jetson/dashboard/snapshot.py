@@ -25,7 +25,18 @@ import numpy as np
 
 from jetson.autonomy.geometry import robot_to_field, to_alliance_frame
 from protocol import messages
-from protocol.messages import Alliance, Fault, GpsStatus, MatchPhase
+from protocol.messages import (
+    Alliance,
+    ClampAction,
+    ClampState,
+    Fault,
+    GpsStatus,
+    LiftAction,
+    LiftState,
+    MatchPeriod,
+    MatchPhase,
+    PoseFix,
+)
 
 FIELD_HALF_M = 1.8288  # half of the 12 ft field's side
 LATENCY_WINDOW = 500  # the latest latencies the p50/p99 and the histogram are of (10 s at 50 Hz)
@@ -102,10 +113,15 @@ def state_snapshot(state: Any, command: Any, decision: Any) -> dict[str, Any]:
             "x": _r(state.x), "y": _r(state.y), "heading": _r(state.heading, 2),
             "gps_status": GpsStatus(state.gps_status).name.lower(),
             "gps_error": _r(state.gps_error),
+            # What the Brain's pose filter rests on, and how far it trusts it.
+            "fix": PoseFix(state.pose_fix).name.lower(),
+            "std": _r(state.pose_std), "heading_std": _r(state.heading_std, 2),
         }  # fmt: skip
         out["match"] = {
             "phase": MatchPhase(state.phase).name.lower(),
             "phase_ms": int(state.phase_ms),
+            "period": MatchPeriod(state.period).name.lower(),
+            "match_ms": int(state.match_ms),
             "time_ms": int(state.time_ms),
             "seq": int(state.seq),
             "alliance": alliance_name(state) or "unknown",
@@ -113,6 +129,8 @@ def state_snapshot(state: Any, command: Any, decision: Any) -> dict[str, Any]:
             "faults": [f.name.lower() for f in Fault if f in Fault(state.faults)],
             "rings_held": int(state.rings_held),
             "goal_clamped": int(state.goal_clamped),
+            "clamp": ClampState(state.clamp).name.lower(),
+            "lift": LiftState(state.lift).name.lower(),
         }
         out["speeds"] = {"left": _r(state.left_speed), "right": _r(state.right_speed)}
     if command is not None:
@@ -121,6 +139,8 @@ def state_snapshot(state: Any, command: Any, decision: Any) -> dict[str, Any]:
             "linear": _r(command.linear),
             "angular": _r(command.angular),
             "intake": bool(command.intake),
+            "clamp": ClampAction(command.clamp).name.lower(),
+            "lift": LiftAction(command.lift).name.lower(),
             "valid_ms": int(command.valid_ms),
             "reason": getattr(decision, "reason", None),
             "perception": getattr(decision, "perception", None),

@@ -87,7 +87,7 @@
       D.commands.push([s.t, s.command.linear, s.command.angular]);
       while (D.commands.length && s.t - D.commands[0][0] > 10) D.commands.shift();
     }
-    if (s.pose && s.pose.gps_status === "ok") {
+    if (s.pose && s.pose.fix !== "lost") {
       const last = D.trail[D.trail.length - 1];
       if (!last || Math.hypot(last[0] - s.pose.x, last[1] - s.pose.y) > 0.02) D.trail.push([s.pose.x, s.pose.y]);
       if (D.trail.length > 600) D.trail.shift();
@@ -100,13 +100,17 @@
   function drawMatch(s) {
     const m = s.match;
     if (m) {
-      text("match-clock", m.phase + " " + clock(m.phase_ms));
+      // A VEX AI match: its period and its 120-s clock; otherwise the Brain's phase clock.
+      const inMatch = m.period && m.period !== "before";
+      text("match-clock", inMatch ? m.period + " " + clock(m.match_ms) + " (" + m.phase + ")"
+        : m.phase + " " + clock(m.phase_ms));
       $("match-clock").dataset.phaseMs = m.phase_ms;
       text("phase", m.phase + " (Brain time " + (m.time_ms / 1000).toFixed(1) + " s, State " + m.seq + ")");
       text("alliance", m.alliance, m.alliance === "unknown" ? "bad" : "");
       text("driver", m.driver, m.driver === "jetson" ? "good" : (m.driver === "nobody" ? "warn" : ""));
       text("held", "rings " + (m.rings_held === 255 ? "no counter" : m.rings_held) +
-        ", clamp " + (m.goal_clamped === 255 ? "no sensor" : (m.goal_clamped ? "holds a goal" : "open")));
+        ", clamp " + (m.clamp || "?") + " (" + (m.goal_clamped === 255 ? "no sensor" : (m.goal_clamped ? "holds a goal" : "no goal")) + ")" +
+        ", lift " + (m.lift || "?"));
       text("faults", m.faults.length ? m.faults.join(", ") : "none", m.faults.length ? "warn" : "good");
     } else {
       text("match-clock", "no State yet");
@@ -114,7 +118,9 @@
     const c = s.command;
     if (c) {
       text("command", "#" + c.seq + " " + fmt(c.linear, 2) + " m/s " + fmt(c.angular, 2) +
-        " rad/s" + (c.intake ? " intake" : ""));
+        " rad/s" + (c.intake ? " intake" : "") +
+        (c.clamp && c.clamp !== "leave" ? " clamp " + c.clamp : "") +
+        (c.lift && c.lift !== "leave" ? " lift " + c.lift : ""));
       text("reason", c.reason === "policy" ? "driving (policy), perception " + c.perception +
         ", " + c.rings + " rings" : "stop: " + c.reason, c.reason === "policy" ? "good" : "warn");
     }
@@ -281,15 +287,17 @@
       const h = pose.heading * Math.PI / 180;  // clockwise from +y
       const side = 0.38 * T.scale;
       g.save(); g.translate(u, v); g.rotate(h);
-      g.fillStyle = pose.gps_status === "ok" ? (s.match && s.match.alliance === "blue" ? "#48f" : "#e44") : "#888";
+      g.fillStyle = pose.fix !== "lost" ? (s.match && s.match.alliance === "blue" ? "#48f" : "#e44") : "#888";
       g.fillRect(-side / 2, -side / 2, side, side);
       g.strokeStyle = "#fff"; g.lineWidth = 3; g.beginPath(); g.moveTo(0, 0); g.lineTo(0, -side * 0.7); g.stroke();
       g.restore();
       const back = T.inv(u, v);
       D.drawn.robot = { x: back[0], y: back[1], heading: pose.heading };
+      // The pose is the Brain's filter's (GPS, odometry, IMU): what it rests on and its spread.
       text("pose-info", "x " + fmt(pose.x, 3) + " y " + fmt(pose.y, 3) + " m, heading " + fmt(pose.heading, 1) +
-        " deg, GPS " + pose.gps_status + " (" + fmt(pose.gps_error * 100, 1) + " cm)",
-        pose.gps_status === "ok" ? "" : "bad");
+        " deg; pose " + pose.fix + " +-" + fmt(pose.std * 100, 1) + " cm, " + fmt(pose.heading_std, 1) +
+        " deg; GPS " + pose.gps_status + " (" + fmt(pose.gps_error * 100, 1) + " cm)",
+        pose.fix === "lost" ? "bad" : (pose.fix === "gps" ? "" : "warn"));
     }
   }
 
