@@ -208,7 +208,8 @@ class Decider:
             if self._driver is not None:
                 self._driver.reset()
         if state.alliance == Alliance.UNKNOWN:
-            return stop("alliance unknown: set it in the Brain's config")
+            # The Brain finds it at run time: its screen's pick, or the GPS start pose.
+            return stop("alliance unknown: pick it on the Brain's screen")
         untrusted = self._pose_untrusted(state)
         if untrusted is not None:
             return stop(untrusted)
