@@ -107,21 +107,23 @@ def two_opt(
     if isinstance(pair, np.ndarray):
         pair = pair.tolist()
     best = list(order)
+    n = len(best)
     lo = 1 if fixed_first else 0
     improved = True
     while improved:
         improved = False
-        for i in range(lo, len(best) - 1):
-            for k in range(i + 1, len(best)):
-                a = best[i - 1] if i > 0 else None
+        for i in range(lo, n - 1):
+            a = best[i - 1] if i > 0 else None
+            row_a = pair[a] if a is not None else None
+            for k in range(i + 1, n):
                 b, cpt = best[i], best[k]
-                d = best[k + 1] if k + 1 < len(best) else None
-                before = (pair[a][b] if a is not None else 0.0) + (
-                    pair[cpt][d] if d is not None else 0.0
-                )
-                after = (pair[a][cpt] if a is not None else 0.0) + (
-                    pair[b][d] if d is not None else 0.0
-                )
+                d = best[k + 1] if k + 1 < n else None
+                # The two legs the reversal replaces and the two it makes (a missing end: none).
+                before = row_a[b] if row_a is not None else 0.0
+                after = row_a[cpt] if row_a is not None else 0.0
+                if d is not None:
+                    before += pair[cpt][d]
+                    after += pair[b][d]
                 if after < before - 1e-9:
                     best[i : k + 1] = reversed(best[i : k + 1])
                     improved = True
