@@ -162,15 +162,22 @@ def _opponent(word: str) -> PlayerSpec | None:
     return None if word == "none" else load_player(word)
 
 
+def _side(word: str) -> tuple[PlayerSpec, ...] | None:
+    """A side of a match from NAME or NAME,NAME (one per robot), or none."""
+    from sim.evaluate import load_side
+
+    return None if word == "none" else load_side(word)
+
+
 def _cmd_eval(args: argparse.Namespace) -> int:
     import json
 
     from sim.errors import EvalError, OriginalPolicyError
-    from sim.evaluate import evaluate, load_player
+    from sim.evaluate import evaluate, load_side
 
     try:
-        a = load_player(args.policy)
-        b = _opponent(args.opponent)
+        a = load_side(args.policy)
+        b = _side(args.opponent)
         from tqdm import tqdm
 
         with tqdm(
@@ -188,6 +195,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
                 scenario=args.scenario,
                 fidelity=args.fidelity,
                 progress=lambda done, total: bar.update(done - bar.n),
+                world=args.world,
             )
     except (EvalError, OriginalPolicyError) as e:
         print(f"pete-sim eval: {e}", file=sys.stderr)
@@ -233,6 +241,20 @@ def _cmd_play(args: argparse.Namespace) -> int:
     return 0
 
 
+WORLD_HELP = (
+    "the match (sim.config.WORLD_PRESETS): ring_race (the default: the original team's 1v1 "
+    'ring race), tipping_point_1v1 (the whole VEX AI game, one 24" robot an alliance) or '
+    'tipping_point_2v2 (the whole game: a 24" and a 15" robot an alliance, 15 s isolation + '
+    "105 s interaction); the whole game adds its score by element and the fouls to the summary"
+)
+
+
+def _add_world(p: argparse.ArgumentParser) -> None:
+    from sim.config import WORLD_PRESETS  # dataclasses only: --help stays light
+
+    p.add_argument("--world", choices=tuple(WORLD_PRESETS), default=None, help=WORLD_HELP)
+
+
 def _add_match_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, help="first match seed")
     p.add_argument(
@@ -247,10 +269,84 @@ def _add_match_options(p: argparse.ArgumentParser) -> None:
 
 
 def _add_match(sub: argparse._SubParsersAction) -> None:
-    # The full-stack match lives in sim/fullstack (sim/fullstack/README.md).
+    # The full-stack match lives in sim/fullstack (sim/fullstack/README.md); the whole game's
+    # sim-stack match in sim/game_match.py, picked with --world.
     from sim.fullstack.cli import add_match_command
 
     add_match_command(sub)
+    p = sub.choices["match"]
+    p.description = (p.description or "") + (
+        " --world tipping_point_1v1 / tipping_point_2v2 plays the whole game with --stack sim "
+        "(the full stack plays the ring race only, for now): every robot driven by a player "
+        "(--policy for red, --opponent for blue: a name for all of an alliance's robots, or "
+        "NAME,NAME one per robot), and summary.txt/json break both alliances' scores down by "
+        "element with the fouls; replay.gif shows the platforms' tilt, the goals' owners and "
+        "their rings. Example: pete-sim match --stack sim --world tipping_point_2v2 --policy "
+        "scripted --opponent planner,scripted"
+    )
+    _add_world(p)
+    p.set_defaults(func=_cmd_match, ring_race_match=p.get_default("func"))
+
+
+# Options of the full stack that the whole game's sim-stack match does not take.
+_FULL_STACK_ONLY = ("fault", "faults", "realtime", "daemon", "record", "dashboard")
+
+
+def _cmd_match(args: argparse.Namespace) -> int:
+    if args.world in (None, "ring_race"):
+        return args.ring_race_match(args)
+    if args.stack != "sim":
+        print(
+            f"pete-sim match: --world {args.world} needs --stack sim: the full stack "
+            "(brain_host + wire + Jetson daemon) drives one robot of the ring race and does not "
+            "play the whole game yet",
+            file=sys.stderr,
+        )
+        return 2
+    given = [f"--{n}" for n in _FULL_STACK_ONLY if getattr(args, n, None)]
+    if given:
+        print(
+            f"pete-sim match: {', '.join(given)} belong(s) to the full stack; the whole game's "
+            "sim-stack match does not take them",
+            file=sys.stderr,
+        )
+        return 2
+    return _cmd_game_match(args)
+
+
+def _cmd_game_match(args: argparse.Namespace) -> int:
+    import json
+
+    from sim.errors import ConfigError, EvalError, OriginalPolicyError
+    from sim.game_match import GameMatchOptions, run_game_match
+
+    out = args.out or Path("runs") / f"match-sim-{args.world}-seed{args.seed}"
+    options = GameMatchOptions(
+        world=args.world,
+        out=out,
+        seed=args.seed,
+        red=str(args.policy) if args.policy is not None else "scripted",
+        blue=args.opponent,
+        scenario=args.scenario,
+        seconds=args.seconds,
+        gif=not args.no_gif,
+        gif_every_s=args.gif_every,
+        gif_size=args.gif_size,
+    )
+    progress = None if args.quiet or args.json else (lambda m: print(m, flush=True))
+    try:
+        result = run_game_match(options, progress)
+    except (EvalError, OriginalPolicyError, ConfigError, OSError) as e:
+        print(f"pete-sim match: {e}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(result.as_dict(), indent=1))
+    else:
+        print(result.table())
+        print(f"run folder: {out}")
+        if "gif" in result.files:
+            print(f"replay: {result.files['gif']}")
+    return 0
 
 
 def _add_dataset(sub: argparse._SubParsersAction) -> None:
@@ -363,11 +459,24 @@ def build_parser() -> argparse.ArgumentParser:
         "eval",
         help="evaluate a policy against an opponent on seeded matches",
         description="Deterministic seeded matches, sides swapped per seed: mean and 95 %% "
-        "interval of rings, score and pins, win rate by match score, fill time of 10 rings.",
+        "interval of rings, score and pins, win rate by match score, fill time of 10 rings. "
+        "With --world tipping_point_1v1 or tipping_point_2v2, the whole game: also each "
+        "alliance's score by element (rings on high branches, low branches and bases, goals in "
+        "the home zone and elevated, robots elevated, autonomous bonus and win point) and its "
+        "fouls by kind. Example: pete-sim eval --world tipping_point_2v2 --policy planner,scripted "
+        "--opponent scripted --matches 4",
     )
-    p.add_argument("--policy", required=True, help="player A")
-    p.add_argument("--opponent", default="planner", help="player B, or none")
+    p.add_argument(
+        "--policy",
+        required=True,
+        help="player A: one player for every robot of its alliance, or NAME,NAME one per robot "
+        'in the world\'s order (tipping_point_2v2: the 24" robot, then the 15")',
+    )
+    p.add_argument(
+        "--opponent", default="planner", help="player B (NAME or NAME,NAME as for A), or none"
+    )
     p.add_argument("--matches", type=int, default=20, help="matches to play")
+    _add_world(p)
     _add_match_options(p)
     p.add_argument("--json", type=Path, default=None, help="also write the summary as JSON")
     add_no_progress(p)

@@ -18,25 +18,36 @@ better start more often. Scenarios:
 Every match records, per side, rings collected, the time the 10th ring came in (fill time),
 match score, pins; the summary gives means with 95 % t-intervals, win rate (by match score)
 with a Wilson interval, and the median fill time.
+
+Worlds (`world`, sim.config.WORLD_PRESETS): the ring race (the default), or the whole game,
+`tipping_point_1v1` / `tipping_point_2v2`. A side is one player for each of its alliance's robots,
+or one player that drives every robot of it (each robot gets its own instance); a side's rings,
+pins and fill time are its robots' together. In the whole game each match also records both
+alliances' score by element (rings on high branches, low branches and bases, goals in the home
+zone and elevated, robots elevated, the autonomous bonus and win point, Balanced) and their
+fouls by kind, and the summary reports their means.
 """
 
 from __future__ import annotations
 
 import math
 import statistics
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from jetson.autonomy.geometry import other_alliance
+from jetson.autonomy.geometry import AllianceName, other_alliance
 from jetson.autonomy.spec import ObservationSpec
 from sim.baselines.planner import Planner, PlannerConfig
+from sim.config import WORLD_PRESETS
 from sim.errors import CheckpointError, ConfigError, EvalError
 from sim.match import EnvConfig, MatchCore, make_config
 from sim.players import IdlePlayer, Player, PolicyPlayer, RandomPlayer, ScriptedPlayer
+from sim.world import rules
+from sim.world.physics import World
 
 # Start and ring jitter make seeds differ; training configs use the same values.
 EVAL_WORLD: dict[str, Any] = {
@@ -63,6 +74,22 @@ BUILTIN = (
     "idle",
 )
 FILL_TARGET = 10
+# A whole-game alliance's score by element (sim.world.state.AllianceScore), in the order the
+# summaries print them; win point and balanced are yes/no, the rest counts.
+ELEMENTS: tuple[tuple[str, str], ...] = (
+    ("rings_high", "rings high branch"),
+    ("rings_low", "rings low branches"),
+    ("rings_base", "rings in bases"),
+    ("goals_in_zone", "goals in home zone"),
+    ("goals_elevated", "goals elevated"),
+    ("robots_elevated", "robots elevated"),
+    ("foul_credit", "robots credited"),
+    ("autonomous_bonus", "autonomous bonus"),
+    ("autonomous_win_point", "autonomous win pt"),
+    ("balanced", "platform balanced"),
+    ("fouls", "fouls"),
+)
+YES_NO = ("autonomous_win_point", "balanced")
 
 
 @dataclass
@@ -134,6 +161,57 @@ def load_player(text: str) -> PlayerSpec:
     raise EvalError(f"{path}: expected a .onnx policy or a .pt checkpoint")
 
 
+def load_side(text: str) -> tuple[PlayerSpec, ...]:
+    """A side's players from a command-line word: one player name (`load_player`) for every robot
+    of the alliance, or one per robot in the world's order, comma-separated ("planner,scripted":
+    the 24" robot the planner, the 15" one the scripted chaser in tipping_point_2v2)."""
+    words = [w.strip() for w in text.split(",")]
+    if not all(words):
+        raise EvalError(f"empty player name in {text!r}: give NAME or NAME,NAME")
+    return tuple(load_player(w) for w in words)
+
+
+def side_label(side: PlayerSpec | Sequence[PlayerSpec]) -> str:
+    """How a side reads in summaries: its player's label, or its robots' joined by '+'."""
+    specs = (side,) if isinstance(side, PlayerSpec) else tuple(side)
+    labels = [s.label for s in specs]
+    return labels[0] if len(set(labels)) == 1 else "+".join(labels)
+
+
+def world_env(world: str | None) -> dict[str, Any]:
+    """The evaluation's env table for a WORLD_PRESETS name (None: the ring race), with the
+    evaluation's jitter. In the whole game a pin is counted but does not end the match (the ring
+    race's evaluation ends it, as the original team's environment did)."""
+    if world is None:
+        return {"world": EVAL_WORLD}
+    if world not in WORLD_PRESETS:
+        raise EvalError(f"world must be one of {', '.join(WORLD_PRESETS)}, got {world!r}")
+    preset = WORLD_PRESETS[world]
+    table: dict[str, Any] = {"world": {**EVAL_WORLD, **preset}}
+    if preset.get("game", "ring_race") != "ring_race":
+        table["end_on_pin"] = False
+    return table
+
+
+def element_breakdown(world: World) -> dict[str, dict[str, Any]]:
+    """Each alliance's whole-game score by element (ELEMENTS, plus the total and its fouls by
+    kind) as it stands."""
+    score = world.score()
+    out: dict[str, dict[str, Any]] = {}
+    for alliance in rules.ALLIANCES:
+        s = score[alliance]
+        row: dict[str, Any] = {"total": s.total}
+        for key, _ in ELEMENTS:
+            row[key] = getattr(s, key)
+        kinds: dict[str, int] = {}
+        for f in world.fouls:
+            if f.alliance == alliance:
+                kinds[f.kind] = kinds.get(f.kind, 0) + 1
+        row["fouls_by_kind"] = kinds
+        out[alliance] = row
+    return out
+
+
 # --- one match -----------------------------------------------------------------------------------
 
 
@@ -147,6 +225,8 @@ class MatchRecord:
     pins: tuple[int, int]
     ended_by_pin: bool
     length_s: float
+    # The whole game: (A's alliance, B's) score by element (element_breakdown); None in the race.
+    breakdown: tuple[dict[str, Any], dict[str, Any]] | None = None
 
     @property
     def result(self) -> float:
@@ -160,12 +240,17 @@ def eval_env(
     fidelity: str = "training",
     spec: ObservationSpec | None = None,
     base: dict[str, Any] | None = None,
+    world: str | None = None,
 ) -> EnvConfig:
+    """The evaluation's EnvConfig: `base` (default: the evaluation's jitter in the `world` preset,
+    the ring race when None), the scenario, the fidelity and a policy's observation spec."""
     if scenario not in SCENARIOS:
         raise EvalError(f"scenario must be one of {sorted(SCENARIOS)}, got {scenario!r}")
     if fidelity not in ("training", "high"):
         raise EvalError(f"fidelity must be training or high, got {fidelity!r}")
-    cfg = make_config(base or {"world": EVAL_WORLD})
+    if base is not None and world is not None:
+        base = make_config(make_config(base), **world_env(world))  # type: ignore[assignment]
+    cfg = make_config(base or world_env(world))
     cfg = make_config(cfg, **SCENARIOS[scenario])
     cfg = make_config(cfg, world={"fidelity": fidelity})
     if spec is not None:
@@ -173,60 +258,84 @@ def eval_env(
     return cfg
 
 
+def _seat(side: Player | Sequence[Player], robots: list[int], alliance: str) -> dict[int, Player]:
+    """Robot index -> player: one player per robot of the alliance, in the world's order."""
+    players = list(side) if isinstance(side, Sequence) else [side]
+    if len(players) != len(robots):
+        raise EvalError(
+            f"{alliance} has {len(robots)} robot(s) but {len(players)} player(s): give one "
+            "player per robot (one name on the command line plays every robot of an alliance)"
+        )
+    return dict(zip(robots, players, strict=True))
+
+
 def play_match(
     cores: dict[str, MatchCore],
-    a: Player,
-    b: Player | None,
+    a: Player | Sequence[Player],
+    b: Player | Sequence[Player] | None,
     seed: int,
     a_alliance: str,
     stop_when_filled: bool = False,
     on_step: Callable[[MatchCore, list[Any]], None] | None = None,
 ) -> MatchRecord:
-    """One seeded match: A on `a_alliance`, B (None: nobody) on the other side.
+    """One seeded match: A on `a_alliance`, B (None: nobody) on the other side; a side is a player
+    for its alliance's one robot, or a sequence of one player per robot.
 
-    stop_when_filled ends the match once every robot has FILL_TARGET rings (fill times are all
-    that is wanted then)."""
+    stop_when_filled ends the match once every side's robots have FILL_TARGET rings together
+    (fill times are all that is wanted then)."""
     core = cores["solo-" + a_alliance] if b is None else cores["duel"]
     rng = np.random.default_rng(seed)
     obs = core.reset(rng)
     lineup = core.world.lineup
-    ia = next(i for i, (al, _) in enumerate(lineup) if al == a_alliance)
-    ib = next((i for i, (al, _) in enumerate(lineup) if al != a_alliance), None)
-    players: dict[int, Player] = {ia: a}
-    if b is not None and ib is not None:
-        players[ib] = b
+    mine = [i for i, (al, _) in enumerate(lineup) if al == a_alliance]
+    theirs = [i for i, (al, _) in enumerate(lineup) if al != a_alliance]
+    players = _seat(a, mine, a_alliance)
+    sides = [mine]
+    if b is not None and theirs:
+        players.update(_seat(b, theirs, other_alliance(a_alliance)))  # type: ignore[arg-type]
+        sides.append(theirs)
     # Each player draws from its own stream: A's noise never depends on B.
     for i, p in players.items():
         p.reset(core, i, np.random.default_rng((seed, i)))
-    fill: dict[int, float | None] = dict.fromkeys(players)
+    fill: list[float | None] = [None] * len(sides)
     while True:
         commands = [players[i].act(core, i, obs[i]) for i in range(len(lineup))]
         results, ended, _ = core.step(commands)
         obs = [r.observation for r in results]
         if on_step is not None:
             on_step(core, results)
-        for i in players:
-            if fill[i] is None and core.world.robots[i].collected >= FILL_TARGET:
-                fill[i] = core.world.time_s
+        for k, robots in enumerate(sides):
+            collected = sum(core.world.robots[i].collected for i in robots)
+            if fill[k] is None and collected >= FILL_TARGET:
+                fill[k] = core.world.time_s
         limit = core.config.max_steps
         if ended or (limit is not None and core.world.steps >= limit):
             break
-        if stop_when_filled and all(v is not None for v in fill.values()):
+        if stop_when_filled and all(v is not None for v in fill):
             break
     world = core.world
     score = world.score()
+    opp: AllianceName = other_alliance(a_alliance)  # type: ignore[arg-type]
     sa = float(score[a_alliance].total)  # type: ignore[index]
-    sb = float(score[other_alliance(a_alliance)].total)  # type: ignore[arg-type]
-    rb = world.robots[ib].collected if ib is not None and b is not None else 0
+    sb = float(score[opp].total)
+    opponents = sides[1] if len(sides) > 1 else []
+    breakdown = None
+    if rules.whole_game(world):
+        by_alliance = element_breakdown(world)
+        breakdown = (by_alliance[a_alliance], by_alliance[opp])
     return MatchRecord(
         seed=seed,
         a_alliance=a_alliance,
-        rings=(world.robots[ia].collected, rb),
-        fill_time_s=(fill[ia], fill.get(ib) if ib is not None else None),
+        rings=(
+            sum(world.robots[i].collected for i in mine),
+            sum(world.robots[i].collected for i in opponents),
+        ),
+        fill_time_s=(fill[0], fill[1] if len(fill) > 1 else None),
         score=(sa, sb),
-        pins=(core.pins[ia], core.pins[ib] if ib is not None and b is not None else 0),
+        pins=(sum(core.pins[i] for i in mine), sum(core.pins[i] for i in opponents)),
         ended_by_pin=core.ended_by_pin,
         length_s=world.time_s,
+        breakdown=breakdown,
     )
 
 
@@ -292,6 +401,7 @@ class Summary:
     scenario: str
     fidelity: str
     matches: list[MatchRecord] = field(default_factory=list)
+    world: str = "ring_race"
 
     def side(self, k: int) -> dict[str, Any]:
         m = self.matches
@@ -304,6 +414,26 @@ class Summary:
             "fill_rate": len(filled) / len(m) if m else math.nan,
             "fill_median_s": statistics.median(filled) if filled else math.nan,
         }
+
+    @property
+    def whole_game(self) -> bool:
+        return any(r.breakdown is not None for r in self.matches)
+
+    def elements(self, k: int) -> dict[str, Any]:
+        """Side k's whole-game score by element over the matches: the mean (95 % interval) of
+        each count, the share of matches with the win point and Balanced, fouls by kind per
+        match."""
+        rows = [r.breakdown[k] for r in self.matches if r.breakdown is not None]
+        out: dict[str, Any] = {}
+        for key, _ in ELEMENTS:
+            values = [float(row[key]) for row in rows]
+            out[key] = statistics.fmean(values) if key in YES_NO else mean_ci(values)
+        kinds = sorted({kind for row in rows for kind in row["fouls_by_kind"]})
+        out["fouls_by_kind"] = {
+            kind: statistics.fmean(row["fouls_by_kind"].get(kind, 0) for row in rows)
+            for kind in kinds
+        }
+        return out
 
     @property
     def wins(self) -> int:
@@ -329,7 +459,7 @@ class Summary:
             return out
 
         lo, hi = wilson(self.wins, len(self.matches))
-        return {
+        out = {
             "a": self.a,
             "b": self.b,
             "scenario": self.scenario,
@@ -342,6 +472,22 @@ class Summary:
             "a_win_rate": self.win_rate,
             "a_win_rate_ci95": [lo, hi],
         }
+        if self.whole_game:  # the ring race's summary stays as it was
+            out["world"] = self.world
+            out["a_elements"] = plain(self.elements(0))
+            out["b_elements"] = plain(self.elements(1))
+            out["per_match"] = [
+                {
+                    "seed": r.seed,
+                    "a_alliance": r.a_alliance,
+                    "score": list(r.score),
+                    "a": r.breakdown[0],
+                    "b": r.breakdown[1],
+                }
+                for r in self.matches
+                if r.breakdown is not None
+            ]
+        return out
 
     def table(self) -> str:
         sa, sb = self.side(0), self.side(1)
@@ -354,20 +500,69 @@ class Summary:
             (f"filled {FILL_TARGET}", f"{sa['fill_rate']:.0%}", f"{sb['fill_rate']:.0%}"),
             ("median fill s", f"{sa['fill_median_s']:.2f}", f"{sb['fill_median_s']:.2f}"),
         ]
+        if self.whole_game:
+            ea, eb = self.elements(0), self.elements(1)
+            for key, name in ELEMENTS:
+                if key in YES_NO:
+                    rows.append((name, f"{ea[key]:.0%}", f"{eb[key]:.0%}"))
+                else:
+                    rows.append((name, str(ea[key]), str(eb[key])))
+            for kind in sorted(set(ea["fouls_by_kind"]) | set(eb["fouls_by_kind"])):
+                a_k = ea["fouls_by_kind"].get(kind, 0.0)
+                b_k = eb["fouls_by_kind"].get(kind, 0.0)
+                rows.append((f"  {kind}", f"{a_k:.2f}", f"{b_k:.2f}"))
         w0 = max(len(r[0]) for r in rows)
         w1 = max(len(r[1]) for r in rows)
         lines = [f"{r[0]:<{w0}}  {r[1]:>{w1}}  {r[2]}" for r in rows]
         n = len(self.matches)
+        world = f"{self.world}, " if self.whole_game else ""
         lines.append(
             f"{self.a} wins {self.wins}/{n} ({self.win_rate:.0%}, 95 % CI {lo:.0%}-{hi:.0%}), "
-            f"draws {self.draws}; {self.scenario}, {self.fidelity} fidelity, means +- 95 % CI"
+            f"draws {self.draws}; {world}{self.scenario}, {self.fidelity} fidelity, "
+            "means +- 95 % CI"
         )
+        if self.whole_game:
+            lines.append(
+                "by element: counts at the end of a match (robots credited: for the opponent's "
+                "platform fouls), points for the bonus; win point and balanced: share of "
+                "matches; fouls: a match, by kind below"
+            )
         return "\n".join(lines)
 
 
+class _Side:
+    """A side's players, made once per alliance size and reset every match: one instance for
+    each robot of the alliance (its own spec each, or the one spec for all)."""
+
+    def __init__(self, specs: tuple[PlayerSpec, ...]) -> None:
+        self.specs = specs
+        self._made: dict[int, list[Player]] = {}
+
+    def players(self, robots: int) -> list[Player]:
+        if robots not in self._made:
+            if len(self.specs) == 1:
+                self._made[robots] = [self.specs[0].make() for _ in range(robots)]
+            elif len(self.specs) == robots:
+                self._made[robots] = [s.make() for s in self.specs]
+            else:
+                names = ",".join(s.label for s in self.specs)
+                raise EvalError(
+                    f"{len(self.specs)} players ({names}) for an alliance of {robots} robot(s): "
+                    "give one name for all its robots, or one per robot"
+                )
+        return self._made[robots]
+
+
+def _specs(side: PlayerSpec | Sequence[PlayerSpec]) -> tuple[PlayerSpec, ...]:
+    specs = (side,) if isinstance(side, PlayerSpec) else tuple(side)
+    if not specs:
+        raise EvalError("a side needs at least one player")
+    return specs
+
+
 def evaluate(
-    a: PlayerSpec,
-    b: PlayerSpec | None,
+    a: PlayerSpec | Sequence[PlayerSpec],
+    b: PlayerSpec | Sequence[PlayerSpec] | None,
     matches: int,
     seed: int,
     scenario: str = "capped",
@@ -375,26 +570,49 @@ def evaluate(
     stop_when_filled: bool = False,
     base_env: dict[str, Any] | None = None,
     progress: Callable[[int, int], None] | None = None,
+    world: str | None = None,
 ) -> Summary:
-    """`matches` seeded matches of A against B (None: A alone), sides alternating per seed."""
+    """`matches` seeded matches of A against B (None: A alone), sides alternating per seed, in
+    the `world` preset (None: the ring race). A side is one PlayerSpec for all its alliance's
+    robots, or one per robot."""
     if matches < 1:
         raise EvalError(f"matches must be at least 1, got {matches}")
-    specs = [s.spec for s in (a, b) if s is not None and s.spec is not None]
+    side_a = _specs(a)
+    side_b = _specs(b) if b is not None else ()
+    specs = [s.spec for s in side_a + side_b if s.spec is not None]
     if len({s.fingerprint() for s in specs}) > 1:
         raise EvalError("the two policies expect different observations; evaluate each alone")
     try:
-        env = eval_env(scenario, fidelity, specs[0] if specs else None, base_env)
+        env = eval_env(scenario, fidelity, specs[0] if specs else None, base_env, world)
         cores = make_cores(env)
     except (ConfigError, ValueError) as e:
         raise EvalError(str(e)) from e
-    summary = Summary(a.label, "nobody" if b is None else b.label, scenario, fidelity)
-    pa = a.make()
-    pb = b.make() if b is not None else None
+    summary = Summary(
+        side_label(side_a),
+        "nobody" if b is None else side_label(side_b),
+        scenario,
+        fidelity,
+        world=world or "ring_race",
+    )
+    pa = _Side(side_a)
+    pb = _Side(side_b) if b is not None else None
+    counts = {
+        al: sum(1 for x, _ in cores["duel"].world.lineup if x == al) for al in ("red", "blue")
+    }
     try:
         for k in range(matches):
             alliance = "red" if k % 2 == 0 else "blue"
+            other = other_alliance(alliance)  # type: ignore[arg-type]
+            players_b = pb.players(counts[other]) if pb is not None else None
             summary.matches.append(
-                play_match(cores, pa, pb, seed + k // 2, alliance, stop_when_filled)
+                play_match(
+                    cores,
+                    pa.players(counts[alliance]),
+                    players_b,
+                    seed + k // 2,
+                    alliance,
+                    stop_when_filled,
+                )
             )
             if progress is not None:
                 progress(k + 1, matches)

@@ -1,13 +1,17 @@
 """Top-down pictures of a World with Pillow: field, zones, goals, rings, robots, camera frustums.
 
 Drawn from the simulator's state directly (no PyBullet render), so it costs a millisecond or two
-and looks the same in both fidelities.
+and looks the same in both fidelities. In the whole game (`game = "tipping_point"`) the picture
+also shows each platform's tilt (the hinge, the lowered half shaded, the angle, "BAL" while
+Balanced), each goal's owner right now (its outline in the colour of the alliance it scores for,
+thicker when Elevated) and its rings as high/low/base, and the caption gives the period, both
+alliances' scores and their fouls. The ring race's pictures are drawn as they always were.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -16,13 +20,85 @@ from PIL import Image, ImageDraw
 from jetson.autonomy.camera import robot_to_camera_rotation
 from jetson.autonomy.geometry import box_corners, robot_to_field
 from sim.config import CameraConfig
-from sim.world import sensors
+from sim.world import rules, sensors
 from sim.world.physics import World
-from sim.world.state import RING_FLOOR
+from sim.world.state import RING_FLOOR, GoalState
+
+Px = Callable[[float, float], tuple[float, float]]
 
 _RED = (200, 40, 45)
 _BLUE = (30, 80, 190)
 _VISIBLE = (255, 255, 255)
+_NEUTRAL = (235, 235, 235)
+
+
+def _alliance_rgb(alliance: str | None) -> tuple[int, int, int]:
+    return _RED if alliance == "red" else _BLUE if alliance == "blue" else _NEUTRAL
+
+
+def goal_label(high: int, low: int, base: int) -> str:
+    """A goal's rings in the whole game's picture: high/low/base, without the parts it lacks
+    ("3" for three on the low branches, "2/3/1" with a high branch, "3/1" with a base)."""
+    if high:
+        return f"{high}/{low}/{base}"
+    if base:
+        return f"{low}/{base}"
+    return str(low) if low else ""
+
+
+def game_caption(world: World) -> str:
+    """The whole game's caption: time, period, each alliance's score, fouls, win point."""
+    s = world.score()
+    parts = [f"t {world.time_s:5.1f} s  {world.phase}"]
+    for alliance in ("red", "blue"):
+        a = s[alliance]
+        extra = " AWP" if a.autonomous_win_point else ""
+        parts.append(f"{alliance} {a.total:3d} (fouls {a.fouls}{extra})")
+    return "   ".join(parts)
+
+
+def _draw_platforms(d: ImageDraw.ImageDraw, world: World, px: Px) -> None:
+    """Each see-saw: the hinge, the half whose edge is down shaded by how far, the tilt in
+    degrees and BAL while Balanced."""
+    f = world.field
+    for plat in f.platforms:
+        state = world.platforms.get(plat.alliance)
+        if state is None:
+            continue
+        cx, cy = plat.center
+        sx, sy = plat.size
+        full = plat.max_tilt_rad or 1.0
+        share = min(1.0, abs(state.tilt) / full)
+        # Positive tilt: the field-side edge is down.
+        down = plat.field_side if state.tilt > 0 else -plat.field_side
+        if share > 1e-3:
+            x0, x1 = sorted((cx, cx + down * sx / 2))
+            d.rectangle(
+                [px(x0, cy + sy / 2), px(x1, cy - sy / 2)], fill=(0, 0, 0, round(40 + 110 * share))
+            )
+        d.line([px(cx, cy + sy / 2), px(cx, cy - sy / 2)], fill=(250, 250, 250), width=2)
+        balanced = rules.platform_balanced(world, plat.alliance)
+        text = f"{math.degrees(state.tilt):+.0f}" + (" BAL" if balanced else "")
+        tx, ty = px(cx - sx / 2, cy - sy / 2)
+        d.text((tx + 2, ty - 12), text, fill=(255, 255, 255))
+
+
+def _draw_goal_game(
+    d: ImageDraw.ImageDraw, world: World, g: GoalState, cx: float, cy: float, rad: float
+) -> None:
+    """A goal's owner (its outline) and rings (high/low/base) in the whole game."""
+    owner, elevated = rules.goal_owner(world, g)
+    if owner is not None:
+        width = 4 if elevated else 2
+        d.ellipse(
+            [cx - rad - 3, cy - rad - 3, cx + rad + 3, cy + rad + 3],
+            outline=_alliance_rgb(owner),
+            width=width,
+        )
+    label = goal_label(g.rings_high, g.rings_low, g.rings_base)
+    if label:  # below a tall goal's post
+        dy = 2 if g.spec.kind == "neutral_tall" else -6
+        d.text((cx - 3 * len(label), cy + dy), label, fill=(0, 0, 0))
 
 
 def _frustum_polygon(cam: CameraConfig, ring_z: float) -> np.ndarray:
@@ -84,6 +160,9 @@ def top_down(
             fill=(*plat.rgb, 150),
             outline=(20, 20, 20),
         )
+    game = rules.whole_game(world)
+    if game:
+        _draw_platforms(d, world, px)
     d.rectangle([px(-half, half), px(half, -half)], outline=f.wall_rgb, width=3)
 
     if visible is None:
@@ -117,7 +196,9 @@ def top_down(
         d.regular_polygon((cx, cy, rad), 7, fill=g.spec.rgb, outline=(20, 20, 20))
         if g.spec.kind == "neutral_tall":
             d.ellipse([cx - 3, cy - 3, cx + 3, cy + 3], fill=(20, 20, 20))
-        if g.rings:
+        if game:
+            _draw_goal_game(d, world, g, cx, cy, rad)
+        elif g.rings:
             d.text((cx - 4, cy - 6), str(g.rings), fill=(0, 0, 0))
 
     for r in world.robots:
@@ -133,11 +214,17 @@ def top_down(
         cx, cy = px(*r.xy)
         d.text((cx - 4, cy - 6), str(r.held), fill=(255, 255, 255))
 
-    score = world.score()
-    text = title or (
-        f"t {world.time_s:5.1f} s   red {score['red'].total:3d}   blue {score['blue'].total:3d}   "
-        + "  ".join(f"{r.name}: {r.collected}" for r in world.robots)
-    )
+    if title:
+        text = title
+    elif game:
+        text = game_caption(world)
+    else:
+        score = world.score()
+        text = (
+            f"t {world.time_s:5.1f} s   red {score['red'].total:3d}   "
+            f"blue {score['blue'].total:3d}   "
+            + "  ".join(f"{r.name}: {r.collected}" for r in world.robots)
+        )
     d.text((margin, size + 4), text, fill=(235, 235, 235))
     return np.asarray(img)
 
