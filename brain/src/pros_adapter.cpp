@@ -35,6 +35,15 @@
 #include "pete/messages.hpp"
 #include "pros/apix.h"
 
+// LLEMU (the V5 screen's three buttons, for the alliance pick) is PROS 4's liblvgl template;
+// PROS's common.mk defines _PROS_INCLUDE_LIBLVGL_LLEMU_HPP when the template is applied.
+#if defined(_PROS_INCLUDE_LIBLVGL_LLEMU_HPP)
+#include "liblvgl/llemu.hpp"
+#define PETE_HAS_LLEMU 1
+#else
+#define PETE_HAS_LLEMU 0
+#endif
+
 namespace {
 
 using namespace pete;
@@ -431,13 +440,7 @@ class ProsDriverInput final : public core::DriverInput {
 /// Before the match the driver picks the alliance on the Brain's screen with LLEMU's three buttons:
 /// left = red, right = blue, centre = no pick (the Brain finds it from the GPS start pose). The
 /// screen shows the pick. LLEMU lives in PROS 4's liblvgl template (`pros conduct apply liblvgl`);
-/// without it this reads "no pick" and the GPS decides.
-#if __has_include("liblvgl/llemu.hpp")
-#include "liblvgl/llemu.hpp"
-#define PETE_HAS_LLEMU 1
-#else
-#define PETE_HAS_LLEMU 0
-#endif
+/// without it (PETE_HAS_LLEMU 0, above) this reads "no pick" and the GPS decides.
 
 std::atomic<std::uint8_t> g_screen_pick{static_cast<std::uint8_t>(msg::Alliance::unknown)};
 
