@@ -7,8 +7,13 @@ What is measured (each a full seeded match of `--steps` control steps at 12 Hz, 
     the scripted ring-chaser: observations, rewards and all) on one core, in training fidelity
     and in high fidelity, each without and with a 320x240 camera frame rendered every step;
   - the bare World with two scripted robots (no observation building), training fidelity;
-  - N processes each running the training-fidelity env at once: total steps/s over all of them.
-Target (issue 4): >= 1,500 training-fidelity env steps/s on one core, i.e. a match in < 1 s.
+  - N processes each running the training-fidelity env at once: total steps/s over all of them;
+  - the whole game: a full 2v2 match of world_preset("tipping_point_2v2") (15 s isolation +
+    105 s interaction, 1440 steps) in training fidelity, four scripted ring-chasers
+    (sim.players.ScriptedPlayer) driving through MatchCore with every robot's observation and
+    reward built as evaluation and training build them, and the bare World under the same four.
+Targets: (issue 4) >= 1,500 training-fidelity env steps/s on one core, i.e. a match in < 1 s;
+(issue 44) the full 2v2 whole-game match in <= 2 s of wall time on one core.
 Results go to bench/results/sim.json; the machine is shared, so the 1-minute load average when
 the run started is recorded beside the numbers.
 """
@@ -28,6 +33,7 @@ import numpy as np
 from bench.common import Result
 
 TARGET_STEPS_PER_S = 1500.0
+TARGET_GAME_MATCH_S = 2.0
 CAMERA = (320, 240)
 
 
@@ -68,6 +74,45 @@ def _world_match(steps: int, seed: int = 0) -> tuple[int, float]:
             w.step([b.act(w) for b in bots])
             n += 1
         return n, time.perf_counter() - start
+
+
+def _game_match(seed: int = 0, observations: bool = True) -> tuple[int, float]:
+    """A full 2v2 whole-game match (tipping_point_2v2): four scripted chasers, through MatchCore
+    (observations, rewards) or on the bare World; (steps, seconds) excluding construction."""
+    from sim.baselines.scripted import GreedyChaser
+    from sim.config import world_preset
+    from sim.match import EnvConfig, MatchCore
+    from sim.players import ScriptedPlayer
+
+    world = world_preset("tipping_point_2v2")
+    if not observations:
+        from sim.world.physics import World
+
+        with World(world) as w:
+            w.reset(np.random.default_rng(seed))
+            bots = [GreedyChaser(i) for i in range(len(w.robots))]
+            n = 0
+            start = time.perf_counter()
+            while not w.over:
+                w.step([b.act(w) for b in bots])
+                n += 1
+            return n, time.perf_counter() - start
+    core = MatchCore(EnvConfig(world=world, end_on_pin=False))
+    try:
+        obs = core.reset(np.random.default_rng(seed))
+        players = [ScriptedPlayer() for _ in range(core.n_robots)]
+        for i, p in enumerate(players):
+            p.reset(core, i, np.random.default_rng((seed, i)))
+        n = 0
+        start = time.perf_counter()
+        ended = False
+        while not ended:
+            results, ended, _ = core.step([p.act(core, i, obs[i]) for i, p in enumerate(players)])
+            obs = [r.observation for r in results]
+            n += 1
+        return n, time.perf_counter() - start
+    finally:
+        core.close()
 
 
 def _worker(barrier: Any, queue: Any, steps: int, seed: int) -> None:
@@ -136,10 +181,22 @@ def main(argv: list[str] | None = None) -> int:
     for k in counts:
         res.add(f"training_env_steps_per_s_{k}proc", round(_parallel(k, args.steps), 1))
 
+    _game_rows(res, args.repeats)
     res.report()
     if args.plot is not None:
         print(f"wrote {_plot(res.metrics, args.plot)}")
     return 1 if args.strict and not res.all_met else 0
+
+
+def _game_rows(res: Result, repeats: int) -> None:
+    """The whole game's rows: a full 2v2 match through MatchCore (the target) and on the bare
+    World, best of `repeats`."""
+    n, t = _best(lambda: _game_match(observations=True), repeats)
+    res.add("game_2v2_match_steps", n)
+    res.add("game_2v2_match_s", round(t, 3))
+    res.target("game_2v2_match_s", TARGET_GAME_MATCH_S, "<=")
+    n, t = _best(lambda: _game_match(observations=False), repeats)
+    res.add("game_2v2_world_match_s", round(t, 3))
 
 
 def _procs_label(key: str) -> str:

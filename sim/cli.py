@@ -64,6 +64,7 @@ def _cmd_view(args: argparse.Namespace) -> int:
             seconds=args.seconds,
             gif=not args.no_gif,
             camera=not args.no_camera,
+            world=args.world,
         )
     except (ValueError, OSError) as e:
         print(f"pete-sim view: {e}", file=sys.stderr)
@@ -210,12 +211,12 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 
 def _cmd_play(args: argparse.Namespace) -> int:
     from sim.errors import EvalError, OriginalPolicyError
-    from sim.evaluate import load_player
+    from sim.evaluate import load_side, side_label
     from sim.replay import write_replay
 
     try:
-        a = load_player(args.policy)
-        b = _opponent(args.opponent)
+        a = load_side(args.policy)
+        b = _side(args.opponent)
         written, record = write_replay(
             a,
             b,
@@ -228,6 +229,7 @@ def _cmd_play(args: argparse.Namespace) -> int:
             size=args.size,
             seconds=args.seconds,
             plot=args.plot,
+            world=args.world,
         )
     except (EvalError, OriginalPolicyError, OSError) as e:
         print(f"pete-sim play: {e}", file=sys.stderr)
@@ -235,8 +237,9 @@ def _cmd_play(args: argparse.Namespace) -> int:
     for path in written:
         print(path)
     print(
-        f"{a.label} ({args.side}): {record.rings[0]} rings, {record.score[0]:.0f} points; "
-        f"{b.label if b else 'nobody'}: {record.rings[1]} rings, {record.score[1]:.0f} points"
+        f"{side_label(a)} ({args.side}): {record.rings[0]} rings, {record.score[0]:.0f} points; "
+        f"{side_label(b) if b else 'nobody'}: {record.rings[1]} rings, "
+        f"{record.score[1]:.0f} points"
     )
     return 0
 
@@ -422,6 +425,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seconds", type=float, default=None, help="stop the match early")
     p.add_argument("--no-gif", action="store_true", help="only the start images")
     p.add_argument("--no-camera", action="store_true", help="skip the camera render")
+    _add_world(p)
     p.set_defaults(func=_cmd_view)
 
     p = sub.add_parser(
@@ -488,9 +492,10 @@ def build_parser() -> argparse.ArgumentParser:
         description="One seeded match, top-down, with the score in the caption; beside the GIF "
         "a PNG of every reward component, the rings and the score over time.",
     )
-    p.add_argument("--policy", required=True, help="player A")
-    p.add_argument("--opponent", default="planner", help="player B, or none")
+    p.add_argument("--policy", required=True, help="player A (NAME or NAME,NAME one per robot)")
+    p.add_argument("--opponent", default="planner", help="player B (as A), or none")
     p.add_argument("--out", type=Path, default=Path("match.gif"), help="the GIF to write")
+    _add_world(p)
     p.add_argument(
         "--plot", type=Path, default=None, help="the reward plot (default: <out>_rewards.png)"
     )

@@ -101,8 +101,35 @@ class PlayerSpec:
     spec: ObservationSpec | None = None
 
 
+def registered_players() -> dict[str, Callable[[], Player]]:
+    """The player classes sim.players exports under a class-level `name` that take no
+    constructor arguments (idle, random, scripted, and whatever player is added there): each is
+    a command-line player by that name."""
+    import inspect
+
+    import sim.players
+
+    out: dict[str, Callable[[], Player]] = {}
+    for obj in vars(sim.players).values():
+        name = getattr(obj, "name", None) if inspect.isclass(obj) else None
+        if not isinstance(name, str) or not callable(getattr(obj, "act", None)):
+            continue
+        try:
+            needed = [
+                q
+                for q in inspect.signature(obj).parameters.values()
+                if q.default is q.empty and q.kind not in (q.VAR_POSITIONAL, q.VAR_KEYWORD)
+            ]
+        except (TypeError, ValueError):
+            continue
+        if not needed:
+            out.setdefault(name, obj)
+    return out
+
+
 def load_player(text: str) -> PlayerSpec:
-    """A PlayerSpec from a command-line word (see the module docstring)."""
+    """A PlayerSpec from a command-line word (see the module docstring), or the name of a player
+    class sim.players exports (registered_players)."""
     from sim.baselines.original import OriginalPlayer, looks_like_original
 
     word = text.strip()
@@ -122,6 +149,9 @@ def load_player(text: str) -> PlayerSpec:
         path = word.removeprefix("original:")
         OriginalPlayer(path)  # fail now, with the reason, not in the first match
         return PlayerSpec("original", lambda: OriginalPlayer(path))
+    registered = registered_players()
+    if word in registered:
+        return PlayerSpec(word, registered[word])
     path = Path(word)
     if path.is_dir():
         for candidate in (path / "policy.onnx", path / "policy" / "policy.onnx"):
@@ -131,8 +161,9 @@ def load_player(text: str) -> PlayerSpec:
         else:
             raise EvalError(f"{path}: no policy.onnx in this folder")
     if not path.exists():
+        names = list(BUILTIN) + sorted(set(registered) - set(BUILTIN))
         raise EvalError(
-            f"unknown player {word!r}: not a file, nor one of {', '.join(BUILTIN)}, original:PATH"
+            f"unknown player {word!r}: not a file, nor one of {', '.join(names)}, original:PATH"
         )
     if path.suffix == ".onnx":
         if looks_like_original(path):

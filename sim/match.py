@@ -249,7 +249,8 @@ class MatchCore:
         if abs(self.spec.match_length_s - self.world.match_length_s) > 1e-9:
             raise ConfigError(
                 f"observation.match_length_s is {self.spec.match_length_s} but the match lasts "
-                f"{self.world.match_length_s} s (isolation + interaction); set them equal"
+                f"{self.world.match_length_s} s (isolation + interaction); set them equal (a "
+                "policy's observation is fixed by its training: it plays the match it learned)"
             )
         # This match's reward: the config's, or in a match whose intakes never fill, its own.
         self._rewards = {False: config.reward, True: config.match_reward(True)}

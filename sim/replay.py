@@ -4,11 +4,14 @@ reward component over time.
     pete-sim play --policy jetson/models/policy/policy.onnx --opponent planner --out match.gif
 
 writes match.gif and match_rewards.png (cumulative reward per component, rings and match score,
-for both robots).
+for every robot). With `world` (sim.config.WORLD_PRESETS) the match is that world's, e.g. the whole
+game's 2v2, and a side is one player for all its alliance's robots or one per robot; the GIF then
+shows the platforms' tilt, the goals' owners and their rings (sim.render).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -16,9 +19,11 @@ from typing import Any
 import numpy as np
 
 from sim.errors import EvalError
-from sim.evaluate import MatchRecord, PlayerSpec, eval_env, make_cores, play_match
+from sim.evaluate import MatchRecord, PlayerSpec, eval_env, make_cores, play_match, side_label
 from sim.match import REWARD_COMPONENTS, MatchCore
-from sim.render import save_gif, top_down
+from sim.players import Player
+from sim.render import game_caption, save_gif, top_down
+from sim.world import rules
 
 
 @dataclass
@@ -35,6 +40,8 @@ class Trace:
 
 def _caption(core: MatchCore, labels: dict[str, str]) -> str:
     w = core.world
+    if rules.whole_game(w):
+        return game_caption(w)
     s = w.score()
     parts = [f"t {w.time_s:5.1f}s"]
     for r in w.robots:
@@ -44,9 +51,21 @@ def _caption(core: MatchCore, labels: dict[str, str]) -> str:
     return "   ".join(parts)
 
 
+def _players(side: PlayerSpec | Sequence[PlayerSpec], robots: int) -> list[Player]:
+    specs = [side] if isinstance(side, PlayerSpec) else list(side)
+    if len(specs) == 1:
+        specs = specs * robots
+    if len(specs) != robots:
+        raise EvalError(
+            f"{len(specs)} players for an alliance of {robots} robot(s): give one name for all "
+            "its robots, or one per robot"
+        )
+    return [s.make() for s in specs]
+
+
 def record_match(
-    a: PlayerSpec,
-    b: PlayerSpec | None,
+    a: PlayerSpec | Sequence[PlayerSpec],
+    b: PlayerSpec | Sequence[PlayerSpec] | None,
     seed: int,
     scenario: str = "capped",
     fidelity: str = "training",
@@ -54,6 +73,7 @@ def record_match(
     stride: int = 3,
     size: int = 480,
     seconds: float | None = None,
+    world: str | None = None,
 ) -> tuple[list[np.ndarray], Trace, MatchRecord]:
     if stride < 1:
         raise EvalError(f"stride must be at least 1, got {stride}")
@@ -61,14 +81,18 @@ def record_match(
         raise EvalError(f"size must be within 64..2048, got {size}")
     if a_alliance not in ("red", "blue"):
         raise EvalError(f"side must be red or blue, got {a_alliance!r}")
-    env = eval_env(scenario, fidelity, a.spec or (b.spec if b else None))
+    side_a = [a] if isinstance(a, PlayerSpec) else list(a)
+    side_b = [] if b is None else [b] if isinstance(b, PlayerSpec) else list(b)
+    specs = [s.spec for s in side_a + side_b if s.spec is not None]
+    env = eval_env(scenario, fidelity, specs[0] if specs else None, world=world)
     if seconds is not None:
         if seconds <= 0:
             raise EvalError(f"seconds must be positive, got {seconds}")
         env = replace(env, max_steps=max(1, round(seconds * env.world.control_hz)))
     cores = make_cores(env)
     other = "blue" if a_alliance == "red" else "red"
-    labels = {a_alliance: a.label, other: b.label if b else "-"}
+    labels = {a_alliance: side_label(side_a), other: side_label(side_b) if side_b else "-"}
+    counts = {al: sum(1 for x, _ in cores["duel"].world.lineup if x == al) for al in labels}
     frames: list[np.ndarray] = []
     trace: Trace | None = None
 
@@ -88,7 +112,12 @@ def record_match(
 
     try:
         record = play_match(
-            cores, a.make(), b.make() if b else None, seed, a_alliance, on_step=on_step
+            cores,
+            _players(side_a, counts[a_alliance]),
+            _players(side_b, counts[other]) if side_b else None,
+            seed,
+            a_alliance,
+            on_step=on_step,
         )
     finally:
         for core in cores.values():
@@ -129,8 +158,8 @@ def plot_trace(trace: Trace, path: Path) -> Path:
 
 
 def write_replay(
-    a: PlayerSpec,
-    b: PlayerSpec | None,
+    a: PlayerSpec | Sequence[PlayerSpec],
+    b: PlayerSpec | Sequence[PlayerSpec] | None,
     out: Path,
     seed: int = 0,
     scenario: str = "capped",
@@ -140,12 +169,13 @@ def write_replay(
     size: int = 480,
     seconds: float | None = None,
     plot: Path | None = None,
+    world: str | None = None,
 ) -> tuple[list[Path], MatchRecord]:
     """Write the GIF (and the reward plot, default <out>_rewards.png); return paths and result."""
     if out.suffix.lower() != ".gif":
         raise EvalError(f"--out must name a .gif file, got {out}")
     frames, trace, record = record_match(
-        a, b, seed, scenario, fidelity, a_alliance, stride, size, seconds
+        a, b, seed, scenario, fidelity, a_alliance, stride, size, seconds, world
     )
     # Three times real time: a 105 s match plays in 35 s.
     fps = 12.0 / stride * 3

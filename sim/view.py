@@ -8,7 +8,8 @@ import numpy as np
 
 from sim.baselines.scripted import GreedyChaser
 from sim.camera import render_camera
-from sim.config import WorldConfig
+from sim.config import WorldConfig, world_preset
+from sim.errors import ConfigError
 from sim.render import save_gif, save_png, top_down
 from sim.world.physics import World
 
@@ -22,15 +23,24 @@ def write_view(
     seconds: float | None = None,
     gif: bool = True,
     camera: bool = True,
+    world: str | None = None,
 ) -> list[Path]:
-    """Write start.png (and camera.png, match.gif) under `out`; return the paths written."""
+    """Write start.png (and camera.png, match.gif) under `out`; return the paths written.
+    `world`: a sim.config.WORLD_PRESETS name (None: the ring race), e.g. the whole game's 2v2."""
     if stride < 1:
         raise ValueError(f"--stride must be at least 1, got {stride}")
     if not 64 <= size <= 2048:
         raise ValueError(f"--size must be within 64..2048, got {size}")
     if seconds is not None and seconds <= 0:
         raise ValueError(f"--seconds must be positive, got {seconds}")
-    cfg = WorldConfig(fidelity=fidelity, start_jitter_m=0.05, start_jitter_deg=5.0)  # type: ignore[arg-type]
+    jitter = {"start_jitter_m": 0.05, "start_jitter_deg": 5.0}
+    if world is None:
+        cfg = WorldConfig(fidelity=fidelity, **jitter)  # type: ignore[arg-type]
+    else:
+        try:
+            cfg = world_preset(world, fidelity=fidelity, **jitter)
+        except ConfigError as e:
+            raise ValueError(str(e)) from e
     written = []
     with World(cfg) as world:
         world.reset(np.random.default_rng(seed))

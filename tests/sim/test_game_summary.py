@@ -151,3 +151,41 @@ def test_the_picture_shows_the_tilt_and_the_goals_owners() -> None:
         ring = _pixel(down, w, g.x + g.spec.base_radius + 0.02, g.y, size)
         assert ring[0] > 150 and ring[2] < 100
         assert game_caption(w).startswith("t   0.0 s  isolation   red  40 (fouls 0)")
+
+
+def test_a_player_class_sim_players_exports_is_a_player_by_its_name(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import sim.players
+    from sim.evaluate import registered_players
+
+    class Parker:
+        name = "parker"
+
+        def reset(self, core: object, index: int, rng: object) -> None:
+            pass
+
+        def act(self, core: object, index: int, obs: object) -> object:
+            return None
+
+    assert {"idle", "random", "scripted"} <= set(registered_players())
+    assert "policy" not in registered_players()  # PolicyPlayer needs its function
+    with pytest.raises(EvalError, match="unknown player 'parker'"):
+        load_player("parker")
+    monkeypatch.setattr(sim.players, "Parker", Parker, raising=False)
+    spec = load_player("parker")
+    assert spec.label == "parker" and isinstance(spec.make(), Parker)
+    assert [s.label for s in load_side("parker,scripted")] == ["parker", "scripted"]
+
+
+def test_play_and_view_picture_the_whole_game(tmp_path: Path) -> None:
+    gif = tmp_path / "game.gif"
+    argv = ["play", "--world", "tipping_point_2v2", "--policy", "scripted", "--opponent"]
+    argv += ["idle,scripted", "--seconds", "3", "--stride", "12", "--out", str(gif)]
+    assert main(argv) == 0
+    assert Image.open(gif).n_frames == 4  # the first step, then one a second up to 3 s
+    assert (tmp_path / "game_rewards.png").is_file()
+    out = tmp_path / "view"
+    argv = ["view", "--world", "tipping_point_1v1", "--seconds", "1", "--no-camera"]
+    assert main([*argv, "--out", str(out)]) == 0
+    assert Image.open(out / "start.png").size == (480, 502)
