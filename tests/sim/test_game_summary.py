@@ -189,3 +189,16 @@ def test_play_and_view_picture_the_whole_game(tmp_path: Path) -> None:
     argv = ["view", "--world", "tipping_point_1v1", "--seconds", "1", "--no-camera"]
     assert main([*argv, "--out", str(out)]) == 0
     assert Image.open(out / "start.png").size == (480, 502)
+
+
+def test_the_world_preset_merges_into_the_evaluations_env() -> None:
+    from sim.evaluate import EVAL_WORLD, eval_env
+
+    race = eval_env()
+    assert race == eval_env(world="ring_race")  # the same config, so the same matches
+    game = eval_env(base={"max_steps": 12}, world="tipping_point_1v1")
+    assert game.max_steps == 12 and not game.end_on_pin and race.end_on_pin
+    assert game.world.game == "tipping_point" and game.world.red == ("24in",)
+    assert game.world.start_jitter_m == EVAL_WORLD["start_jitter_m"]
+    with pytest.raises(EvalError, match="world must be one of"):
+        eval_env(world="3v3")
