@@ -4,8 +4,9 @@ Drawn from the simulator's state directly (no PyBullet render), so it costs a mi
 and looks the same in both fidelities. In the whole game (`game = "tipping_point"`) the picture
 also shows each platform's tilt (the hinge, the lowered half shaded, the angle, "BAL" while
 Balanced), each goal's owner right now (its outline in the colour of the alliance it scores for,
-thicker when Elevated) and its rings as high/low/base, and the caption gives the period, both
-alliances' scores and their fouls. The ring race's pictures are drawn as they always were.
+thicker when Elevated) and its rings as high/low/base, an Elevated robot (a white frame inside its
+outline), and the caption gives the period, both alliances' scores and their fouls. The ring
+race's pictures are drawn as they always were.
 """
 
 from __future__ import annotations
@@ -206,6 +207,9 @@ def top_down(
         col = _RED if r.alliance == "red" else _BLUE
         corners = box_corners(r.xy, r.heading, rc.width_m, rc.length_m)
         d.polygon([px(*q) for q in corners], fill=rc.rgb, outline=col, width=3)
+        if game and rules.robot_elevated(world, r):  # a white frame inside its own
+            inner = box_corners(r.xy, r.heading, rc.width_m * 0.8, rc.length_m * 0.8)
+            d.polygon([px(*q) for q in inner], outline=(255, 255, 255), width=2)
         (x0, x1), (y0, y1) = world.intake_rect(r)
         intake = robot_to_field(np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]), r.xy, r.heading)
         d.polygon([px(*q) for q in intake], outline=(*f.ring.rgb, 255))

@@ -202,3 +202,20 @@ def test_the_world_preset_merges_into_the_evaluations_env() -> None:
     assert game.world.start_jitter_m == EVAL_WORLD["start_jitter_m"]
     with pytest.raises(EvalError, match="world must be one of"):
         eval_env(world="3v3")
+
+
+def test_the_picture_frames_an_elevated_robot_in_white() -> None:
+    size = 480
+    with World(world_preset("tipping_point_2v2")) as w:
+        w.reset(np.random.default_rng(1))
+        plat = w.field.platform("red")
+        r = w.robots[1]
+        w.place_robot(1, plat.center[0], plat.center[1], 0.0)
+        x = plat.center[0] + 0.4 * r.config.width_m  # on the inner frame's right side
+        before = _pixel(top_down(w, size, show_frustum=False), w, x, plat.center[1], size)
+        r.on_platform = "red"  # as if it drove on over the lowered edge
+        w.set_tilt("red", 0.0)
+        assert rules.robot_elevated(w, r)
+        img = top_down(w, size, show_frustum=False)
+        assert (_pixel(img, w, x, plat.center[1], size) >= 250).all()
+        assert not (before >= 250).all()
