@@ -1,0 +1,961 @@
+"""The scripted alliance: a hand-written strategy for the whole Tipping Point match, one robot of
+a VEX AI alliance (a 24" and a 15") per instance.
+
+It reads only what the robot has: its pose (the GPS, field frame), the rings its camera sees
+(robot frame), the rings its intake holds, the clamp's and the lift's state, the match clock, and
+the field's layout known before the match (jetson/autonomy/field_layout.py). Its memories are its
+own: a RingMemory (jetson/autonomy/ring_memory.py) started from the layout's rings, and a small
+named memory of the goals it moves (where it released them) and the ones it found missing.
+Everything is planned in the alliance frame, so a blue robot plays the same script mirrored.
+
+The two robots share the work by a fixed plan (no radio between them): each role has its own
+goals, its own half of the field for rings, and its own time line.
+
+  24" (the high-branch lift)                  15"
+  isolation: back onto the alliance goal on   isolation: back onto the other alliance goal,
+  the AWP line, thread the 3 preloads onto    thread the 3 preloads onto it, let it go
+  it while dragging it clear of the line,     (AWP: a ring on each alliance goal);
+  let it go (the win point);                  wait behind the north neutral goal on its
+  wait behind the south neutral goal on its   own side, then take it as interaction starts;
+  own side (no contact with the other         collect the north half's rings onto it;
+  alliance), take it as interaction starts;   drop it deep in the home zone; climb the
+  collect the south half's rings onto it      platform beside the 24" while the 24" holds
+  (the high branch first, 10 each);           the board's field edge down.
+  climb the platform with it, hold the field
+  edge down until the 15" is on, then move
+  to the balance point.
+
+A goal it cannot find (the clamp does not close where the goal should be, or the robot stands
+where it was) is marked missing and the next one on its list is tried: the other neutral goals
+first (contesting whatever is left), then its own alliance goal where it last let it go. The
+endgame's times and positions come from the see-saw's torque balance (the layout's board mass and
+hinge flats, both robots' masses, the carried goal's): the 24" holds the board tipped toward the
+field at `hold_along_m`, the 15" climbs to `partner_along_m`, then the 24" moves to where the
+torques cancel.
+
+Interface (what the daemon's decide.py calls):
+
+    strategy = AllianceStrategy(RobotRole.from_dict(...), load_layout())
+    strategy.reset()                                   # a new match
+    linear, angular, clamp, lift, intake = strategy.step(AllianceInputs(...))
+
+linear m/s, angular rad/s clockwise (the protocol's Command), clamp True hold / False release /
+None leave, lift True up / False down, intake on or off.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from jetson.autonomy.field_layout import FieldLayout, GoalLayout
+from jetson.autonomy.geometry import angle_diff_deg, field_to_robot, to_alliance_frame
+from jetson.autonomy.observation import RobotView
+from jetson.autonomy.ring_memory import RingMemory
+from jetson.autonomy.skills import Trail, arc_through, back_onto, pursuit_point, turn_first
+from jetson.autonomy.spec import SPEC_VERSION, ObservationSpec
+
+Vec = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class RobotRole:
+    """The robot this strategy drives, as its own settings know it (not the match's state)."""
+
+    role: str  # "24in" (the high-branch lift) or "15in"
+    length_m: float
+    width_m: float
+    mass_kg: float
+    max_linear_mps: float
+    max_angular_rad_s: float
+    intake_zone: tuple[float, float, float, float]  # x0, x1, y0, y1 robot frame: what it takes
+    reaches_high_branch: bool
+    partner_mass_kg: float  # the alliance's other robot
+    ring_capacity: int | None = 10  # rings the intake holds (None: no limit)
+
+    def __post_init__(self) -> None:
+        if self.role not in ("24in", "15in"):
+            raise ValueError(f"role must be '24in' or '15in', got {self.role!r}")
+        for name in ("length_m", "width_m", "mass_kg", "max_linear_mps", "max_angular_rad_s"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"robot role: {name} must be positive")
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> RobotRole:
+        d = dict(data)
+        d["intake_zone"] = tuple(float(v) for v in d["intake_zone"])
+        return cls(**d)
+
+    def clamp_offset(self, goal: GoalLayout) -> float:
+        """Robot centre to a clamped goal's centre (as the Brain's clamp holds it)."""
+        return self.length_m / 2 + goal.base_radius_m + 0.005
+
+
+@dataclass(frozen=True)
+class AllianceConfig:
+    """The script's numbers. Times are seconds before the match's end unless named otherwise."""
+
+    lookahead_m: float = 0.3
+    turn_gain: float = 4.0
+    turn_in_place_rad: float = 1.0
+    speed: float = 1.0  # fraction of the top speed when driving to a point
+    turn_cost_m_per_rad: float = 0.2  # when choosing the next ring
+    switch_margin_m: float = 0.15
+    give_up_ring_s: float = 5.0
+    stuck_window_s: float = 1.0
+    stuck_distance_m: float = 0.04
+    backoff_s: float = 0.6
+    goal_stage_m: float = 0.8  # wait this far from a goal's centre before backing onto it
+    goal_try_s: float = 7.0  # backing onto one goal this long without the clamp closing: missing
+    # Start backing onto a neutral goal this long before the isolation period ends (0: as it
+    # ends; the step that reaches its end is still judged as isolation).
+    isolation_margin_s: float = 0.0
+    # After its isolation work a robot stands still where it is (a robot standing still cannot
+    # make contact) until the period ends; with iso_rings it collects rings on its own side
+    # (x below iso_ring_x_max_m) instead, until iso_rings_until_s before the end.
+    iso_rings: bool = False
+    iso_rings_until_s: float = 2.5
+    iso_ring_x_max_m: float = -0.4  # rings this far from the centre line only, in isolation
+    preload_wait_s: float = 3.5  # hold the AWP goal at most this long for the preloads
+    ring_half_split_m: float = 0.0  # the 24" takes rings with y below this, the 15" above
+    ring_x_max_m: float = 0.45  # no ring chasing deeper into the opponent's side (alliance frame)
+    endgame_x_max_m: float = 0.1  # nor past this in the endgame (the protected platforms)
+    platform_keepout_m: float = 0.35  # rings this close to the board are left alone
+    # The endgame: the 24" heads for the platform `climb_24_s` before the end, holds the board's
+    # field edge down at `hold_along_m` from the hinge until `settle_s`, then moves to the
+    # balance point; the 15" drops its goal at `drop_15_s`, waits at its stage from `stage_15_s`
+    # and climbs to `partner_along_m` at `climb_15_s`.
+    climb_24_s: float = 24.0
+    hold_along_m: float = 0.2
+    settle_s: float = 5.0
+    drop_15_s: float = 24.0
+    carry_goal_15: bool = True  # the 15" climbs with its goal (elevated 40) instead of dropping it
+    stage_15_s: float = 18.0
+    climb_15_s: float = 11.5
+    partner_along_m: float = -0.05
+    stage_along_m: float = 0.95  # the stage in front of the board, from the hinge
+    board_y_24_m: float = -0.32  # where on the board each robot stands (alliance frame)
+    board_y_15_m: float = 0.35
+    board_speed_mps: float = 0.35
+    # guard: after its isolation work a robot drives to stand in front of the platform in its
+    # climbing lane (goals pushed at the board meet it instead); off: it stands where it is.
+    # Off by default: the drive there met the other alliance's robots (isolation fouls).
+    guard: bool = False
+    guard_gap_m: float = 0.05  # the guard stands this far in front of the board
+    blocked_s: float = 2.0  # no progress onto the board this long: the climb is blocked
+    park_along_m: float = 0.3  # a blocked robot parks here (from the hinge) ...
+    park_y_m: float = 1.15  # ... this far beside the platform's centre
+    # A tug of war: driving forward yet moved `tug_distance_m` backward in `tug_window_s`.
+    tug_window_s: float = 0.75
+    tug_distance_m: float = 0.05
+    tug_s: float = 1.5
+
+
+class AllianceInputs(NamedTuple):
+    """What the robot knows at one control step, as the daemon has it."""
+
+    x: float  # GPS, field frame, metres
+    y: float
+    heading_deg: float
+    alliance: str  # "red" or "blue"
+    time_s: float  # since the match started, isolation included
+    rings_robot_xy: Vec  # the camera's rings now, robot frame (x right, y forward)
+    rings_held: int  # rings in the intake, not yet on a goal
+    goal_clamped: bool  # the clamp holds a goal
+    lift_up: bool = False
+
+
+class AllianceAction(NamedTuple):
+    linear: float  # m/s forward
+    angular: float  # rad/s clockwise
+    clamp: bool | None  # True hold, False release, None leave
+    lift: bool | None  # True up, False down, None leave
+    intake: bool
+
+
+@dataclass
+class _Pose:
+    xy: Vec  # alliance frame
+    heading: float
+    t: float
+
+
+@dataclass
+class _GoalBelief:
+    goal: GoalLayout
+    xy: Vec | None  # where it is believed to be (alliance frame); None: missing
+    tries: float = 0.0  # seconds spent backing onto it
+
+
+@dataclass(frozen=True)
+class _IsoTask:
+    """One isolation-period job: back onto `goal`, leave `rings` preloads on it (None: all),
+    drag it so the robot stands at `drag_to`, then let go (or keep it with `keep`)."""
+
+    goal: str
+    rings: int | None = None
+    drag_to: tuple[float, float] | None = None
+    keep: bool = False
+
+
+@dataclass
+class _Plan:
+    """One role's fixed plan: its isolation jobs in order, the interaction's goal list."""
+
+    iso: list[_IsoTask] = field(default_factory=list)
+    neutral: list[str] = field(default_factory=list)  # interaction goals, in order
+
+
+def default_plan(role: str, layout: FieldLayout) -> _Plan:
+    """The 15" backs onto the alliance goal beside its start, threads its three preloads onto it
+    and keeps it all match; the 24" stands still through the isolation period (its start leaves
+    no room to turn without sweeping the alliance goal on the AWP line away, and a robot
+    standing still cannot touch the other alliance) and keeps its preloads for a neutral goal's
+    high branch, taking the nearest neutral goal as interaction starts."""
+    own = [g for g in layout.goals if g.owner == "own"]
+    other_own = next(g.name for g in own if g.name != layout.awp_goal)
+    neutrals = sorted((g for g in layout.goals if g.owner is None), key=lambda g: g.xy[1])
+    south, north = neutrals[0].name, neutrals[-1].name
+    middle = [g.name for g in neutrals[1:-1]]
+    if role == "24in":
+        return _Plan([], [south, *middle])
+    return _Plan([_IsoTask(other_own, None, None, keep=True)], [north, other_own])
+
+
+def _segment_distance(point: Vec, a: Vec, b: Vec) -> float:
+    ab = b - a
+    n = float(ab @ ab)
+    t = 0.0 if n < 1e-12 else min(1.0, max(0.0, float((point - a) @ ab) / n))
+    return float(np.hypot(*(point - (a + t * ab))))
+
+
+class AllianceStrategy:
+    """One robot of the scripted alliance: reset() at a match's start, step() every control
+    step (see the module docstring)."""
+
+    def __init__(
+        self, role: RobotRole, layout: FieldLayout, config: AllianceConfig | None = None
+    ) -> None:
+        self.role = role
+        self.layout = layout
+        self.config = config or AllianceConfig()
+        self.name = f"alliance-{role.role}"
+        self.spec = ObservationSpec(
+            version=SPEC_VERSION,
+            ring_memory=True,
+            prior_rings=layout.rings,
+            memory_forget_intake=True,
+            memory_intake_zone=role.intake_zone,
+            match_length_s=layout.match_length_s,
+        )
+        self.memory = RingMemory(self.spec)
+        self._trail = Trail(self.config.stuck_window_s, self.config.stuck_distance_m)
+        self.reset()
+
+    # --- the interface ---------------------------------------------------------------------
+
+    def reset(self) -> None:
+        self.memory.reset()
+        self._trail.clear()
+        self.plan = default_plan(self.role.role, self.layout)
+        self._iso_index = 0
+        self._held_at_clamp = 0
+        self.goals = {
+            g.name: _GoalBelief(g, np.array(g.xy, dtype=np.float64)) for g in self.layout.goals
+        }
+        self.phase = "iso_goal"
+        self.phase_since = 0.0
+        self.holding: str | None = None  # the goal it believes it holds
+        self.target_goal: str | None = None
+        self._ring_target: Vec | None = None
+        self._ring_since = 0.0
+        self._ignored: list[tuple[Vec, float]] = []
+        self._backoff_until = -1.0
+        self._backoff_turn = 1.0
+        self._backoff_dir = -1.0
+        self._was_clamped = False
+        self._staged = False
+        self._climbing = False
+        self._climb_track: list[tuple[float, float]] = []
+        self._guarding = False
+        self._tug_until = -1.0
+        self._moves: list[tuple[float, float, float, float]] = []  # t, x, y, commanded v
+        self._stage_goal: str | None = None
+        self._last_t = 0.0
+        self.intent = "start"  # what the last step was doing, for logs and tests
+
+    def step(self, inputs: AllianceInputs) -> AllianceAction:
+        xy, heading = to_alliance_frame((inputs.x, inputs.y), inputs.heading_deg, inputs.alliance)
+        assert heading is not None
+        pose = _Pose(np.asarray(xy, dtype=np.float64), float(heading), float(inputs.time_s))
+        dt = max(0.0, pose.t - self._last_t)
+        self._last_t = pose.t
+        view = RobotView(
+            x=inputs.x,
+            y=inputs.y,
+            heading_deg=inputs.heading_deg,
+            alliance=inputs.alliance,  # type: ignore[arg-type]
+            time_s=inputs.time_s,
+            rings_robot_xy=np.asarray(inputs.rings_robot_xy, dtype=np.float64).reshape(-1, 2),
+            rings_held=inputs.rings_held,
+            goal_clamped=inputs.goal_clamped,
+        )
+        self.memory.observe(view)
+        self._track_clamp(pose, inputs.goal_clamped)
+        self._forget_goals(pose)
+        self._trail.push(pose.t, float(pose.xy[0]), float(pose.xy[1]))
+        v, w, clamp = self._decide(pose, inputs, dt)
+        v, w = self._tug(pose, inputs, v, w)
+        intake = self.phase not in ("climb", "stage", "hold", "balance", "drop")
+        lift = bool(self.role.reaches_high_branch and inputs.goal_clamped and intake)
+        return AllianceAction(float(v), float(w), clamp, lift, intake)
+
+    def _tug(self, pose: _Pose, inputs: AllianceInputs, v: float, w: float) -> tuple[float, float]:
+        """A robot of the other alliance clamped the goal this one holds and drags it (the
+        robot drives forward yet moves backward): pull away at full speed, straight, for a
+        while (a tug of war goes to the stronger pull)."""
+        c = self.config
+        endgame = self.phase in ("climb", "balance", "stage")
+        h = math.radians(pose.heading)
+        self._moves.append((pose.t, float(pose.xy[0]), float(pose.xy[1]), v))
+        while self._moves and self._moves[0][0] < pose.t - c.tug_window_s:
+            self._moves.pop(0)
+        if not inputs.goal_clamped or endgame:
+            self._tug_until = -1.0
+            return v, w
+        if pose.t < self._tug_until:
+            self.intent = "tug"
+            return self.role.max_linear_mps, 0.0
+        m = self._moves
+        if len(m) >= 3 and m[-1][0] - m[0][0] >= c.tug_window_s * 0.9:
+            moved = (m[-1][1] - m[0][1]) * math.sin(h) + (m[-1][2] - m[0][2]) * math.cos(h)
+            forward = all(k[3] >= 0.1 for k in m[:-1])
+            if forward and moved < -c.tug_distance_m:
+                self._tug_until = pose.t + c.tug_s
+                self._moves.clear()
+                self.intent = "tug"
+                return self.role.max_linear_mps, 0.0
+        return v, w
+
+    # --- memories ----------------------------------------------------------------------------
+
+    def _clamp_point(self, pose: _Pose, goal: GoalLayout) -> Vec:
+        h = math.radians(pose.heading)
+        return pose.xy - self.role.clamp_offset(goal) * np.array([math.sin(h), math.cos(h)])
+
+    def _track_clamp(self, pose: _Pose, clamped: bool) -> None:
+        if clamped and not self._was_clamped:
+            # The goal now held: the one it was backing onto, else the believed one nearest
+            # the clamp point.
+            name = self.target_goal
+            if name is None:
+                best = math.inf
+                for b in self.goals.values():
+                    if b.xy is None:
+                        continue
+                    d = float(np.hypot(*(b.xy - self._clamp_point(pose, b.goal))))
+                    if d < best:
+                        name, best = b.goal.name, d
+            self.holding = name
+            if name is not None:
+                self.goals[name].xy = None
+        elif self._was_clamped and not clamped and self.holding is not None:
+            belief = self.goals[self.holding]
+            belief.xy = self._clamp_point(pose, belief.goal)
+            self.holding = None
+        self._was_clamped = clamped
+
+    def _forget_goals(self, pose: _Pose) -> None:
+        """A goal whose spot the robot's body now covers is not there (pushed away)."""
+        half = min(self.role.length_m, self.role.width_m) / 2
+        for b in self.goals.values():
+            if b.xy is not None and float(np.hypot(*(b.xy - pose.xy))) < half:
+                b.xy = None
+
+    # --- the state machine -------------------------------------------------------------------
+
+    def _time_left(self, pose: _Pose) -> float:
+        return self.layout.match_length_s - pose.t
+
+    def _set_phase(self, phase: str, t: float) -> None:
+        if phase != self.phase:
+            self.phase = phase
+            self.phase_since = t
+            self._trail.clear()
+            self._climbing = False
+
+    def _decide(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        c = self.config
+        left = self._time_left(pose)
+        big = self.role.role == "24in"
+        # The endgame takes over from whatever the robot is doing.
+        if big and left <= c.climb_24_s and self.phase not in ("climb", "balance", "park"):
+            self._set_phase("climb", pose.t)
+        if not big:
+            if left <= c.stage_15_s and self.phase not in ("stage", "climb", "balance", "park"):
+                self._set_phase("stage", pose.t)
+            elif (
+                not c.carry_goal_15
+                and left <= c.drop_15_s
+                and self.phase not in ("drop", "stage", "climb", "balance", "park")
+            ):
+                self._set_phase("drop", pose.t)
+        if pose.t < self._backoff_until:
+            self.intent = "backoff"
+            return (
+                self._backoff_dir * 0.5 * self.role.max_linear_mps,
+                self._backoff_turn * 0.5 * self.role.max_angular_rad_s,
+                bool(inputs.goal_clamped),
+            )
+        handler = getattr(self, "_phase_" + self.phase)
+        return handler(pose, inputs, dt)
+
+    # isolation: the alliance goal and the preloads ------------------------------------------
+
+    def _phase_iso_goal(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        """Back onto the current isolation job's goal."""
+        if self._iso_index >= len(self.plan.iso) or pose.t >= self.layout.isolation_s:
+            self._next_goal(pose)
+            return 0.0, 0.0, bool(inputs.goal_clamped)
+        task = self.plan.iso[self._iso_index]
+        if inputs.goal_clamped:
+            self._held_at_clamp = inputs.rings_held
+            self._set_phase("iso_score", pose.t)
+            return self._phase_iso_score(pose, inputs, dt)
+        self.target_goal = task.goal
+        if not self._goal_available(task.goal):
+            self._iso_index += 1
+            return 0.0, 0.0, False
+        self.intent = f"iso_goal:{task.goal}"
+        return self._get_goal(task.goal, pose, inputs, dt, wait_until=None)
+
+    def _phase_iso_score(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        """Thread the job's preloads onto the goal (dragging it where the job says), then let
+        go of it or keep it."""
+        c = self.config
+        task = self.plan.iso[self._iso_index]
+        self.intent = "iso_score"
+        if not inputs.goal_clamped:
+            self._iso_index += 1
+            self._set_phase("iso_goal", pose.t)
+            return 0.0, 0.0, False
+        arrived = True
+        v = w = 0.0
+        if task.drag_to is not None:
+            target = np.array(task.drag_to)
+            if float(np.hypot(*(target - pose.xy))) > 0.1:
+                arrived = False
+                v, w = self._drive_to(pose, target, None, speed=0.5)
+        want = 0 if task.rings is None else max(0, self._held_at_clamp - task.rings)
+        done = arrived and inputs.rings_held <= want
+        if done or pose.t - self.phase_since > c.preload_wait_s + 3.0:
+            self._iso_index += 1
+            if task.keep:
+                self._next_goal(pose)
+                return 0.0, 0.0, True
+            self._set_phase("release", pose.t)
+            return 0.0, 0.0, False
+        return v, w, True
+
+    def _phase_release(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        """Open the clamp and drive forward, away from the goal just let go."""
+        self.intent = "release"
+        if pose.t - self.phase_since < 0.6:
+            return 0.4 * self.role.max_linear_mps, 0.0, False
+        if pose.t < self.layout.isolation_s and self._iso_index < len(self.plan.iso):
+            self._set_phase("iso_goal", pose.t)
+        else:
+            self._next_goal(pose)
+        return 0.0, 0.0, False
+
+    def _next_goal(self, pose: _Pose) -> None:
+        if (
+            self.config.iso_rings
+            and pose.t < self.layout.isolation_s - self.config.iso_rings_until_s
+        ):
+            self._set_phase("iso_rings", pose.t)
+            return
+        if pose.t < self.layout.isolation_s:
+            self._set_phase("iso_wait", pose.t)
+            return
+        self._next_goal_interaction(pose)
+
+    def _phase_iso_rings(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        """The rest of the isolation period: rings on its own side, deep enough that the
+        other alliance's robots are unlikely there; they go onto the neutral goal later."""
+        c = self.config
+        full = self.role.ring_capacity is not None and inputs.rings_held >= self.role.ring_capacity
+        if full or pose.t >= self.layout.isolation_s - c.iso_rings_until_s:
+            self._ring_target = None
+            self._next_goal_interaction(pose)
+            return 0.0, 0.0, False
+        target = self._choose_ring(pose, x_max=c.iso_ring_x_max_m, only_mine=True)
+        if target is None:
+            self._next_goal_interaction(pose)
+            return 0.0, 0.0, False
+        self.intent = "iso_ring"
+        v, w = self._drive_to(pose, target, None, speed=c.speed, ring=True)
+        return v, w, False
+
+    def _phase_iso_wait(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        """The rest of the isolation period: stand in front of the platform, in its climbing
+        lane, facing the wall (a goal pushed toward the board meets the robot instead, and a
+        robot standing still cannot make contact with another)."""
+        c = self.config
+        clamp = bool(inputs.goal_clamped)
+        if pose.t >= self.layout.isolation_s:
+            self._next_goal_interaction(pose)
+            return 0.0, 0.0, clamp
+        plat = self.layout.platform
+        big = self.role.role == "24in"
+        along = plat.size[0] / 2 + self.role.length_m / 2 + c.guard_gap_m
+        guard = np.array([plat.x_at(along), c.board_y_24_m if big else c.board_y_15_m + 0.05])
+        if c.guard and not self._guarding and float(np.hypot(*(guard - pose.xy))) > 0.08:
+            self.intent = "to_guard"
+            return (*self._drive_to(pose, guard, None, speed=0.6), clamp)
+        self._guarding = True
+        self.intent = "iso_wait"
+        if not c.guard:
+            return 0.0, 0.0, clamp
+        return 0.0, self._turn_to(pose, plat.wall_heading_deg), clamp
+
+    def _goal_available(self, name: str) -> bool:
+        """A goal worth going for: believed somewhere, not tried too long, and not on or by the
+        platform (backing onto it there would climb the board)."""
+        b = self.goals[name]
+        if b.xy is None or b.tries >= self.config.goal_try_s:
+            return False
+        half_diag = math.hypot(self.role.length_m, self.role.width_m) / 2
+        return not self.layout.platform.contains((float(b.xy[0]), float(b.xy[1])), half_diag)
+
+    def _next_goal_interaction(self, pose: _Pose) -> None:
+        if self._was_clamped:
+            self.target_goal = None
+            self._set_phase("collect", pose.t)
+            return
+        for name in self.plan.neutral:
+            if self._goal_available(name):
+                self.target_goal = name
+                self._set_phase("get_goal", pose.t)
+                return
+        self.target_goal = None
+        self._set_phase("collect", pose.t)
+
+    # interaction: a goal to score on, rings onto it ---------------------------------------------
+
+    def _phase_get_goal(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        if inputs.goal_clamped:
+            self.target_goal = None
+            self._set_phase("collect", pose.t)
+            return self._phase_collect(pose, inputs, dt)
+        name = self.target_goal
+        if name is None or not self._goal_available(name):
+            self._next_goal(pose)
+            return 0.0, 0.0, True
+        self.intent = f"goal:{name}"
+        wait = self.layout.isolation_s - self.config.isolation_margin_s
+        return self._get_goal(name, pose, inputs, dt, wait_until=wait)
+
+    def _stage_for(self, goal: Vec, pose: _Pose) -> Vec:
+        """Where to stand before backing onto a goal: on the own side of one near the centre
+        line (never toward the other alliance), else the free spot around it (inside the walls,
+        off the platform) nearest the robot, far enough to turn there without sweeping it."""
+        c = self.config
+        if abs(float(goal[0])) < 0.6:
+            return goal + np.array([-c.goal_stage_m, 0.0])
+        half_diag = math.hypot(self.role.length_m, self.role.width_m) / 2
+        limit = self.layout.half_m - half_diag - 0.03
+        best, best_d = goal + np.array([-c.goal_stage_m, 0.0]), math.inf
+        now = float(np.hypot(*(pose.xy - goal)))
+        # The way there must not sweep the goal away (the robot turns in place first).
+        need = min(half_diag + 0.17, now) - 0.03
+        body = max(self.role.length_m, self.role.width_m) / 2 + 0.02
+        for k in range(32):
+            a = 2 * math.pi * (k % 16) / 16
+            reach = c.goal_stage_m if k < 16 else half_diag + 0.22
+            p = goal + reach * np.array([math.cos(a), math.sin(a)])
+            if abs(float(p[0])) > limit or abs(float(p[1])) > limit:
+                continue
+            if self.layout.platform.contains((float(p[0]), float(p[1])), margin=body):
+                continue
+            d = float(np.hypot(*(p - pose.xy)))
+            if _segment_distance(goal, pose.xy, p) < need:
+                d += 5.0
+            if d < best_d:
+                best, best_d = p, d
+        return best
+
+    def _get_goal(
+        self,
+        name: str,
+        pose: _Pose,
+        inputs: AllianceInputs,
+        dt: float,
+        wait_until: float | None,
+    ) -> tuple[float, float, bool | None]:
+        """Drive to the stage in front of a goal, wait there until `wait_until` if the goal
+        lies near the other alliance, then back onto it."""
+        c = self.config
+        belief = self.goals[name]
+        assert belief.xy is not None
+        goal = belief.xy
+        dist = float(np.hypot(*(pose.xy - goal)))
+        if self._stage_goal != name:
+            self._stage_goal = name
+            self._staged = False
+        stage = self._stage_for(goal, pose)
+        local = field_to_robot(goal[None, :], pose.xy, pose.heading)[0]
+        behind = abs(math.atan2(-float(local[0]), -float(local[1]))) < math.radians(30)
+        waiting = wait_until is not None and pose.t < wait_until
+        aligned = behind and dist < c.goal_stage_m + 0.3
+        if waiting or not (self._staged or aligned):
+            if waiting and self._staged:
+                # Waiting out the isolation period: turn in place only, never drive.
+                self.intent = "wait"
+                face = float(np.degrees(np.arctan2(-(goal - pose.xy)[0], -(goal - pose.xy)[1])))
+                return 0.0, self._turn_to(pose, face), False
+            if float(np.hypot(*(pose.xy - stage))) > 0.1:
+                self.intent = "to_stage"
+                v, w = self._drive_to(pose, stage, None, speed=c.speed)
+                return v, w, False
+            self._staged = True
+        belief.tries += dt
+        if belief.tries > c.goal_try_s:
+            belief.xy = None  # not where it was believed to be
+            self._staged = False
+            return 0.0, 0.0, False
+        self.intent = f"back_onto:{name}"
+        v, w = self._back_onto(float(local[0]), float(local[1]), dist)
+        if dist < c.goal_stage_m - 0.25 and not behind and abs(v) < 0.05:
+            # Turned away from it up close (pushed, or the goal moved): stage again.
+            self._staged = False
+        if self._trail.stuck(pose.t, abs(v)):
+            self._trail.clear()
+            self._backoff_until = pose.t + c.backoff_s / 2
+            self._backoff_turn = 0.0
+            self._backoff_dir = 1.0  # forward, clear of whatever blocks the reverse
+            self._staged = False
+            return 0.5 * self.role.max_linear_mps, 0.0, True
+        return v, w, True
+
+    def _back_onto(self, gx: float, gy: float, dist: float) -> tuple[float, float]:
+        """(v, w) that turns the back to a goal (robot frame) and reverses onto it: slowly and
+        only while lined up in the last stretch, where the clamp needs the goal within its
+        width (a goal met off-centre is pushed away instead)."""
+        rc = self.role
+        back = math.atan2(-gx, -gy)  # bearing seen from the back: positive turns clockwise
+        w = float(
+            np.clip(self.config.turn_gain * back, -rc.max_angular_rad_s, rc.max_angular_rad_s)
+        )
+        across = abs(gx)
+        gap = dist - rc.length_m / 2
+        if gap < 0.45:
+            ok = max(0.0, 1.0 - across / 0.06) if abs(back) < math.radians(25) else 0.0
+            return -0.35 * rc.max_linear_mps * ok, w
+        _, w2 = back_onto(gx, gy, rc.max_linear_mps, rc.max_angular_rad_s, self.config.turn_gain)
+        return -0.7 * rc.max_linear_mps * max(0.0, math.cos(back)) ** 6, w2
+
+    def _phase_collect(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        c = self.config
+        if not inputs.goal_clamped and pose.t - self.phase_since > 0.5:
+            # Lost it (a tug of war) or never had one: look for the next.
+            for name in self.plan.neutral:
+                if self._goal_available(name):
+                    self.target_goal = name
+                    self._set_phase("get_goal", pose.t)
+                    return 0.0, 0.0, False
+        target = self._choose_ring(pose)
+        keep = bool(inputs.goal_clamped)
+        if target is None:
+            self.intent = "search"
+            return (*self._search(pose), keep)
+        self.intent = "ring"
+        v, w = self._drive_to(pose, target, None, speed=c.speed, ring=True)
+        return v, w, keep
+
+    def _search(self, pose: _Pose) -> tuple[float, float]:
+        """No ring known in its half: sweep its half's waypoints so the camera finds some."""
+        side = -1.0 if self.role.role == "24in" else 1.0
+        points = [(-0.3, 0.45 * side), (0.1, 1.2 * side), (-0.8, 1.4 * side), (-0.45, 0.9 * side)]
+        k = int(pose.t // 4.0) % len(points)
+        return self._drive_to(pose, np.array(points[k]), None, speed=0.7)
+
+    def _choose_ring(
+        self, pose: _Pose, x_max: float | None = None, only_mine: bool = False
+    ) -> Vec | None:
+        c = self.config
+        known = self.memory.known
+        if not len(known):
+            return None
+        now = pose.t
+        self._ignored = [(p, u) for p, u in self._ignored if u > now]
+        x_lim = c.ring_x_max_m if x_max is None else x_max
+        if self._time_left(pose) < self.layout.endgame_s + 3.0:
+            # The platforms are protected: stay well clear of the other alliance's.
+            x_lim = min(x_lim, c.endgame_x_max_m)
+        ok = known[:, 0] <= x_lim
+        if self.role.role == "24in":
+            mine = known[:, 1] < c.ring_half_split_m
+        else:
+            mine = known[:, 1] >= c.ring_half_split_m
+        plat = self.layout.platform
+        near_board = (
+            np.abs(known[:, 0] - plat.center[0]) < plat.size[0] / 2 + c.platform_keepout_m
+        ) & (np.abs(known[:, 1] - plat.center[1]) < plat.size[1] / 2 + c.platform_keepout_m)
+        half = self.layout.half_m - 0.06
+        inside = (np.abs(known[:, 0]) < half) & (np.abs(known[:, 1]) < half)
+        ok &= ~near_board & inside
+        for p, _ in self._ignored:
+            ok &= np.hypot(*(known - p).T) > 0.1
+        cand = known[ok & mine]
+        if not len(cand) and not only_mine:
+            cand = known[ok]
+        if not len(cand):
+            return None
+        local = field_to_robot(cand, pose.xy, pose.heading)
+        dist = np.hypot(local[:, 0], local[:, 1])
+        turn = np.abs(np.arctan2(local[:, 0], local[:, 1]))
+        cost = dist + c.turn_cost_m_per_rad * turn
+        best = int(np.argmin(cost))
+        if self._ring_target is not None:
+            d = np.hypot(*(cand - self._ring_target).T)
+            k = int(np.argmin(d))
+            if d[k] < 0.12 and cost[k] <= cost[best] + c.switch_margin_m:
+                best = k
+        target = cand[best]
+        if self._ring_target is None or float(np.hypot(*(target - self._ring_target))) > 0.12:
+            self._ring_since = now
+        self._ring_target = target.copy()
+        if now - self._ring_since > c.give_up_ring_s:
+            self._ignored.append((target.copy(), now + c.give_up_ring_s))
+            self._ring_target = None
+        return target
+
+    # the endgame -------------------------------------------------------------------------------
+
+    def _board_x(self, along: float) -> float:
+        return self.layout.platform.x_at(along)
+
+    def _phase_drop(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        """The 15": leave the goal it carries deep in the home zone, clear of the platform."""
+        self.intent = "drop"
+        if not inputs.goal_clamped:
+            if pose.t - self.phase_since < 0.6 and self.holding is None:
+                return 0.3 * self.role.max_linear_mps, 0.0, False
+            return (*self._search_home(pose), False)
+        plat = self.layout.platform
+        target = np.array([plat.x_at(0.17), plat.center[1] + 1.45])
+        if float(np.hypot(*(target - pose.xy))) > 0.15:
+            v, w = self._drive_to(pose, target, None, speed=0.8)
+            return v, w, True
+        self.phase_since = pose.t
+        return 0.0, 0.0, False
+
+    def _search_home(self, pose: _Pose) -> tuple[float, float]:
+        """Until the stage time: rings near the home zone, on its own half."""
+        target = self._choose_ring(pose)
+        if target is None or target[0] > -0.1:
+            return 0.0, 0.0
+        return self._drive_to(pose, target, None, speed=0.7, ring=True)
+
+    def _phase_stage(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        """The 15": wait in front of the board, facing the wall, until the 24" holds its edge
+        down; then climb."""
+        c = self.config
+        self.intent = "stage"
+        stage = np.array([self._board_x(c.stage_along_m), c.board_y_15_m])
+        if self._time_left(pose) <= c.climb_15_s:
+            self._set_phase("climb", pose.t)
+            return self._phase_climb(pose, inputs, dt)
+        clamp = bool(inputs.goal_clamped)
+        return (*self._arrive(pose, stage, self.layout.platform.wall_heading_deg), clamp)
+
+    def _phase_climb(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        c = self.config
+        plat = self.layout.platform
+        big = self.role.role == "24in"
+        clamp: bool | None = bool(inputs.goal_clamped)
+        y = c.board_y_24_m if big else c.board_y_15_m
+        if not self._climbing:
+            # Line up first: at the stage in its lane, facing the wall.
+            stage = np.array([self._board_x(c.stage_along_m), y])
+            heading_err = angle_diff_deg(plat.wall_heading_deg, pose.heading)
+            at_stage = float(np.hypot(*(stage - pose.xy))) <= 0.07
+            if not at_stage:
+                self.intent = "to_stage"
+                return (*self._arrive(pose, stage, plat.wall_heading_deg), clamp)
+            if abs(heading_err) > 5:
+                self.intent = "line_up"
+                return 0.0, self._turn_to(pose, plat.wall_heading_deg), clamp
+            self._climbing = True
+            self._climb_track = []
+        along_now = plat.along(float(pose.xy[0]))
+        self._climb_track.append((pose.t, along_now))
+        self._climb_track = [k for k in self._climb_track if k[0] >= pose.t - c.blocked_s]
+        edge = plat.size[0] / 2 + self.role.length_m / 2
+        first = self._climb_track[0]
+        if (
+            pose.t - first[0] >= c.blocked_s * 0.95
+            and along_now > edge - 0.05
+            and first[1] - along_now < 0.03
+        ):
+            # The board's field edge is up (something on the board tips it the other way):
+            # no climbing. Keep the goal in the home zone instead.
+            self._set_phase("park", pose.t)
+            return self._phase_park(pose, inputs, dt)
+        self.intent = "climb"
+        goal_along = c.hold_along_m if big else c.partner_along_m
+        if big and self._time_left(pose) <= c.settle_s:
+            goal_along = self._balance_along(inputs)
+            self.phase = "balance"
+        return (*self._on_board(pose, y, goal_along), clamp)
+
+    def _phase_park(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        """The climb is blocked: end the match with the goal it carries deep in the home zone,
+        beside the platform (not in front of it)."""
+        self.intent = "park"
+        c = self.config
+        plat = self.layout.platform
+        big = self.role.role == "24in"
+        side = -1.0 if big else 1.0
+        target = np.array([plat.x_at(c.park_along_m), plat.center[1] + side * c.park_y_m])
+        clamp = bool(inputs.goal_clamped)
+        if float(np.hypot(*(target - pose.xy))) > 0.1:
+            return (*self._drive_to(pose, target, None, speed=0.7), clamp)
+        return 0.0, 0.0, clamp
+
+    def _phase_hold(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        return self._phase_climb(pose, inputs, dt)
+
+    def _phase_balance(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        c = self.config
+        self.intent = "balance"
+        big = self.role.role == "24in"
+        y = c.board_y_24_m if big else c.board_y_15_m
+        along = self._balance_along(inputs) if big else c.partner_along_m
+        clamp: bool | None = bool(inputs.goal_clamped)
+        return (*self._on_board(pose, y, along), clamp)
+
+    def _balance_along(self, inputs: AllianceInputs) -> float:
+        """Where the 24" stands (from the hinge, toward the field) for the board's torques to
+        cancel: its own, the goal it carries (behind it, toward the field, on the board's edge
+        at most) and the 15"'s at partner_along_m."""
+        c = self.config
+        plat = self.layout.platform
+        torque = self.role.partner_mass_kg * c.partner_along_m
+        half = plat.size[0] / 2
+        if inputs.goal_clamped and self.holding is not None:
+            g = self.goals[self.holding].goal
+            torque += g.mass_kg * min(self.role.clamp_offset(g), half)
+        if c.carry_goal_15:
+            # The goal the 15" plans to climb with, behind it toward the field.
+            kept = [t.goal for t in default_plan("15in", self.layout).iso if t.keep]
+            g = self.layout.goal(kept[-1] if kept else self.layout.awp_goal)
+            torque += g.mass_kg * min(c.partner_along_m + 0.36, half)
+        return -torque / self.role.mass_kg
+
+    def _on_board(self, pose: _Pose, y: float, along: float) -> tuple[float, float]:
+        """Drive straight toward the wall (or back) to `along` from the hinge, heading held."""
+        c = self.config
+        plat = self.layout.platform
+        err = plat.along(float(pose.xy[0])) - along  # > 0: still toward the field: forward
+        v = float(np.clip(2.0 * err, -c.board_speed_mps, c.board_speed_mps))
+        if abs(err) < 0.015:
+            v = 0.0
+        # Hold the heading toward the wall, leaning a little toward the lane's y while moving
+        # (> 0: the lane lies to the robot's left, a counter-clockwise turn when driving forward).
+        off_lane = (float(pose.xy[1]) - y) * plat.field_side
+        lean = float(np.clip(60.0 * off_lane, -15.0, 15.0)) if v != 0.0 else 0.0
+        want = plat.wall_heading_deg - lean * (1.0 if v >= 0 else -1.0)
+        heading_err = angle_diff_deg(want, pose.heading)
+        w = float(np.clip(3.0 * math.radians(heading_err), -1.5, 1.5))
+        if v == 0.0 and abs(heading_err) < 3:
+            w = 0.0
+        return v, w
+
+    # driving ----------------------------------------------------------------------------------
+
+    def _turn_to(self, pose: _Pose, heading: float) -> float:
+        err = math.radians(angle_diff_deg(heading, pose.heading))
+        if abs(err) < math.radians(2):
+            return 0.0
+        return float(
+            np.clip(
+                self.config.turn_gain * err,
+                -self.role.max_angular_rad_s,
+                self.role.max_angular_rad_s,
+            )
+        )
+
+    def _arrive(self, pose: _Pose, point: Vec, heading: float) -> tuple[float, float]:
+        """Drive to a point, then turn to a heading there."""
+        if float(np.hypot(*(point - pose.xy))) > 0.05:
+            return self._drive_to(pose, point, None, speed=0.8)
+        return 0.0, self._turn_to(pose, heading)
+
+    def _drive_to(
+        self,
+        pose: _Pose,
+        target: Vec,
+        after: Vec | None,
+        speed: float,
+        ring: bool = False,
+    ) -> tuple[float, float]:
+        c = self.config
+        rc = self.role
+        path = [target] if after is None else [target, after]
+        local = field_to_robot(np.array(path), pose.xy, pose.heading)
+        tx, ty = float(local[0, 0]), float(local[0, 1])
+        dist = math.hypot(tx, ty)
+        turn = turn_first(
+            tx, ty, rc.max_linear_mps, rc.max_angular_rad_s, c.turn_gain, c.turn_in_place_rad,
+            rc.length_m if ring else 0.0,
+        )  # fmt: skip
+        if turn is not None:
+            return turn
+        px, py = pursuit_point(local, c.lookahead_m)
+        v_max = speed * rc.max_linear_mps
+        if not ring:
+            v_max = min(v_max, max(0.15, 1.5 * dist))  # slow down to stop at a point
+        v, w = arc_through(px, py, v_max, rc.max_angular_rad_s)
+        if self._trail.stuck(pose.t, v):
+            self._trail.clear()
+            self._backoff_until = pose.t + c.backoff_s
+            self._backoff_turn = -1.0 if tx > 0 else 1.0
+            self._backoff_dir = -1.0
+            if ring:
+                self._ignored.append((target.copy(), pose.t + c.give_up_ring_s))
+                self._ring_target = None
+        return v, w
