@@ -130,6 +130,80 @@ def stop(reason: str, error: str | None = None) -> Decision:
     return Decision(0.0, 0.0, False, reason, error=error)
 
 
+@dataclass(frozen=True, slots=True)
+class PhaseStep:
+    """What one State means for the match: may the robot drive, does a new match start (forget
+    the history), and is this the disable between VEX AI's periods (keep it)."""
+
+    drive: bool
+    entering: bool
+    pause: bool
+
+
+class PhaseTracker:
+    """Follows the Brain's phase from State to State (every decision-maker's first gate)."""
+
+    def __init__(self, drive_phases: tuple[str, ...]) -> None:
+        self._drive_phases = {MatchPhase[p.upper()] for p in drive_phases}
+        self.reset()
+
+    def reset(self) -> None:
+        self._phase: MatchPhase | None = None
+        self._phase_ms = 0
+        self._enabled_phase: MatchPhase | None = None  # the last drive phase decided in
+
+    def step(self, state: State) -> PhaseStep:
+        phase = state.phase
+        restarted = phase != self._phase or state.phase_ms < self._phase_ms
+        # Autonomous -> driver is the same match going on (VEX AI's isolation -> interaction),
+        # with or without the field's disable between them: keep the history.
+        entering = restarted and not (
+            self._enabled_phase == MatchPhase.AUTONOMOUS and phase == MatchPhase.DRIVER
+        )
+        self._phase, self._phase_ms = phase, state.phase_ms
+        if phase not in self._drive_phases:
+            # The disable between isolation and interaction keeps the history as well.
+            pause = phase == MatchPhase.DISABLED and self._enabled_phase == MatchPhase.AUTONOMOUS
+            return PhaseStep(False, False, pause)
+        self._enabled_phase = phase
+        return PhaseStep(True, entering, False)
+
+
+def why_not_drive(state: State, config: DecisionConfig) -> str | None:
+    """The stop reason a State in a drive phase still gives (an unknown alliance; no pose, or
+    one not trusted enough), or None: the pose is the Brain's, the GPS fused with odometry and
+    the IMU, driven on while it rests on the GPS or, through a dropout, on odometry, and its
+    standard deviation is within pose_max_std_m."""
+    if state.alliance == Alliance.UNKNOWN:
+        # The Brain finds it at run time: its screen's pick, or the GPS start pose.
+        return "alliance unknown: pick it on the Brain's screen"
+    gps = state.gps_status.name.lower()
+    if state.pose_fix == PoseFix.LOST:
+        return "pose lost" if state.gps_status == GpsStatus.OK else f"gps {gps}"
+    limit = config.pose_max_std_m
+    if not state.pose_std <= limit:  # NaN never reaches here (the codec refuses it)
+        return f"pose uncertain: {state.pose_std:.2f} m > {limit:.2f} m (gps {gps})"
+    return None
+
+
+def perceived_rings(
+    perception: PerceptionInput | None, config: DecisionConfig
+) -> tuple[NDArray[np.float64], str]:
+    """The camera's rings (robot frame) and how they stand: fresh, stale (older than
+    perception_max_age_s: no rings) or none."""
+    if perception is None:
+        return _NO_RINGS, "none"
+    if not perception.age_s <= config.perception_max_age_s:
+        return _NO_RINGS, "stale"
+    return perception.rings_robot_xy, "fresh"
+
+
+def rings_held(state: State, config: DecisionConfig) -> int:
+    """The Brain's ring counter when it has one (255 means none is fitted), else the configured
+    stand-in."""
+    return config.rings_held if state.rings_held == RINGS_UNKNOWN else state.rings_held
+
+
 class Decider:
     def __init__(
         self,
@@ -152,7 +226,7 @@ class Decider:
             raise SettingsError(f"the policy's actions must start with linear, angular: {names}")
         self._scale = np.asarray(policy.action_scale[:2], dtype=np.float64)
         self._intake_index = names.index("intake") if "intake" in names else None
-        self._drive_phases = {MatchPhase[p.upper()] for p in self.config.drive_phases}
+        self._phases = PhaseTracker(self.config.drive_phases)
         # The last observation and policy output (None after a stop without one): what the
         # dashboard shows of the decision (jetson/dashboard/snapshot.py).
         self.last_obs: NDArray[np.float32] | None = None
@@ -179,42 +253,28 @@ class Decider:
         self._driver = None if self._skills is None else SkillDriver(self._skills, self.spec)
         self._poses = PoseHistory()
         self._next_push_ms = 0.0
-        self._phase: MatchPhase | None = None
-        self._phase_ms = 0
-        self._enabled_phase: MatchPhase | None = None  # the last drive phase decided in
+        self._phases.reset()
 
     def decide(self, state: State, perception: PerceptionInput | None) -> Decision:
         self.last_obs = self.last_action = None
-        phase = state.phase
-        restarted = phase != self._phase or state.phase_ms < self._phase_ms
-        # Autonomous -> driver is the same match going on (VEX AI's isolation -> interaction),
-        # with or without the field's disable between them: keep the history.
-        entering = restarted and not (
-            self._enabled_phase == MatchPhase.AUTONOMOUS and phase == MatchPhase.DRIVER
-        )
-        self._phase, self._phase_ms = phase, state.phase_ms
-        if phase not in self._drive_phases:
+        step = self._phases.step(state)
+        if not step.drive:
             # The disable between isolation and interaction keeps the frame stack as well.
-            pause = phase == MatchPhase.DISABLED and self._enabled_phase == MatchPhase.AUTONOMOUS
-            if not pause:
+            if not step.pause:
                 self._stack = None
-            return stop(f"phase {phase.name.lower()}")
-        self._enabled_phase = phase
-        if entering:
+            return stop(f"phase {state.phase.name.lower()}")
+        if step.entering:
             self._stack = None
             self._poses.clear()
             self._memory.reset()
             self._goals.reset()
             if self._driver is not None:
                 self._driver.reset()
-        if state.alliance == Alliance.UNKNOWN:
-            # The Brain finds it at run time: its screen's pick, or the GPS start pose.
-            return stop("alliance unknown: pick it on the Brain's screen")
-        untrusted = self._pose_untrusted(state)
-        if untrusted is not None:
-            return stop(untrusted)
+        why = why_not_drive(state, self.config)
+        if why is not None:
+            return stop(why)
         self._poses.push(float(state.time_ms), state.x, state.y, state.heading)
-        rings, seen = self._rings(perception)
+        rings, seen = perceived_rings(perception, self.config)
         if seen == "fresh" and perception is not None and perception.error is not None:
             return Decision(0.0, 0.0, False, "perception error", seen, 0, perception.error)
         seen_from = None
@@ -246,30 +306,6 @@ class Decider:
         intake = True if i is None else bool(action[i] > 0)
         return Decision(linear, angular, intake, "policy", seen, len(rings))
 
-    def _pose_untrusted(self, state: State) -> str | None:
-        """Why the Brain's pose cannot be driven on, or None when it can: it rests on the GPS or,
-        through a dropout, on odometry and the IMU, while its standard deviation is within
-        pose_max_std_m."""
-        gps = state.gps_status.name.lower()
-        if state.pose_fix == PoseFix.LOST:
-            return "pose lost" if state.gps_status == GpsStatus.OK else f"gps {gps}"
-        limit = self.config.pose_max_std_m
-        if not state.pose_std <= limit:  # NaN never reaches here (the codec refuses it)
-            return f"pose uncertain: {state.pose_std:.2f} m > {limit:.2f} m (gps {gps})"
-        return None
-
-    def _rings(self, perception: PerceptionInput | None) -> tuple[NDArray[np.float64], str]:
-        if perception is None:
-            return _NO_RINGS, "none"
-        if not perception.age_s <= self.config.perception_max_age_s:
-            return _NO_RINGS, "stale"
-        return perception.rings_robot_xy, "fresh"
-
-    def _rings_held(self, state: State) -> int:
-        """The Brain's ring counter when it has one (255 means none is fitted), else the
-        configured stand-in."""
-        return self.config.rings_held if state.rings_held == RINGS_UNKNOWN else state.rings_held
-
     def _observation(
         self,
         state: State,
@@ -287,7 +323,7 @@ class Decider:
             alliance="red" if state.alliance == Alliance.RED else "blue",
             time_s=t,
             rings_robot_xy=rings,
-            rings_held=self._rings_held(state),
+            rings_held=rings_held(state, self.config),
             # Without a clamp sensor the policy is told the clamp is open, and the goal memory
             # never sees a goal taken.
             goal_clamped=state.goal_clamped == CLAMP_HOLDS,
