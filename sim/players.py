@@ -6,6 +6,11 @@
 A player may read the World through `core` (the planner and the scripted chaser do: they see what
 the robot's sensors give, via core.view); a learned policy only uses `obs`. Everything here is
 deterministic for a given rng, so evaluations on the same seeds are comparable.
+
+The whole game's players (sim/baselines/alliance.py): `AlliancePlayer`, one robot of the scripted
+alliance (the robot's own strategy, jetson/autonomy/alliance.py, fed from the sensors), and
+`ring_race_player(robot)`, one robot of the ring-race alliance. `PLAYERS` names the players a
+tool can make by word.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ from typing import Protocol
 import numpy as np
 
 from jetson.autonomy.skills import SkillConfig, SkillDriver
+from sim.baselines.alliance import AlliancePlayer, ring_race_player
 from sim.baselines.scripted import GreedyChaser
 from sim.match import MatchCore
 from sim.world.state import DriveCommand
@@ -95,3 +101,22 @@ class PolicyPlayer:
         if not np.all(np.isfinite(action)):
             return DriveCommand(0.0, 0.0)
         return DriveCommand(*self._driver.command(obs, action))
+
+
+def _ring_race_24() -> Player:
+    return ring_race_player("24in")
+
+
+def _ring_race_15() -> Player:
+    return ring_race_player("15in")
+
+
+# Players made by word (whole-game tools; `pete-sim eval` has its own list, sim/evaluate.py).
+PLAYERS: dict[str, Callable[[], Player]] = {
+    "alliance": AlliancePlayer,
+    "ring-race-24in": _ring_race_24,
+    "ring-race-15in": _ring_race_15,
+    "scripted": ScriptedPlayer,
+    "idle": IdlePlayer,
+    "random": RandomPlayer,
+}

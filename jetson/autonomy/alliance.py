@@ -281,6 +281,7 @@ class AllianceStrategy:
         self._staged = False
         self._climbing = False
         self._climb_track: list[tuple[float, float]] = []
+        self._climb_retried = False
         self._guarding = False
         self._tug_until = -1.0
         self._moves: list[tuple[float, float, float, float]] = []  # t, x, y, commanded v
@@ -825,8 +826,14 @@ class AllianceStrategy:
             and along_now > edge - 0.05
             and first[1] - along_now < 0.03
         ):
-            # The board's field edge is up (something on the board tips it the other way):
-            # no climbing. Keep the goal in the home zone instead.
+            # The board's field edge is up (something on the board tips it the other way), or
+            # something stands in the way: line up again once, then give the climb up and keep
+            # the goal in the home zone instead.
+            if not self._climb_retried and self._time_left(pose) > c.settle_s + 4.0:
+                self._climb_retried = True
+                self._climbing = False
+                self.intent = "retry"
+                return -0.5 * c.board_speed_mps, 0.0, clamp
             self._set_phase("park", pose.t)
             return self._phase_park(pose, inputs, dt)
         self.intent = "climb"

@@ -1,0 +1,139 @@
+"""The scripted alliance's robot side (jetson/autonomy/alliance.py, field_layout.py): numpy only,
+no simulator. The twin's matches are tests/sim/baselines/test_alliance.py."""
+
+from __future__ import annotations
+
+import copy
+import json
+
+import numpy as np
+import pytest
+
+from jetson.autonomy.alliance import (
+    AllianceAction,
+    AllianceInputs,
+    AllianceStrategy,
+    RobotRole,
+    default_plan,
+)
+from jetson.autonomy.field_layout import DEFAULT_LAYOUT, load_layout, parse_layout
+
+ROLE_15 = RobotRole(
+    role="15in",
+    length_m=0.381,
+    width_m=0.381,
+    mass_kg=5.5,
+    max_linear_mps=0.904,
+    max_angular_rad_s=4.8,
+    intake_zone=(-0.11, 0.11, 0.15, 0.27),
+    reaches_high_branch=False,
+    partner_mass_kg=9.0,
+)
+
+
+def inputs(
+    alliance: str, x: float, y: float, h: float, t: float, rings: np.ndarray
+) -> AllianceInputs:
+    return AllianceInputs(x, y, h, alliance, t, rings, 3, False)
+
+
+def test_the_layout_file_loads_and_names_its_goals() -> None:
+    layout = load_layout()
+    assert layout.match_length_s == pytest.approx(120.0)
+    assert {g.owner for g in layout.goals} == {"own", "opponent", None}
+    assert layout.goal(layout.awp_goal).owner == "own"
+    assert set(layout.starts) == {"24in", "15in"}
+    plat = layout.platform
+    assert plat.field_side == 1.0 and plat.wall_heading_deg == 270.0
+    assert plat.x_at(plat.along(-1.3)) == pytest.approx(-1.3)
+
+
+def test_a_bad_layout_names_what_is_wrong() -> None:
+    data = json.loads(DEFAULT_LAYOUT.read_text())
+    broken = copy.deepcopy(data)
+    del broken["platform"]["hinge_flat_m"]
+    with pytest.raises(ValueError, match="hinge_flat_m"):
+        parse_layout(broken)
+    broken = copy.deepcopy(data)
+    broken["awp_goal"] = "nowhere"
+    with pytest.raises(KeyError, match="nowhere"):
+        parse_layout(broken)
+    broken = copy.deepcopy(data)
+    broken["goals"][0]["xy"] = [1.0]
+    with pytest.raises(ValueError, match="xy"):
+        parse_layout(broken)
+
+
+def test_each_role_has_its_plan() -> None:
+    layout = load_layout()
+    big, small = default_plan("24in", layout), default_plan("15in", layout)
+    assert big.iso == [] and big.neutral[0] == "neutral_south"
+    assert [t.goal for t in small.iso] == ["red_north"] and small.iso[0].keep
+    assert small.neutral[0] == "neutral_north"
+
+
+def test_step_gives_the_five_commands_and_reset_starts_over() -> None:
+    s = AllianceStrategy(ROLE_15, load_layout())
+    a = s.step(inputs("red", -1.5748, 1.3716, 90.0, 0.0, np.zeros((0, 2))))
+    assert isinstance(a, AllianceAction)
+    linear, angular, clamp, lift, intake = a
+    assert np.isfinite(linear) and np.isfinite(angular)
+    assert clamp in (True, False, None) and lift in (True, False, None)
+    assert isinstance(intake, bool)
+    for k in range(1, 30):
+        s.step(inputs("red", -1.5748, 1.3716, 90.0, k / 12, np.zeros((0, 2))))
+    s.reset()
+    assert s.phase == "iso_goal" and s.holding is None
+    assert len(s.memory.known) == len(load_layout().rings)
+
+
+def test_blue_plays_the_mirror_of_red() -> None:
+    """The strategy plans in the alliance frame: a blue robot at red's mirrored pose, seeing the
+    same rings in its own robot frame, gets the same commands step for step."""
+    layout = load_layout()
+    red, blue = AllianceStrategy(ROLE_15, layout), AllianceStrategy(ROLE_15, layout)
+    rng = np.random.default_rng(4)
+    x, y, h = -1.5748, 1.3716, 90.0
+    for k in range(60):
+        rings = rng.uniform(-1.0, 1.0, (3, 2))
+        t = k / 12
+        a = red.step(inputs("red", x, y, h, t, rings))
+        b = blue.step(inputs("blue", -x, -y, (h + 180.0) % 360.0, t, rings))
+        assert a == pytest.approx(b)
+        # Move as commanded, crudely, so the plan goes on.
+        hr = np.radians(h)
+        x += a.linear / 12 * np.sin(hr)
+        y += a.linear / 12 * np.cos(hr)
+        h = (h + np.degrees(a.angular / 12)) % 360.0
+
+
+def test_the_endgame_balance_point_cancels_the_torques() -> None:
+    """The 24"'s balance point: its own torque cancels the 15"'s and both carried goals'."""
+    layout = load_layout()
+    role = RobotRole(
+        role="24in",
+        length_m=0.6096,
+        width_m=0.6096,
+        mass_kg=9.0,
+        max_linear_mps=0.904,
+        max_angular_rad_s=4.8,
+        intake_zone=(-0.15, 0.15, 0.25, 0.44),
+        reaches_high_branch=True,
+        partner_mass_kg=5.5,
+    )
+    s = AllianceStrategy(role, layout)
+    s.holding = "neutral_south"
+    d = s._balance_along(AllianceInputs(0, 0, 0, "red", 110.0, np.zeros((0, 2)), 0, True))
+    plat = layout.platform
+    half = plat.size[0] / 2
+    partner = layout.goal("red_north")
+    neutral = layout.goal("neutral_south")
+    c = s.config
+    torque = (
+        role.mass_kg * d
+        + neutral.mass_kg * min(role.clamp_offset(neutral), half)
+        + role.partner_mass_kg * c.partner_along_m
+        + partner.mass_kg * min(c.partner_along_m + 0.36, half)
+    )
+    assert torque == pytest.approx(0.0, abs=1e-9)
+    assert abs(d) < half  # on the board
