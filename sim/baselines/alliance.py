@@ -18,7 +18,6 @@ intake is full, and ignore the platforms, the isolation rule and the endgame.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -30,13 +29,12 @@ from jetson.autonomy.alliance import (
     RobotRole,
 )
 from jetson.autonomy.field_layout import FieldLayout, load_layout
+from sim.baselines.planner import Planner, PlannerConfig
+from sim.baselines.scripted import GreedyChaser
 from sim.config import ROBOTS, RobotConfig
 from sim.match import MatchCore
 from sim.world.physics import World
 from sim.world.state import DriveCommand
-
-if TYPE_CHECKING:
-    from sim.players import Player
 
 
 def robot_role(world: World, index: int) -> RobotRole:
@@ -112,12 +110,25 @@ class AlliancePlayer:
         return to_command(self.last_action)
 
 
-def ring_race_player(robot: str) -> Player:
+class _GreedyChaserPlayer:
+    """The greedy ring-chaser (sim.baselines.scripted, ground-truth rings) as a Player."""
+
+    name = "scripted"
+
+    def __init__(self) -> None:
+        self._chaser: GreedyChaser | None = None
+
+    def reset(self, core: MatchCore, index: int, rng: np.random.Generator | None = None) -> None:
+        self._chaser = GreedyChaser(index)
+
+    def act(self, core: MatchCore, index: int, obs: np.ndarray | None = None) -> DriveCommand:
+        assert self._chaser is not None, "act() before reset()"
+        return self._chaser.act(core.world)
+
+
+def ring_race_player(robot: str) -> Planner | _GreedyChaserPlayer:
     """One robot of the ring-race alliance: the route planner without its endgame on the 24",
     the greedy chaser on the 15" (see the module docstring)."""
-    from sim.baselines.planner import Planner, PlannerConfig
-    from sim.players import ScriptedPlayer
-
     if robot == "24in":
         return Planner(PlannerConfig(endgame=False))
-    return ScriptedPlayer()
+    return _GreedyChaserPlayer()

@@ -14,7 +14,7 @@ from sim.baselines.planner import Planner
 from sim.config import world_preset
 from sim.field import load_field
 from sim.match import EnvConfig, MatchCore
-from sim.players import IdlePlayer, Player, ScriptedPlayer
+from sim.players import IdlePlayer, Player
 from sim.world import rules
 from sim.world.state import DriveCommand
 
@@ -70,7 +70,7 @@ def test_the_roles_come_from_the_robot_configs() -> None:
         assert big.reaches_high_branch and not small.reaches_high_branch
         assert big.partner_mass_kg == small.mass_kg and small.partner_mass_kg == big.mass_kg
         assert isinstance(ring_race_player("24in"), Planner)
-        assert isinstance(ring_race_player("15in"), ScriptedPlayer)
+        assert ring_race_player("15in").name == "scripted"
     finally:
         core.close()
 
