@@ -64,6 +64,9 @@ from protocol.messages import (
 
 DEFAULT_DECISION_HZ = 12.0  # sim.config.WorldConfig.control_hz: what policies are trained at
 RINGS_UNKNOWN = 255  # State.rings_held when the Brain has no ring counter
+# Decision.reason when the decision-maker drives: the policy, or the scripted alliance
+# (jetson/scripted.py); any other reason is a stop.
+DRIVING_REASONS = frozenset({"policy", "scripted"})
 CLAMP_HOLDS = 1  # State.goal_clamped: 1 holds a goal, 0 open, 255 no clamp sensor fitted
 _NO_RINGS = np.zeros((0, 2))
 
@@ -90,7 +93,7 @@ class Decision:
 
     @property
     def drove(self) -> bool:
-        return self.reason == "policy"
+        return self.reason in DRIVING_REASONS
 
 
 class PoseHistory:

@@ -205,6 +205,56 @@ def recorded_decision(header: dict[str, Any]) -> DecisionConfig:
     return replace(DecisionConfig.from_dict(data), decision_hz=float(header["decision_hz"]))
 
 
+def _recorded_policy(
+    path: Path, header: dict[str, Any], policy: Policy | None, warnings: list[str]
+) -> Policy:
+    """The policy to replay with: the one given, or the recorded file; a differing file or
+    observation spec is a warning."""
+    recorded_policy = header.get("policy") or {}
+    if policy is None:
+        where = recorded_policy.get("path")
+        if not where:
+            raise ReplayError(f"{path}: the header names no policy file; give --policy")
+        policy = OnnxPolicy(where)
+    sha = getattr(policy, "sha256", None)
+    if recorded_policy.get("sha256") and sha and sha != recorded_policy["sha256"]:
+        warnings.append(
+            f"the policy's sha256 {sha[:12]} differs from the recorded "
+            f"{recorded_policy['sha256'][:12]}: differences are expected"
+        )
+    if header.get("observation") and header["observation"] != policy.spec.to_dict():
+        warnings.append("the policy's observation spec differs from the recorded one")
+    return policy
+
+
+def recorded_decider(
+    path: Path,
+    header: dict[str, Any],
+    policy: Policy | None = None,
+    warnings: list[str] | None = None,
+) -> tuple[Any, str]:
+    """The decision-maker a recording was made with, and its description: the scripted
+    alliance (`[decision] player = "alliance"`), or a Decider over the policy given or the
+    recorded file (differences from the recorded one are added to `warnings`)."""
+    try:
+        config = recorded_decision(header)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ReplayError(f"{path}: bad decision settings in the header: {exc}") from exc
+    if config.player == "alliance":  # the scripted alliance decided, not a policy
+        from jetson.scripted import ScriptedDecider
+
+        scripted = ScriptedDecider(config)
+        return scripted, scripted.description
+    policy = _recorded_policy(path, header, policy, [] if warnings is None else warnings)
+    cam = header.get("memory_camera")
+    try:
+        camera = MemoryCamera(**cam) if cam else None
+    except (TypeError, ValueError) as exc:
+        raise ReplayError(f"{path}: bad memory_camera in the header: {exc}") from exc
+    description = getattr(policy, "description", type(policy).__name__)
+    return Decider(policy, config, camera), description
+
+
 def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e-6) -> ReplayReport:
     path = Path(path)
     reader = Records(path)
@@ -219,32 +269,9 @@ def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e
         raise ReplayError(
             f"{path}: recording version {version}, this replay reads {list(READABLE_VERSIONS)}"
         )
-    warnings = []
-    recorded_policy = header.get("policy") or {}
-    if policy is None:
-        where = recorded_policy.get("path")
-        if not where:
-            raise ReplayError(f"{path}: the header names no policy file; give --policy")
-        policy = OnnxPolicy(where)
-    sha = getattr(policy, "sha256", None)
-    if recorded_policy.get("sha256") and sha and sha != recorded_policy["sha256"]:
-        warnings.append(
-            f"the policy's sha256 {sha[:12]} differs from the recorded "
-            f"{recorded_policy['sha256'][:12]}: differences are expected"
-        )
-    try:
-        config = recorded_decision(header)
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ReplayError(f"{path}: bad decision settings in the header: {exc}") from exc
-    if header.get("observation") and header["observation"] != policy.spec.to_dict():
-        warnings.append("the policy's observation spec differs from the recorded one")
-    cam = header.get("memory_camera")
-    try:
-        camera = MemoryCamera(**cam) if cam else None
-    except (TypeError, ValueError) as exc:
-        raise ReplayError(f"{path}: bad memory_camera in the header: {exc}") from exc
-    decider = Decider(policy, config, camera)
-    report = ReplayReport(path, getattr(policy, "description", type(policy).__name__))
+    warnings: list[str] = []
+    decider, description = recorded_decider(path, header, policy, warnings)
+    report = ReplayReport(path, description)
     report.warnings = warnings
     rings: dict[int, tuple[np.ndarray, str | None]] = {}
     latencies = []

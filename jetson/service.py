@@ -23,7 +23,7 @@ from types import FrameType
 from typing import Any, TextIO
 
 from jetson.errors import SettingsError
-from jetson.settings import Settings
+from jetson.settings import PLAYERS, ROLES, Settings
 
 # Python hands the interpreter between threads every 5 ms by default: a State arriving while the
 # camera thread runs Python code could wait that long. 1 ms bounds the wait at a small cost to
@@ -188,15 +188,32 @@ def build(
     if human_stream is None and settings.log.summary:
         human_stream = sys.stderr
     log = EventLog(log_stream, human_stream, clock, settings.log.level)
-    if policy is None:
-        policy = OnnxPolicy(settings.policy.path, providers=settings.policy.providers)
-        log.info("onnxruntime", f"policy runs on {policy.provider}", policy=policy.provider)
-    # Only a policy whose ring memory looks through the camera reads [camera]'s mount here, so a
-    # cone policy runs as before whatever that file holds.
-    needs_camera = policy.spec.memory_needs_camera
-    decider = Decider(
-        policy, settings.decision, memory_camera(settings.camera) if needs_camera else None
-    )
+    decider: Any
+    if settings.decision.player == "alliance":
+        # The scripted alliance decides (jetson/scripted.py): no policy file is read.
+        from jetson.scripted import ScriptedDecider
+
+        decider = ScriptedDecider(settings.decision)
+        policy_header: dict[str, Any] = {
+            "path": None, "sha256": None, "description": decider.description,
+        }  # fmt: skip
+    else:
+        if policy is None:
+            policy = OnnxPolicy(settings.policy.path, providers=settings.policy.providers)
+            log.info("onnxruntime", f"policy runs on {policy.provider}", policy=policy.provider)
+        # Only a policy whose ring memory looks through the camera reads [camera]'s mount here,
+        # so a cone policy runs as before whatever that file holds.
+        needs_camera = policy.spec.memory_needs_camera
+        decider = Decider(
+            policy, settings.decision, memory_camera(settings.camera) if needs_camera else None
+        )
+        policy_header = {
+            "path": str(Path(getattr(policy, "path", "")).resolve())
+            if hasattr(policy, "path")
+            else None,
+            "sha256": getattr(policy, "sha256", None),
+            "description": getattr(policy, "description", type(policy).__name__),
+        }
     camera = None
     if perception is None and settings.camera.enabled:
         camera = make_camera(settings, clock, log)
@@ -209,13 +226,7 @@ def build(
             frames_hz=settings.record.frames_hz, frame_width=settings.record.frame_width,
         )  # fmt: skip
     header = {
-        "policy": {
-            "path": str(Path(getattr(policy, "path", "")).resolve())
-            if hasattr(policy, "path")
-            else None,
-            "sha256": getattr(policy, "sha256", None),
-            "description": getattr(policy, "description", type(policy).__name__),
-        },
+        "policy": policy_header,
         "camera": {"enabled": perception is not None, "source": settings.camera.source},
         # What the ring memory looked through, so a replay decides as the daemon did.
         "memory_camera": asdict(decider.camera) if decider.camera is not None else None,
@@ -358,6 +369,17 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         help="the camera's frame timestamps are on this machine's monotonic clock",
     )
     p.add_argument(
+        "--player",
+        choices=PLAYERS,
+        help="what decides: the ONNX policy (--policy), or the scripted alliance playing the "
+        f"whole game as --role (default: {d.decision.player})",
+    )
+    p.add_argument(
+        "--role",
+        choices=ROLES,
+        help=f"this robot in its VEX AI alliance (default: {d.decision.role})",
+    )
+    p.add_argument(
         "--drive-phases",
         help="comma-separated phases the policy may drive in "
         f"(default: {','.join(str(x) for x in d.decision.drive_phases)})",
@@ -426,6 +448,8 @@ def settings_from_args(args: argparse.Namespace) -> Settings:
             "enabled": False if args.no_camera else None,
         },
         decision={
+            "player": args.player,
+            "role": args.role,
             "drive_phases": phases,
             "perception_max_age_s": args.max_perception_age,
             "valid_ms": args.valid_ms,

@@ -65,6 +65,7 @@ class LinkConfig:
 
 
 ROLES = ("24in", "15in")  # a VEX AI alliance is one team's 24-inch and 15-inch robot
+PLAYERS = ("policy", "alliance")  # what decides: the ONNX policy, or the scripted alliance
 
 
 @dataclass(frozen=True)
@@ -85,6 +86,9 @@ class DecisionConfig:
     # The robot's role in its VEX AI alliance: the 24-inch or the 15-inch robot (a strategy that
     # shares the work reads it; the summary reports it).
     role: str = "24in"
+    # What decides: "policy" (the ONNX policy at [policy] path) or "alliance" (the scripted
+    # alliance of jetson/autonomy/alliance.py, playing the whole game as `role`).
+    player: str = "policy"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "drive_phases", tuple(self.drive_phases))
@@ -120,6 +124,10 @@ class DecisionConfig:
             raise SettingsError(
                 f"decision role must be one of {', '.join(ROLES)} (the robot's size), "
                 f"got {self.role!r}"
+            )
+        if self.player not in PLAYERS:
+            raise SettingsError(
+                f"decision player must be one of {', '.join(PLAYERS)}, got {self.player!r}"
             )
 
     def to_dict(self) -> dict[str, Any]:

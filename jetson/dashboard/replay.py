@@ -21,7 +21,6 @@ from typing import Any
 
 import numpy as np
 
-from jetson.autonomy.camera import MemoryCamera
 from jetson.dashboard.snapshot import (
     FIELD_HALF_M,
     LATENCY_WINDOW,
@@ -31,10 +30,10 @@ from jetson.dashboard.snapshot import (
     state_snapshot,
     who_drives,
 )
-from jetson.decide import Decider, PerceptionInput
+from jetson.decide import DRIVING_REASONS, Decider, PerceptionInput
 from jetson.errors import ReplayError
 from jetson.recorder import FORMAT, READABLE_VERSIONS
-from jetson.replay import Records, recorded_decision, recorded_state
+from jetson.replay import Records, recorded_decider, recorded_state
 from protocol.framing import message_from_dict
 from protocol.messages import Command, State
 
@@ -59,17 +58,9 @@ class Timeline:
 
     # --- reading ---------------------------------------------------------------------------
 
-    def _decider(self, header: dict[str, Any], policy: Any) -> Decider | None:
-        from jetson.autonomy.policy import OnnxPolicy
-
+    def _decider(self, header: dict[str, Any], policy: Any) -> Any:
         try:
-            if policy is None:
-                where = (header.get("policy") or {}).get("path")
-                if not where:
-                    raise ReplayError("the header names no policy file (give --policy)")
-                policy = OnnxPolicy(where)
-            cam = header.get("memory_camera")
-            return Decider(policy, recorded_decision(header), MemoryCamera(**cam) if cam else None)
+            return recorded_decider(self.path, header, policy)[0]
         except Exception as exc:
             self.warnings.append(f"the ring and goal memories are not shown: {exc}")
             return None
@@ -126,7 +117,7 @@ class Timeline:
                 if latency is not None:
                     latencies.append(float(latency) / 1e3)
                 counts["states"] += 1
-                counts["stops"] += rec.get("reason") != "policy"
+                counts["stops"] += rec.get("reason") not in DRIVING_REASONS
                 decision = SimpleNamespace(
                     reason=rec.get("reason"), perception=rec.get("perception"),
                     rings=rec.get("rings"),

@@ -121,8 +121,9 @@
         " rad/s" + (c.intake ? " intake" : "") +
         (c.clamp && c.clamp !== "leave" ? " clamp " + c.clamp : "") +
         (c.lift && c.lift !== "leave" ? " lift " + c.lift : ""));
-      text("reason", c.reason === "policy" ? "driving (policy), perception " + c.perception +
-        ", " + c.rings + " rings" : "stop: " + c.reason, c.reason === "policy" ? "good" : "warn");
+      const drives = c.reason === "policy" || c.reason === "scripted";
+      text("reason", drives ? "driving (" + c.reason + "), perception " + c.perception +
+        ", " + c.rings + " rings" : "stop: " + c.reason, drives ? "good" : "warn");
     }
     if (s.speeds) text("speeds", "left " + fmt(s.speeds.left, 2) + " right " + fmt(s.speeds.right, 2) + " m/s");
     const ol = $("brain-lines");
