@@ -136,11 +136,16 @@ class AllianceConfig:
     carry_goal_15: bool = True  # the 15" climbs with its goal (elevated 40) instead of dropping it
     stage_15_s: float = 18.0
     climb_15_s: float = 11.5
-    partner_along_m: float = -0.05
+    partner_along_m: float = -0.10
     stage_along_m: float = 0.95  # the stage in front of the board, from the hinge
-    board_y_24_m: float = -0.32  # where on the board each robot stands (alliance frame)
-    board_y_15_m: float = 0.35
+    board_y_24_m: float = -0.30  # where on the board each robot stands (alliance frame)
+    board_y_15_m: float = 0.28
     board_speed_mps: float = 0.35
+    footprint_margin_m: float = 0.035  # keep the footprint this far inside the board's reach
+    # The 15"'s sentry: it mounts the board from `sentry_stage_along_m` and waits at
+    # `sentry_along_m` from the hinge, on the field side (its weight keeps the ramp down).
+    sentry_stage_along_m: float = 0.65
+    sentry_along_m: float = 0.3
     # guard: after its isolation work a robot drives to stand in front of the platform in its
     # climbing lane (goals pushed at the board meet it instead); off: it stands where it is.
     # Off by default: the drive there met the other alliance's robots (isolation fouls).
@@ -200,6 +205,7 @@ class _IsoTask:
     rings: int | None = None
     drag_to: tuple[float, float] | None = None
     keep: bool = False
+    wait: bool = True  # wait for the rings to thread on before the next job (else: keep going)
 
 
 @dataclass
@@ -208,6 +214,7 @@ class _Plan:
 
     iso: list[_IsoTask] = field(default_factory=list)
     neutral: list[str] = field(default_factory=list)  # interaction goals, in order
+    sentry: bool = False  # after its isolation jobs, wait on the platform (see _phase_sentry)
 
 
 def default_plan(role: str, layout: FieldLayout) -> _Plan:
@@ -222,8 +229,10 @@ def default_plan(role: str, layout: FieldLayout) -> _Plan:
     south, north = neutrals[0].name, neutrals[-1].name
     middle = [g.name for g in neutrals[1:-1]]
     if role == "24in":
-        return _Plan([], [south, *middle])
-    return _Plan([_IsoTask(other_own, None, None, keep=True)], [north, other_own])
+        return _Plan([], [south, *middle, layout.awp_goal])
+    return _Plan(
+        [_IsoTask(other_own, None, None, keep=True, wait=False)], [north, other_own], sentry=True
+    )
 
 
 def _segment_distance(point: Vec, a: Vec, b: Vec) -> float:
@@ -283,6 +292,7 @@ class AllianceStrategy:
         self._climb_track: list[tuple[float, float]] = []
         self._climb_retried = False
         self._guarding = False
+        self._sentry_set = False
         self._tug_until = -1.0
         self._moves: list[tuple[float, float, float, float]] = []  # t, x, y, commanded v
         self._stage_goal: str | None = None
@@ -311,7 +321,7 @@ class AllianceStrategy:
         self._trail.push(pose.t, float(pose.xy[0]), float(pose.xy[1]))
         v, w, clamp = self._decide(pose, inputs, dt)
         v, w = self._tug(pose, inputs, v, w)
-        intake = self.phase not in ("climb", "stage", "hold", "balance", "drop")
+        intake = self.phase not in ("climb", "stage", "balance", "drop", "sentry", "park")
         lift = bool(self.role.reaches_high_branch and inputs.goal_clamped and intake)
         return AllianceAction(float(v), float(w), clamp, lift, intake)
 
@@ -399,7 +409,17 @@ class AllianceStrategy:
         if big and left <= c.climb_24_s and self.phase not in ("climb", "balance", "park"):
             self._set_phase("climb", pose.t)
         if not big:
-            if left <= c.stage_15_s and self.phase not in ("stage", "climb", "balance", "park"):
+            if self.phase == "sentry" and self._climbing and left <= c.climb_15_s:
+                self._set_phase("climb", pose.t)
+                self._climbing = True  # already on the board, in its lane
+                self._climb_track = []
+            elif left <= c.stage_15_s and self.phase not in (
+                "stage",
+                "climb",
+                "balance",
+                "park",
+                "sentry",
+            ):
                 self._set_phase("stage", pose.t)
             elif (
                 not c.carry_goal_15
@@ -458,7 +478,7 @@ class AllianceStrategy:
                 arrived = False
                 v, w = self._drive_to(pose, target, None, speed=0.5)
         want = 0 if task.rings is None else max(0, self._held_at_clamp - task.rings)
-        done = arrived and inputs.rings_held <= want
+        done = arrived and (inputs.rings_held <= want or (task.keep and not task.wait))
         if done or pose.t - self.phase_since > c.preload_wait_s + 3.0:
             self._iso_index += 1
             if task.keep:
@@ -481,6 +501,34 @@ class AllianceStrategy:
             self._next_goal(pose)
         return 0.0, 0.0, False
 
+    def _phase_sentry(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        """Wait on the platform's field side with the goal it holds: the board stays tipped
+        toward the field (the ramp down) whatever the other robots push onto it, so the
+        alliance can still climb it at the end."""
+        c = self.config
+        plat = self.layout.platform
+        clamp = bool(inputs.goal_clamped)
+        y = c.board_y_15_m
+        if not self._climbing:
+            stage = np.array([self._board_x(c.sentry_stage_along_m), y])
+            heading_err = angle_diff_deg(plat.wall_heading_deg, pose.heading)
+            if float(np.hypot(*(stage - pose.xy))) > 0.07:
+                self.intent = "to_sentry"
+                return (*self._arrive(pose, stage, plat.wall_heading_deg), clamp)
+            if abs(heading_err) > 5:
+                self.intent = "line_up"
+                return 0.0, self._turn_to(pose, plat.wall_heading_deg), clamp
+            self._climbing = True
+        self.intent = "sentry"
+        along = plat.along(float(pose.xy[0]))
+        if abs(along - c.sentry_along_m) < 0.03:
+            self._sentry_set = True
+        if self._sentry_set and pose.t < self.layout.isolation_s:
+            return 0.0, 0.0, clamp  # in place: never drive while the other alliance may be near
+        return (*self._on_board(pose, y, c.sentry_along_m), clamp)
+
     def _next_goal(self, pose: _Pose) -> None:
         if (
             self.config.iso_rings
@@ -488,7 +536,7 @@ class AllianceStrategy:
         ):
             self._set_phase("iso_rings", pose.t)
             return
-        if pose.t < self.layout.isolation_s:
+        if pose.t < self.layout.isolation_s and not self.plan.sentry:
             self._set_phase("iso_wait", pose.t)
             return
         self._next_goal_interaction(pose)
@@ -546,6 +594,9 @@ class AllianceStrategy:
         return not self.layout.platform.contains((float(b.xy[0]), float(b.xy[1])), half_diag)
 
     def _next_goal_interaction(self, pose: _Pose) -> None:
+        if self.plan.sentry:
+            self._set_phase("sentry", pose.t)
+            return
         if self._was_clamped:
             self.target_goal = None
             self._set_phase("collect", pose.t)
@@ -891,7 +942,9 @@ class AllianceStrategy:
             kept = [t.goal for t in default_plan("15in", self.layout).iso if t.keep]
             g = self.layout.goal(kept[-1] if kept else self.layout.awp_goal)
             torque += g.mass_kg * min(c.partner_along_m + 0.36, half)
-        return -torque / self.role.mass_kg
+        # Its whole footprint must stay over the board (with the overhang) to be Elevated.
+        reach = max(0.0, half + plat.overhang_m - self.role.length_m / 2 - c.footprint_margin_m)
+        return float(np.clip(-torque / self.role.mass_kg, -reach, reach))
 
     def _on_board(self, pose: _Pose, y: float, along: float) -> tuple[float, float]:
         """Drive straight toward the wall (or back) to `along` from the hinge, heading held."""

@@ -87,8 +87,8 @@ def run(core: MatchCore, players: list[Player], seconds: float) -> list[DriveCom
 
 def test_the_isolation_routine_scores_and_touches_nobody() -> None:
     """Against the ring-race alliance (which drives into the scripted robots' side): the
-    scripted alliance commits no isolation foul, threads its preloads onto an alliance goal and
-    wins the autonomous bonus (its opponents' contact forfeits theirs, or it scores more)."""
+    scripted alliance commits no isolation foul and threads the 15"'s preloads onto an alliance
+    goal; its isolation score counts both alliance goals in its zone and those rings."""
     for seed in (0, 1):
         core = core_2v2()
         try:
@@ -105,7 +105,7 @@ def test_the_isolation_routine_scores_and_touches_nobody() -> None:
             assert red == [], red
             own = [g for g in w.goals if g.spec.alliance == "red"]
             assert sum(g.rings for g in own) >= 3  # the 15"'s preloads
-            assert w.autonomous is not None and w.autonomous["red"].bonus == 20
+            assert w.autonomous is not None and w.autonomous["red"].score >= 40 + 9
         finally:
             core.close()
 
