@@ -98,9 +98,10 @@ test: venv build browser-deps check firmware-check wheel-check  ## everything: l
 wheel-check: venv  ## build the wheel, install it with .[jetson] in a fresh venv, run detect and run elsewhere
 	PYTHON=$(PYTHON) BUILD_PYTHON=$(BIN)/python bash .ci/wheel-check
 
-demo: venv build  ## one full-stack match: Brain core + wire + Jetson daemon on the simulated field
+demo: venv build  ## a whole 2v2 VEX AI match, one red robot on the full stack (Brain core + wire + daemon)
 	$(BIN)/python -m protocol.demo --tool $(BUILD)/bin/pete_codec_tool
-	$(BIN)/pete-sim match --stack full --seed 0 --brain-host $(BUILD)/bin/brain_host --out runs/demo
+	$(BIN)/pete-sim match --stack full --world tipping_point_2v2 --opponent alliance --seed 0 \
+	  --brain-host $(BUILD)/bin/brain_host --out runs/demo
 
 bench: venv build browser-deps  ## run every benchmark; results land in bench/results/
 	@for b in bench/*.py; do \

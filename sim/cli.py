@@ -279,13 +279,15 @@ def _add_match(sub: argparse._SubParsersAction) -> None:
     add_match_command(sub)
     p = sub.choices["match"]
     p.description = (p.description or "") + (
-        " --world tipping_point_1v1 / tipping_point_2v2 plays the whole game with --stack sim "
-        "(the full stack plays the ring race only, for now): every robot driven by a player "
-        "(--policy for red, --opponent for blue: a name for all of an alliance's robots, or "
-        "NAME,NAME one per robot), and summary.txt/json break both alliances' scores down by "
-        "element with the fouls; replay.gif shows the platforms' tilt, the goals' owners and "
-        "their rings. Example: pete-sim match --stack sim --world tipping_point_2v2 --policy "
-        "scripted --opponent planner,scripted"
+        " --world tipping_point_1v1 / tipping_point_2v2 plays the whole game. With --stack sim "
+        "every robot is driven by a player (--policy for red, --opponent for blue: a name for "
+        "all of an alliance's robots, or NAME,NAME one per robot); with --stack full the red "
+        '24" is the full stack (brain_host, the wire, the daemon running the scripted '
+        "alliance), its partner --partner and blue --opponent players in the twin. "
+        "summary.txt/json break both alliances' scores down by element with the fouls; "
+        "replay.gif shows the platforms' tilt, the goals' owners and their rings. Examples: "
+        "pete-sim match --stack sim --world tipping_point_2v2 --policy alliance --opponent "
+        "planner-collector,scripted; pete-sim match --world tipping_point_2v2 --opponent alliance"
     )
     _add_world(p)
     p.set_defaults(func=_cmd_match, ring_race_match=p.get_default("func"))
@@ -297,15 +299,12 @@ _FULL_STACK_ONLY = ("fault", "faults", "realtime", "daemon", "record", "dashboar
 
 def _cmd_match(args: argparse.Namespace) -> int:
     if args.world in (None, "ring_race"):
+        args.world = None
         return args.ring_race_match(args)
     if args.stack != "sim":
-        print(
-            f"pete-sim match: --world {args.world} needs --stack sim: the full stack "
-            "(brain_host + wire + Jetson daemon) drives one robot of the ring race and does not "
-            "play the whole game yet",
-            file=sys.stderr,
-        )
-        return 2
+        # The full stack drives the red 24" (the daemon runs the scripted alliance); its
+        # partner and the blue alliance are players in the twin.
+        return args.ring_race_match(args)
     given = [f"--{n}" for n in _FULL_STACK_ONLY if getattr(args, n, None)]
     if given:
         print(

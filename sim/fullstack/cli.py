@@ -119,6 +119,12 @@ def add_match_command(sub: argparse._SubParsersAction) -> None:
         help="serve the daemon's read-only live dashboard here (a port alone: 127.0.0.1) "
         "(default: off)",
     )
+    p.add_argument(
+        "--partner",
+        default="alliance",
+        help="the whole game (--world): who drives our robot's partner in the twin (a player "
+        'name; our robot is the red 24" on the full stack) (default: alliance)',
+    )
     p.add_argument("--out", type=Path, default=None, help="run folder (default: runs/match-...)")
     p.add_argument("--brain-host", type=Path, default=None, help="the brain_host binary")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
@@ -170,6 +176,8 @@ def cmd_match(args: argparse.Namespace) -> int:
             out=out,
             brain_host=args.brain_host,
             dashboard=args.dashboard,
+            world=getattr(args, "world", None),
+            partner=args.partner,
         )
         progress = None if args.quiet or args.json else (lambda m: print(m, flush=True))
         result = run_match(options, progress)

@@ -52,6 +52,9 @@ class DaemonOptions:
     fingerprint: int = messages.FINGERPRINT
     log_level: str = "info"
     record_dir: Path | None = None  # the daemon's session recordings (pete-jetson replay)
+    # What decides ([decision] player): the policy, or the scripted alliance as `role`.
+    player: str = "policy"
+    role: str = "24in"
 
 
 class GatedFeed:
@@ -109,7 +112,11 @@ class DaemonHost:
         self.clock = clock
         self.settings = Settings().with_overrides(
             link={"port": str(port_path)},
-            decision={"valid_ms": options.valid_ms},
+            decision={
+                "valid_ms": options.valid_ms,
+                "player": options.player,
+                "role": options.role,
+            },
             policy={"path": str(options.policy)},
             camera={
                 "enabled": options.camera,

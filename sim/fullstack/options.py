@@ -66,6 +66,12 @@ class MatchOptions:
     faults: tuple[tuple[str, float], ...] = ()
     # "[HOST:]PORT": the daemon's live dashboard (jetson/dashboard/README.md); None is off.
     dashboard: str | None = None
+    # The match (sim.config.WORLD_PRESETS): None the ring race (our robot against `opponent`);
+    # a whole-game world (tipping_point_2v2) plays VEX AI's match, our robot the red 24" run by
+    # the daemon with the scripted alliance ([decision] player = "alliance"), its partner in
+    # the twin by `partner`, the blue alliance by `opponent` (a side: NAME or NAME,NAME).
+    world: str | None = None
+    partner: str = "alliance"
 
     def __post_init__(self) -> None:
         if self.stack not in STACKS:
@@ -102,6 +108,23 @@ class MatchOptions:
                 "the dashboard follows the daemon in this process: --stack full, without "
                 "--daemon process"
             )
+
+        if self.world is not None:
+            from sim.config import WORLD_PRESETS
+
+            if self.world not in WORLD_PRESETS:
+                raise MatchError(
+                    f"world must be one of {', '.join(WORLD_PRESETS)}, got {self.world!r}"
+                )
+
+    @property
+    def whole_game(self) -> bool:
+        """A VEX AI match of the whole game, not the ring race."""
+        from sim.config import WORLD_PRESETS
+
+        return self.world is not None and (
+            WORLD_PRESETS[self.world].get("game", "ring_race") != "ring_race"
+        )
 
     @property
     def frame_period_ms(self) -> int:

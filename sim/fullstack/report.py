@@ -171,6 +171,9 @@ class MatchResult:
     files: dict[str, str] = field(default_factory=dict)
     # Each fault injected: what happened and what was measured (sim.fullstack.faults).
     faults: list[dict[str, Any]] = field(default_factory=list)
+    # The whole game: each alliance's score by element and its fouls
+    # (sim.evaluate.element_breakdown); None in the ring race.
+    game: dict[str, Any] | None = None
 
     @property
     def passed(self) -> bool:
@@ -191,6 +194,11 @@ class MatchResult:
             ("rings collected", f"{self.rings}   (opponent {self.opponent_rings})"),
             ("score", f"{self.score}   (opponent {self.opponent_score})"),
         ]
+        for alliance, row in (self.game or {}).items():
+            parts = [f"{k} {v}" for k, v in row.items() if k not in ("total", "fouls_by_kind")]
+            fouls = ", ".join(f"{k} {n}" for k, n in row.get("fouls_by_kind", {}).items())
+            rows.append((f"{alliance} by element", f"{row['total']} = " + ", ".join(parts)))
+            rows.append((f"{alliance} fouls", fouls or "none"))
         if self.messages is not None:
             for key, label in (("down", "Jetson -> Brain"), ("up", "Brain -> Jetson")):
                 m = self.messages[key]

@@ -118,6 +118,19 @@ def _caption(world: Any, labels: tuple[str, str]) -> str:
     return "  ".join(parts)
 
 
+@dataclass
+class _Driven:
+    """A robot the twin drives (the opponent, the partner): its player and its decision's
+    state between the policy-rate steps."""
+
+    index: int
+    player: Any
+    spec: Any  # the player's observation spec, or None for one that reads the world
+    stack: Any = None
+    command: Any = None
+    k: int = -1
+
+
 class _Replay:
     """GIF frames and samples while a match runs."""
 
@@ -309,6 +322,7 @@ class FullStackMatch:
         self.brain_offset_ms = 0  # the simulator's clock when this brain_host started
         self.brain_statuses: list[int | None] = []
         self.cable: Any = None
+        self.others: list[_Driven] = []  # the robots the twin drives
         self._sent_seq = 0
         self._jetson_alive = False
 
@@ -340,21 +354,22 @@ class FullStackMatch:
         from sim.match import MatchCore
 
         o = self.options
-        a, b = _load_players(o)
-        self.labels = (a.label, b.label if b else "-")
-        env = _env(o, a.spec, b is not None)
-        world_cfg = replace(env.world, control_hz=1000.0 / LOOP_MS)
-        self.core = MatchCore(env, world_cfg)
-        self.core.reset(np.random.default_rng(o.seed))
-        self.world = self.core.world
-        self.ia = 0
-        self.ib = 1 if b is not None else None
-        self.opponent = b.make() if b is not None else None
-        if self.opponent is not None:
-            self.opponent.reset(self.core, self.ib, np.random.default_rng((o.seed, self.ib)))
-        self.opp_spec = b.spec if b is not None else None
-        self.opp_stack: Any = None
-        self.opp_command: Any = None
+        if o.whole_game:
+            self._setup_game()
+        else:
+            a, b = _load_players(o)
+            self.labels = (a.label, b.label if b else "-")
+            env = _env(o, a.spec, b is not None)
+            world_cfg = replace(env.world, control_hz=1000.0 / LOOP_MS)
+            self.core = MatchCore(env, world_cfg)
+            self.core.reset(np.random.default_rng(o.seed))
+            self.world = self.core.world
+            self.ia = 0
+            self.ib = 1 if b is not None else None
+            if b is not None:
+                self.others = [_Driven(1, b.make(), b.spec)]
+        for d in self.others:
+            d.player.reset(self.core, d.index, np.random.default_rng((o.seed, d.index)))
         self.hardware = RobotHardware(
             self.world,
             self.ia,
@@ -389,6 +404,9 @@ class FullStackMatch:
         self.detector = kind
         jopts = DaemonOptions(
             policy=o.policy,
+            # The whole game: the scripted alliance decides on the robot, as this robot's role.
+            player="alliance" if o.whole_game else "policy",
+            role=self.world.robots[self.ia].config.name if o.whole_game else "24in",
             camera=o.camera,
             detector=kind,
             detector_model=model,
@@ -422,6 +440,41 @@ class FullStackMatch:
         self.jetson.start()
         self._jetson_alive = True
         self._accept_camera()
+
+    def _setup_game(self) -> None:
+        """The whole game (options.world): our robot is the red alliance's first (the 24"), its
+        partner and the blue alliance are players in the twin (sim.evaluate.load_side)."""
+        from sim.errors import EvalError
+        from sim.evaluate import eval_env, load_side, side_label
+        from sim.match import MatchCore
+
+        o = self.options
+        try:
+            partner = load_side(o.partner)
+            blue = load_side(o.opponent)
+            env = eval_env(o.scenario, "training", world=o.world)
+        except (EvalError, ValueError) as exc:
+            raise MatchError(str(exc)) from exc
+        world_cfg = replace(env.world, control_hz=1000.0 / LOOP_MS)
+        self.core = MatchCore(env, world_cfg)
+        self.core.reset(np.random.default_rng(o.seed))
+        self.world = self.core.world
+        lineup = [r.alliance for r in self.world.robots]
+        reds = [i for i, a in enumerate(lineup) if a == "red"]
+        blues = [i for i, a in enumerate(lineup) if a == "blue"]
+        self.ia = reds[0]
+        self.ib = blues[0] if blues else None
+        self.others = []
+        for robots, side, name in ((reds[1:], partner, "partner"), (blues, blue, "opponent")):
+            if len(side) not in (1, len(robots)) and robots:
+                raise MatchError(
+                    f"--{name} names {len(side)} players for {len(robots)} robots: give one "
+                    "name for all of them or one per robot"
+                )
+            for k, i in enumerate(robots):
+                spec = side[0] if len(side) == 1 else side[k]
+                self.others.append(_Driven(i, spec.make(), spec.spec))
+        self.labels = (f"full stack + {side_label(partner)}", side_label(blue))
 
     def _start_dashboard(self) -> None:
         """The daemon's live dashboard (jetson/dashboard), as `pete-jetson run --dashboard`."""
@@ -631,9 +684,10 @@ class FullStackMatch:
 
     def _step_world(self, report: Any) -> None:
         w = self.world
-        commands = [self.hardware.command(report)]
-        if self.ib is not None:
-            commands.append(self._opponent_command())
+        commands: list[Any] = [None] * len(w.robots)
+        commands[self.ia] = self.hardware.command(report)
+        for d in self.others:
+            commands[d.index] = self._player_command(d)
         w.step(commands)
         t_s = w.time_s
         world_ms = round(t_s * 1000)
@@ -648,24 +702,25 @@ class FullStackMatch:
         if self.replay.gif_due(t_s):
             self._gif_frame()
 
-    def _opponent_command(self) -> Any:
-        """The opponent decides at the policy rate, as in the simulator's own matches."""
+    def _player_command(self, d: _Driven) -> Any:
+        """A robot the twin drives decides at the policy rate, as in the simulator's own
+        matches, and keeps its command in between."""
         w = self.world
         k = math.floor(w.time_s * POLICY_HZ + 1e-6)
-        if self.opp_command is None or k != self._opp_k:
-            self._opp_k = k
+        if d.command is None or k != d.k:
+            d.k = k
             obs = None
-            if self.opp_spec is not None:
+            if d.spec is not None:
                 from jetson.autonomy.observation import FrameStack
 
-                frame = self.core.frame(self.ib)
-                if self.opp_stack is None:
-                    self.opp_stack = FrameStack(self.core.spec)
-                    obs = self.opp_stack.reset(frame)
+                frame = self.core.frame(d.index)
+                if d.stack is None:
+                    d.stack = FrameStack(self.core.spec)
+                    obs = d.stack.reset(frame)
                 else:
-                    obs = self.opp_stack.push(frame)
-            self.opp_command = self.opponent.act(self.core, self.ib, obs)
-        return self.opp_command
+                    obs = d.stack.push(frame)
+            d.command = d.player.act(self.core, d.index, obs)
+        return d.command
 
     def _send_frame(self, stamp_s: float) -> None:
         from jetson.perception.frame import Frame
@@ -865,6 +920,10 @@ class FullStackMatch:
             daemon=daemon,
             settings=_settings(o, self.detector),
         )
+        if o.whole_game:
+            from sim.evaluate import element_breakdown
+
+            result.game = element_breakdown(w)
         result.checks = self.scenario.checks(self)
         result.faults = self.scenario.records(self)
         title = f"full stack, seed {o.seed}" + (f", fault {o.fault}" if o.fault else "")
