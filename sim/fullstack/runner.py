@@ -112,6 +112,11 @@ def _env(options: MatchOptions, spec: Any, opponent: bool) -> Any:
 def _caption(world: Any, labels: tuple[str, str]) -> str:
     s = world.score()
     parts = [f"t {world.time_s:5.1f}s"]
+    if len(world.robots) > 2:  # an alliance a side: one entry each
+        for alliance, label in zip(("red", "blue"), labels, strict=True):
+            rings = sum(r.collected for r in world.robots if r.alliance == alliance)
+            parts.append(f"{alliance} ({label}): {rings} rings {s[alliance].total} pts")
+        return "  ".join(parts)
     for r in world.robots:
         label = labels[0] if r.alliance == "red" else labels[1]
         parts.append(f"{label}: {r.collected} rings {s[r.alliance].total} pts")
