@@ -90,6 +90,13 @@ SOURCES: dict[str, Source] = {
         "the system, as `systemd-analyze security --offline=true` rates it: 0 locked down, 10 "
         "nothing restricted; up to 4.0 systemd calls it OK.",
     ),
+    "dropouts": Source(
+        "python -m bench.dropouts",
+        "The pose through GPS dropouts (issue 44): whole-game full-stack matches, the red 24\" "
+        "running the scripted alliance, each seed with the GPS strip hidden behind robots, goals "
+        "and platforms and with a GPS that never fails: red's score each way and their ratio, "
+        "how long the GPS was hidden, the Brain's pose error against the truth.",
+    ),
     "match": Source(
         "python -m bench.match",
         "Full 105 s lockstep matches of the full stack (`brain_host`, the wire, the daemon with "
