@@ -92,7 +92,7 @@ SOURCES: dict[str, Source] = {
     ),
     "dropouts": Source(
         "python -m bench.dropouts",
-        "The pose through GPS dropouts (issue 44): whole-game full-stack matches, the red 24\" "
+        'The pose through GPS dropouts (issue 44): whole-game full-stack matches, the red 24" '
         "running the scripted alliance, each seed with the GPS strip hidden behind robots, goals "
         "and platforms and with a GPS that never fails: red's score each way and their ratio, "
         "how long the GPS was hidden, the Brain's pose error against the truth.",
