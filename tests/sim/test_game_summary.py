@@ -87,9 +87,8 @@ def test_help_teaches_the_worlds(capsys: pytest.CaptureFixture[str]) -> None:
         assert "NAME,NAME" in text
 
 
-def test_the_full_stack_refuses_the_whole_game(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["match", "--world", "tipping_point_2v2"]) == 2
-    assert "needs --stack sim" in capsys.readouterr().err
+def test_the_sim_stack_refuses_the_full_stacks_options(capsys: pytest.CaptureFixture[str]) -> None:
+    # (The full stack plays the whole game: tests/sim/fullstack/test_whole_game.py.)
     argv = ["match", "--stack", "sim", "--world", "tipping_point_2v2", "--fault", "link-cut"]
     assert main(argv) == 2
     assert "--fault belong(s) to the full stack" in capsys.readouterr().err
