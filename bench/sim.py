@@ -61,11 +61,18 @@ def _env_match(fidelity: str, steps: int, camera: bool, seed: int = 0) -> tuple[
 
 
 def _world_match(steps: int, seed: int = 0) -> tuple[int, float]:
-    from sim.baselines.scripted import GreedyChaser
     from sim.config import WorldConfig
+
+    return _chasers_match(WorldConfig(interaction_s=steps / 12.0), seed)
+
+
+def _chasers_match(config: Any, seed: int) -> tuple[int, float]:
+    """The bare World of `config` with a greedy chaser on every robot; (steps, seconds)
+    excluding construction."""
+    from sim.baselines.scripted import GreedyChaser
     from sim.world.physics import World
 
-    with World(WorldConfig(interaction_s=steps / 12.0)) as w:
+    with World(config) as w:
         w.reset(np.random.default_rng(seed))
         bots = [GreedyChaser(i) for i in range(len(w.robots))]
         n = 0
@@ -79,24 +86,13 @@ def _world_match(steps: int, seed: int = 0) -> tuple[int, float]:
 def _game_match(seed: int = 0, observations: bool = True) -> tuple[int, float]:
     """A full 2v2 whole-game match (tipping_point_2v2): four scripted chasers, through MatchCore
     (observations, rewards) or on the bare World; (steps, seconds) excluding construction."""
-    from sim.baselines.scripted import GreedyChaser
     from sim.config import world_preset
     from sim.match import EnvConfig, MatchCore
     from sim.players import ScriptedPlayer
 
     world = world_preset("tipping_point_2v2")
     if not observations:
-        from sim.world.physics import World
-
-        with World(world) as w:
-            w.reset(np.random.default_rng(seed))
-            bots = [GreedyChaser(i) for i in range(len(w.robots))]
-            n = 0
-            start = time.perf_counter()
-            while not w.over:
-                w.step([b.act(w) for b in bots])
-                n += 1
-            return n, time.perf_counter() - start
+        return _chasers_match(world, seed)
     core = MatchCore(EnvConfig(world=world, end_on_pin=False))
     try:
         obs = core.reset(np.random.default_rng(seed))

@@ -63,16 +63,10 @@ ROBOTS: dict[str, RobotRole] = {
 DRIVING = "scripted"  # Decision.reason while the strategy drives
 
 
-class _NoPolicy:
-    """What the dashboard and the recording read of a decider's policy: no skills."""
-
-    skills = None
-
-
 class ScriptedDecider:
     """The scripted alliance behind the daemon's decision interface (see the module doc)."""
 
-    policy = _NoPolicy()
+    policy = None  # no policy file: the dashboard reads no skills from it
     camera = None
     skill_driver = None
 

@@ -22,3 +22,12 @@ def parse_address(text: str, default_host: str = DEFAULT_HOST) -> tuple[str, int
     if not 0 <= port <= 65535:
         raise ValueError(f"dashboard address {text!r}: port {port} out of range 0..65535")
     return host, port
+
+
+def page_url(host: str, port: int) -> str:
+    """Where a browser on this machine finds the page served on host:port (an address that
+    listens everywhere is reached on the loopback)."""
+    shown = f"[{host}]" if ":" in host else host
+    if shown in ("0.0.0.0", "[::]"):
+        shown = "127.0.0.1"
+    return f"http://{shown}:{port}/"

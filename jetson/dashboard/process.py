@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from typing import Any
 
-from jetson.dashboard.address import parse_address
+from jetson.dashboard.address import page_url, parse_address
 from jetson.dashboard.bridge import Bridge, Latest, frame_bytes_for
 from jetson.threads import lower_this_thread
 
@@ -110,7 +110,6 @@ def child_main(conn: Connection, bridge: Bridge, options: ProcessOptions) -> Non
         SystemStats(options.record_dir, pid=options.daemon_pid),
         options.title,
         options.frame_width,
-        own_process=True,
     )
     server = DashboardServer(
         source, options.host, options.port, options.state_hz, options.camera_hz
@@ -155,10 +154,7 @@ class DashboardProcess:
 
     @property
     def url(self) -> str:
-        host = f"[{self.host}]" if ":" in self.host else self.host
-        if host in ("0.0.0.0", "[::]"):
-            host = "127.0.0.1"
-        return f"http://{host}:{self.port}/"
+        return page_url(self.host, self.port)
 
     def _stat(self, key: str) -> Any:
         stats = self._stats.get() or {}

@@ -31,6 +31,7 @@ from urllib.parse import urlsplit
 
 from aiohttp import WSMsgType, web
 
+from jetson.dashboard.address import page_url
 from jetson.frames import view_record
 
 __all__ = ["DashboardServer", "LiveSource"]
@@ -73,10 +74,7 @@ class LiveSource:
         system: Any = None,
         title: str = "pete-jetson",
         frame_width: int = 320,
-        own_process: bool = False,
     ) -> None:
-        # `own_process`: the server has a process to itself, whose whole CPU is the dashboard's.
-        self.own_process = own_process
         self.observer = observer
         self.frames = frames
         self.system = system
@@ -120,15 +118,14 @@ class LiveSource:
         self._frame = (view.id, json.dumps(msg, separators=(",", ":")))
         return self._frame
 
-    def jetson_message(self, dashboard_s: float) -> str | None:
-        """The Jetson's health, sampled at most once a second whoever asks. `dashboard_s`: the
-        server thread's CPU time (the process's own is used when it has one to itself)."""
+    def jetson_message(self) -> str | None:
+        """The Jetson's health, sampled at most once a second whoever asks; the dashboard's CPU
+        is this process's (a live source is served from the dashboard's own process)."""
         if self.system is None:
             return None
         now = time.monotonic()
         if self._jetson is None or now - self._jetson[0] >= 1.0:
-            if self.own_process:
-                dashboard_s = time.process_time()
+            dashboard_s = time.process_time()
             sample = self.system.sample(dashboard_s - self._dashboard_s)
             self._dashboard_s = dashboard_s
             sample["observer"] = self.observer.counters()
@@ -167,7 +164,6 @@ class DashboardServer:
         self.sent: Counter[str] = Counter()
         self.clients = 0
         self.refused = 0
-        self.thread_cpu_s = 0.0  # CPU time of the server's thread, measured on it
         self._loop: asyncio.AbstractEventLoop | None = None
         self._thread: threading.Thread | None = None
         self._ready = threading.Event()
@@ -180,10 +176,7 @@ class DashboardServer:
 
     @property
     def url(self) -> str:
-        host = f"[{self.host}]" if ":" in self.host else self.host
-        if host in ("0.0.0.0", "[::]"):
-            host = "127.0.0.1"
-        return f"http://{host}:{self.port}/"
+        return page_url(self.host, self.port)
 
     # --- the thread ------------------------------------------------------------------------
 
@@ -235,11 +228,7 @@ class DashboardServer:
             if sockets:
                 self.port = int(sockets[0].getsockname()[1])
             self._ready.set()
-            t_cpu = time.thread_time()
-            while not self._stopping.is_set():
-                with contextlib.suppress(asyncio.TimeoutError):
-                    await asyncio.wait_for(self._stopping.wait(), 0.5)
-                self.thread_cpu_s = time.thread_time() - t_cpu
+            await self._stopping.wait()
         finally:
             await runner.cleanup()
 
@@ -339,7 +328,7 @@ class DashboardServer:
                             await self._send(ws, frame[1], "frame")
                 if now >= next_jetson:
                     next_jetson = now + 1.0
-                    msg = src.jetson_message(self.thread_cpu_s)
+                    msg = src.jetson_message()
                     if msg is not None:
                         await self._send(ws, msg, "jetson")
                 wake = min(next_state, next_frame, next_jetson) - time.monotonic()
