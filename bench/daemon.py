@@ -10,10 +10,10 @@ its own part (State bytes read -> Command bytes written) and records it per cycl
 `--rate` (default 250 Hz, five times the Brain's, so that 10,000 cycles take 40 s; the daemon
 sleeps between them as it does at 50 Hz).
 
-A second scenario runs the camera thread beside the loop, in the daemon's process as on the
-robot (built from the settings as `pete-jetson run --camera-source synthetic` builds it): the
-classical detector on synthetic 640x480 frames at 30 a second, to show what perception beside
-it costs the loop.
+A second scenario runs the camera beside the loop as on the robot (built from the settings as
+`pete-jetson run --camera-source synthetic` builds it: in a process of its own,
+jetson/camera_process.py): the classical detector on synthetic 640x480 frames at 30 a second,
+to show what perception beside it costs the loop.
 
 Both processes run at nice -10 when root (--nice): the daemon as the systemd unit runs it, the
 Brain stand-in because a real Brain has its own CPU. Targets: p99 <= 5 ms for the daemon's own
@@ -44,7 +44,7 @@ CAMERA = {"source": "synthetic:30", "detector": "classical"}  # 640x480 frames, 
 
 
 def start_camera(service: Any) -> None:
-    """Start the daemon's camera thread and wait for its first result."""
+    """Start the daemon's camera and wait for its first result."""
     service.start_camera()
     while service.camera.latest() is None:
         time.sleep(0.01)
@@ -103,9 +103,9 @@ def run_scenario(policy: Path, cycles: int, rate_hz: float, camera: bool) -> dic
     brain = FakeBrain()
     with tempfile.TemporaryDirectory() as record_dir:
         ctx = multiprocessing.get_context("spawn")
-        child = ctx.Process(
-            target=serve, args=(brain.pty_path, str(policy), record_dir, camera), daemon=True
-        )
+        # Not a daemonic process: the daemon starts its camera's process of its own; it is
+        # stopped (SIGTERM) below whatever happens.
+        child = ctx.Process(target=serve, args=(brain.pty_path, str(policy), record_dir, camera))
         child.start()
         try:
             deadline = time.monotonic() + 60.0

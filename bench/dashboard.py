@@ -4,10 +4,11 @@
                               [--out DIR]
 
 The daemon runs in its own process as on the robot (built as `pete-jetson run` builds it, the
-shipped policy, the camera thread on synthetic 640x480 frames at 30 a second with the classical
-detector (`--camera-source synthetic`), a session recording keeping its frames); this process
-plays the Brain (jetson.testing.FakeBrain): a State every 1/--rate s, each answered by a
-Command. Two scenarios, `--rounds` times each, in turn (the order alternating from round to round):
+shipped policy, the camera in its own process on synthetic 640x480 frames at 30 a second with
+the classical detector (`--camera-source synthetic`), a session recording keeping its frames);
+this process plays the Brain (jetson.testing.FakeBrain): a State every 1/--rate s, each
+answered by a Command. Two scenarios, `--rounds` times each, in turn (the order alternating from
+round to round):
 
 - without: the daemon as it runs by default, no dashboard;
 - with: `--dashboard` on a loopback port and the page open in headless Chromium (Debian's,

@@ -5,7 +5,8 @@ judges its age (decide.py treats an old one as no rings, as the policy was train
 The thread owns the camera: it opens the source, runs the perception pipeline on every frame, and
 when the camera fails or ends it logs why, closes it and opens it again, forever. It runs at a
 lower priority than the control loop (jetson/threads.py): the loop first, perception with the
-rest of the CPU.
+rest of the CPU. `pete-jetson run` runs it in a process of its own (jetson/camera_process.py),
+so that its Python never holds the loop's interpreter.
 
 Feeds other than the thread (all meet PerceptionFeed):
   SyncPerception   frames submitted by the caller and processed at once (a lockstep simulator
@@ -112,6 +113,9 @@ class CameraWorker:
         # the daemon has either; offered after the result is published.
         self.tap: Any = None
         self.tap_errors = 0
+        # Called on the camera thread with each result as it is published (the camera's own
+        # process hands it to the daemon's this way: jetson/camera_process.py).
+        self.on_result: Callable[[Perceived], object] | None = None
 
     def latest(self) -> Perceived | None:
         return self._latest
@@ -199,6 +203,7 @@ class CameraWorker:
                 self._ids(), stamp, np.zeros((0, 2)), index, 0,
                 (time.perf_counter() - t0) * 1e3, f"{type(exc).__name__}: {exc}",
             )  # fmt: skip
+            self._hand_on(self._latest)
             return
         self.frames += 1
         self._latest = latest = Perceived(
@@ -209,6 +214,7 @@ class CameraWorker:
             len(getattr(result, "detections", ()) or ()),
             (time.perf_counter() - t0) * 1e3,
         )
+        self._hand_on(latest)
         if self.tap is not None:
             try:
                 self.tap.offer(latest.id, stamp, frame, result)
@@ -216,6 +222,10 @@ class CameraWorker:
                 self.tap_errors += 1
                 if self.tap_errors == 1:
                     self._log.error("camera_tap", f"cannot keep a copy of the frame: {exc!r}")
+
+    def _hand_on(self, result: Perceived) -> None:
+        if self.on_result is not None:
+            self.on_result(result)
 
     @staticmethod
     def _close(source: SourceLike | None) -> None:

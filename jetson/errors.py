@@ -44,6 +44,11 @@ class ModelError(PerceptionError):
     """Detector weights that are missing or unusable."""
 
 
+class CameraProcessError(PerceptionError):
+    """The camera's own process could not start: its pipeline's error (a missing model, a bad
+    camera config) as the camera thread would have raised it."""
+
+
 class CameraConfigError(PerceptionError):
     """A camera model value or camera config file that cannot be used."""
 

@@ -140,6 +140,13 @@ class FrameTap:
                 self.sink_errors += 1
 
 
+def frame_bytes_for(width: int) -> int:
+    """Room for a pickled FrameView `width` pixels wide (colour 3 bytes and depth 4 bytes a
+    pixel, up to a square frame), with a margin for its boxes: the size of a shared-memory slot
+    that carries one (jetson/slots.py)."""
+    return 7 * width * width + 256 * 1024
+
+
 def jpeg(image: NDArray[np.uint8], width: int | None = None, quality: int = 75) -> bytes:
     """BGR image -> JPEG bytes, shrunk to `width` first when given."""
     import cv2

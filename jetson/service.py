@@ -1,6 +1,7 @@
 """`pete-jetson run` and `pete-jetson replay`: settings in, a running daemon out.
 
-    build(settings)     -> Service: the policy, the camera thread, the recorder, the Daemon
+    build(settings)     -> Service: the policy, the camera (a process of its own), the recorder,
+                        the Daemon
     Service.run()       serves until SIGTERM/SIGINT (or stop()), then sends a stop and exits
                         (within a second: the handlers only set a flag the loop looks at)
     add_commands(sub)   registers `run` and `replay` with pete-jetson's argument parser
@@ -22,7 +23,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any, TextIO
 
-from jetson.errors import SettingsError
+from jetson.errors import CameraProcessError, SettingsError
 from jetson.settings import PLAYERS, ROLES, Settings
 
 # Python hands the interpreter between threads every 5 ms by default: a State arriving while the
@@ -73,7 +74,7 @@ class Service:
     """A built daemon and what it owns."""
 
     daemon: Any  # jetson.loop.Daemon
-    camera: Any | None = None  # jetson.camera_feed.CameraWorker
+    camera: Any | None = None  # jetson.camera_process.CameraProcess or camera_feed.CameraWorker
     stop_event: StopFlag = field(default_factory=StopFlag)
     _files: list[TextIO] = field(default_factory=list)
     dashboard: Any | None = None  # jetson.dashboard.process.DashboardProcess, not started yet
@@ -83,7 +84,9 @@ class Service:
         self.stop_event.set()
 
     def start_camera(self) -> None:
-        """Start the camera thread (once; run() starts it when no one has)."""
+        """Start the camera (once; run() starts it when no one has). A camera in its own process
+        builds its pipeline here and raises CameraProcessError when it cannot (a missing model, a
+        bad camera config)."""
         if self.camera is not None and not self._camera_started:
             self._camera_started = True
             self.camera.start()
@@ -216,7 +219,10 @@ def build(
         }
     camera = None
     if perception is None and settings.camera.enabled:
-        camera = make_camera(settings, clock, log)
+        # On the machine's own clock the camera runs in a process of its own; a lockstep
+        # simulator's clock exists only in this process, so its camera is a thread here.
+        own = isinstance(clock, MonotonicClock)
+        camera = make_camera(settings, clock, log, own_process=own)
         perception = camera
     recordings = None
     if settings.record.dir:
@@ -250,10 +256,13 @@ def build(
     if not hasattr(camera_thread, "tap"):
         camera_thread = None
     if camera_thread is not None and recordings is not None and settings.record.frames_hz > 0:
-        from jetson.frames import FrameTap
+        period, width = 1.0 / settings.record.frames_hz, settings.record.frame_width
+        if hasattr(camera_thread, "frame_copies"):  # a camera in its own process
+            daemon.frames = camera_thread.frame_copies(period, width)
+        else:
+            from jetson.frames import FrameTap
 
-        daemon.frames = FrameTap(1.0 / settings.record.frames_hz, settings.record.frame_width)
-        camera_thread.tap = daemon.frames
+            daemon.frames = camera_thread.tap = FrameTap(period, width)
     dashboard = None
     if settings.dashboard.address:
         from jetson.dashboard.process import live_server
@@ -300,13 +309,19 @@ def memory_camera(camera_settings: Any) -> Any:
     )  # fmt: skip
 
 
-def make_camera(settings: Settings, clock: Any, log: Any) -> Any:
+def make_camera(settings: Settings, clock: Any, log: Any, own_process: bool = False) -> Any:
     """The camera thread over the configured source and pipeline; a camera that is absent or
-    fails later is retried by the thread, forever."""
+    fails later is retried by the thread, forever. `own_process`: the thread runs in a process
+    of its own (jetson/camera_process.py), not started yet: its start() builds the pipeline and
+    fails as this function would; `clock` must then be the machine's monotonic clock."""
     from jetson.camera_feed import CameraWorker
     from jetson.perception.sources import open_source
 
     cs = settings.camera
+    if own_process:
+        from jetson.camera_process import CameraProcess
+
+        return CameraProcess(cs, log)
     camera, pipeline = make_pipeline(cs)
     if (provider := getattr(pipeline.detector, "provider", None)) is not None:
         log.info("onnxruntime", f"ring detector runs on {provider}", detector=provider)
@@ -469,7 +484,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         settings = settings_from_args(args)
         service = build(settings)
-    except (SettingsError, ValueError) as exc:
+        service.start_camera()
+    except (SettingsError, ValueError, CameraProcessError) as exc:
         raise RuntimeError(str(exc)) from exc
     # Until here a signal has its default effect (SIGTERM ends the process at once): no Brain
     # has been talked to yet.

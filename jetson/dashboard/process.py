@@ -10,8 +10,9 @@ runs first, and the dashboard shares what it leaves with the camera.
 
 What the daemon's side does for the dashboard: when the dashboard has asked (a shared flag), the
 daemon's thread takes a snapshot (references and numbers, jetson/dashboard/snapshot.py) and
-pickles it into a shared slot; the camera thread pickles each frame view the FrameTap keeps into
-another. Neither ever waits (jetson/dashboard/bridge.py). Everything else (rendering, JSON,
+pickles it into a shared slot; the camera pickles each frame view it keeps into another (the
+camera's own process writes it; a camera thread in the daemon's process writes it through its
+FrameTap). Neither ever waits (jetson/dashboard/bridge.py). Everything else (rendering, JSON,
 JPEG, the Jetson's health, the browsers) happens in the dashboard's process.
 
 The dashboard's process ends when told to, and on its own when the daemon's process is gone.
@@ -31,7 +32,9 @@ from multiprocessing.connection import Connection
 from typing import Any
 
 from jetson.dashboard.address import page_url, parse_address
-from jetson.dashboard.bridge import Bridge, Latest, frame_bytes_for
+from jetson.dashboard.bridge import Bridge
+from jetson.frames import frame_bytes_for
+from jetson.slots import Latest
 from jetson.threads import lower_this_thread
 
 __all__ = ["DashboardProcess", "live_server"]
@@ -241,9 +244,11 @@ def live_server(
     title: str = "pete-jetson",
 ) -> DashboardProcess:
     """A dashboard for a built daemon (jetson.loop.Daemon), not started yet: its Observer is set
-    on the daemon, and the camera thread (a CameraWorker, when given) hands small copies of its
-    frames to the daemon's FrameTap (made here when the daemon has none), which hands them on to
-    the dashboard's process. `settings` is jetson.settings.DashboardSettings."""
+    on the daemon, and the camera (when given) hands small copies of its frames to the
+    dashboard's process: a camera in its own process (jetson.camera_process.CameraProcess) writes
+    them into its frame slot, which the dashboard reads; a camera thread (a CameraWorker) hands
+    them to the daemon's FrameTap (made here when the daemon has none), which writes them into
+    the dashboard's. `settings` is jetson.settings.DashboardSettings."""
     from jetson.dashboard.snapshot import Observer
     from jetson.frames import FrameTap
     from jetson.settings import DashboardSettings
@@ -251,19 +256,28 @@ def live_server(
     s = settings or DashboardSettings()
     host, port = parse_address(s.address or "0")
     tap = daemon.frames
+    own_process = hasattr(camera, "frame_copies")  # jetson.camera_process.CameraProcess
     if camera is not None:
         if tap is None:
-            tap = FrameTap(period_s=1.0 / s.camera_hz, width=s.frame_width)
+            period = 1.0 / s.camera_hz
+            tap = (
+                camera.frame_copies(period, s.frame_width)
+                if own_process
+                else FrameTap(period, s.frame_width)
+            )
             daemon.frames = tap
         else:
             tap.period_s = min(tap.period_s, 1.0 / s.camera_hz)
             tap.width = max(tap.width, s.frame_width)
-        camera.tap = tap
+        if not own_process:
+            camera.tap = tap
     ctx = multiprocessing.get_context("spawn")
     width = tap.width if tap is not None else s.frame_width
-    bridge = Bridge(ctx, SNAPSHOT_BYTES, frame_bytes_for(width))
+    # A camera in its own process writes its frame slot itself; the dashboard reads that one.
+    frames = camera.frame_slot if own_process else None
+    bridge = Bridge(ctx, SNAPSHOT_BYTES, frame_bytes_for(width), frames)
     daemon.observer = Observer(bridge)
-    if camera is not None and tap is not None:
+    if camera is not None and tap is not None and not own_process:
         tap.sink = bridge.post_frame
     options = ProcessOptions(
         host, port, s.state_hz, s.camera_hz, s.frame_width, title, record_dir,

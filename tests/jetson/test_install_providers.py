@@ -206,10 +206,14 @@ def test_settings_refuse_bad_providers(tmp_path: Path, body: str, message: str) 
 
 
 def daemon_log(settings: Settings) -> list[dict[str, Any]]:
+    """What build() logs, its camera a thread of this process (a lockstep clock), so that the
+    detector is made here with the fake onnxruntime; tests/jetson/test_camera_process.py has
+    the camera's own process log its detector's provider."""
+    from jetson.clock import ManualClock
     from jetson.service import build
 
     stream = io.StringIO()
-    build(settings, log_stream=stream, human_stream=io.StringIO())
+    build(settings, ManualClock(), log_stream=stream, human_stream=io.StringIO())
     return [json.loads(line) for line in stream.getvalue().splitlines()]
 
 

@@ -1,5 +1,6 @@
-"""The dashboard's own process: the shared slots never make the robot's side wait, the server
-runs in another process below the robot's loop, and it ends with the daemon's process."""
+"""The dashboard's own process: the flag and the snapshots cross between the processes, the
+server runs in another process below the robot's loop, and it ends with the daemon's process.
+The slots themselves are tested in tests/jetson/test_slots.py."""
 
 from __future__ import annotations
 
@@ -14,38 +15,14 @@ from typing import Any
 
 import pytest
 
-from jetson.dashboard.bridge import Bridge, Latest, Slot
+from jetson.dashboard.bridge import Bridge
+from jetson.slots import Latest
 from jetson.threads import HELPER_NICE_STEP
 
 
 @pytest.fixture
 def ctx() -> Any:
     return multiprocessing.get_context("spawn")
-
-
-def test_a_slot_keeps_the_newest_and_is_read_once(ctx: Any) -> None:
-    slot = Slot(ctx, 64)
-    assert slot.take(0) is None
-    assert slot.put(b"first") and slot.put(b"second")
-    seq, data = slot.take(0)
-    assert data == b"second" and seq == 2
-    assert slot.take(seq) is None
-    assert not slot.put(b"x" * 65) and slot.dropped_large == 1
-    assert slot.take(seq) is None  # the payload that did not fit changed nothing
-
-
-def test_a_reader_holding_the_slot_never_makes_the_writer_wait(ctx: Any) -> None:
-    slot = Slot(ctx, 64)
-    slot._lock.acquire()  # a dashboard stalled in the middle of a read
-    try:
-        t0 = time.perf_counter()
-        written = [slot.put(b"snapshot") for _ in range(1000)]
-        spent = time.perf_counter() - t0
-    finally:
-        slot._lock.release()
-    assert not any(written) and slot.dropped_busy == 1000
-    assert spent < 0.1, f"1000 refused writes took {spent:.3f} s"
-    assert slot.put(b"after") and slot.take(0)[1] == b"after"
 
 
 def test_the_flag_and_the_latest_value_cross_processes(ctx: Any) -> None:
