@@ -30,7 +30,6 @@ import os
 import pickle
 import queue
 import signal
-import time
 from collections import deque
 from dataclasses import dataclass
 from typing import Any
@@ -38,6 +37,8 @@ from typing import Any
 from jetson.camera_feed import Perceived
 from jetson.errors import CameraProcessError
 from jetson.frames import frame_bytes_for
+from jetson.helper_process import Helper, HelperHandle, serve_until_stopped
+from jetson.log import LogLevels
 from jetson.slots import Latest, Slot
 
 __all__ = ["CameraProcess", "RemoteTap"]
@@ -58,7 +59,7 @@ class FrameCopies:
     width: int
 
 
-class _QueueLog:
+class _QueueLog(LogLevels):
     """The camera's process's log: each line goes to the daemon's (jetson.log.EventLog)."""
 
     def __init__(self, lines: Any) -> None:
@@ -70,15 +71,6 @@ class _QueueLog:
             self._lines.put_nowait((level, event, msg, fields))
         except queue.Full:
             self.dropped += 1
-
-    def info(self, event: str, msg: str, **fields: Any) -> None:
-        self.event("info", event, msg, **fields)
-
-    def warning(self, event: str, msg: str, **fields: Any) -> None:
-        self.event("warning", event, msg, **fields)
-
-    def error(self, event: str, msg: str, **fields: Any) -> None:
-        self.event("error", event, msg, **fields)
 
 
 def child_main(
@@ -127,11 +119,7 @@ def child_main(
     conn.send(("ready", getattr(pipeline.detector, "provider", None)))
     worker.start()
     try:
-        while not conn.poll(PARENT_CHECK_S):
-            if os.getppid() != daemon_pid:
-                break
-    except (EOFError, OSError):
-        pass
+        serve_until_stopped(conn, daemon_pid, PARENT_CHECK_S)
     finally:
         worker.stop(1.0)
 
@@ -172,7 +160,7 @@ class RemoteTap:
         return None
 
 
-class CameraProcess:
+class CameraProcess(HelperHandle):
     """The daemon's handle on its camera's process (see the module doc): a PerceptionFeed."""
 
     def __init__(self, settings: Any, log: Any, frame_bytes: int = MAX_FRAME_BYTES) -> None:
@@ -183,8 +171,7 @@ class CameraProcess:
         self.frame_slot = Slot(self._ctx, frame_bytes)
         self._lines = self._ctx.Queue(LOG_QUEUE)
         self._latest = Latest(self.results, wait=False)
-        self._process: Any = None
-        self._conn: Any = None
+        self._helper: Helper | None = None
         self.tap: RemoteTap | None = None
         self.provider: str | None = None
 
@@ -231,31 +218,13 @@ class CameraProcess:
 
     # --- the process -----------------------------------------------------------------------
 
-    @property
-    def alive(self) -> bool:
-        return self._process is not None and self._process.is_alive()
-
     def start(self, timeout_s: float = START_TIMEOUT_S) -> None:
-        if self._process is not None:
+        if self._helper is not None:
             raise RuntimeError("camera process already started")
-        ours, theirs = self._ctx.Pipe()
         copies = None if self.tap is None else FrameCopies(self.tap.period_s, self.tap.width)
-        self._process = self._ctx.Process(
-            target=child_main,
-            args=(theirs, self.settings, self.results, self.frame_slot, copies, self._lines,
-                  os.getpid()),
-            name="pete-camera",
-            daemon=True,
-        )  # fmt: skip
-        self._process.start()
-        theirs.close()
-        self._conn = ours
-        reply: Any = None
-        deadline = time.monotonic() + timeout_s
-        while reply is None and time.monotonic() < deadline and self._process.is_alive():
-            with contextlib.suppress(EOFError):
-                if ours.poll(0.1):
-                    reply = ours.recv()
+        args = (self.settings, self.results, self.frame_slot, copies, self._lines, os.getpid())
+        self._helper = Helper.spawn(child_main, args, "pete-camera")
+        reply = self._helper.await_reply(timeout_s)
         if reply is None or reply[0] != "ready":
             self.stop(0.5)
             why = reply[1] if reply else "its process did not start in time"
@@ -267,16 +236,6 @@ class CameraProcess:
             )
 
     def stop(self, timeout_s: float = 2.0) -> None:
-        process, conn = self._process, self._conn
-        if conn is not None:
-            with contextlib.suppress(OSError, ValueError):
-                conn.send("stop")
-        if process is not None:
-            process.join(timeout_s)
-            if process.is_alive():
-                process.terminate()
-                process.join(timeout_s)
-        if conn is not None:
-            conn.close()
-        self._conn = None
+        if self._helper is not None:
+            self._helper.stop(timeout_s)
         self._drain_log()

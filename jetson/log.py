@@ -101,7 +101,26 @@ class _Repeat:
 _MAX_REPEAT_KEYS = 2048
 
 
-class EventLog:
+class LogLevels:
+    """debug/info/warning/error as calls of `event(level, ...)`: what a log gives its users."""
+
+    def event(self, level: str, event: str, msg: str, **fields: Any) -> None:
+        raise NotImplementedError
+
+    def debug(self, event: str, msg: str, **fields: Any) -> None:
+        self.event("debug", event, msg, **fields)
+
+    def info(self, event: str, msg: str, **fields: Any) -> None:
+        self.event("info", event, msg, **fields)
+
+    def warning(self, event: str, msg: str, **fields: Any) -> None:
+        self.event("warning", event, msg, **fields)
+
+    def error(self, event: str, msg: str, **fields: Any) -> None:
+        self.event("error", event, msg, **fields)
+
+
+class EventLog(LogLevels):
     def __init__(
         self,
         stream: TextIO,
@@ -241,18 +260,6 @@ class EventLog:
             self.lines += 1
         except (OSError, ValueError):
             pass  # a log that cannot be written must never stop the robot
-
-    def debug(self, event: str, msg: str, **fields: Any) -> None:
-        self.event("debug", event, msg, **fields)
-
-    def info(self, event: str, msg: str, **fields: Any) -> None:
-        self.event("info", event, msg, **fields)
-
-    def warning(self, event: str, msg: str, **fields: Any) -> None:
-        self.event("warning", event, msg, **fields)
-
-    def error(self, event: str, msg: str, **fields: Any) -> None:
-        self.event("error", event, msg, **fields)
 
     def summary(self, line: str, **fields: Any) -> None:
         self.event("info", "summary", line, **fields)

@@ -20,12 +20,10 @@ The dashboard's process ends when told to, and on its own when the daemon's proc
 
 from __future__ import annotations
 
-import contextlib
 import multiprocessing
 import os
 import pickle
 import signal
-import time
 from collections import Counter
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
@@ -34,6 +32,7 @@ from typing import Any
 from jetson.dashboard.address import page_url, parse_address
 from jetson.dashboard.bridge import Bridge
 from jetson.frames import frame_bytes_for
+from jetson.helper_process import Helper, HelperHandle, serve_until_stopped
 from jetson.slots import Latest
 from jetson.threads import lower_this_thread
 
@@ -123,20 +122,18 @@ def child_main(conn: Connection, bridge: Bridge, options: ProcessOptions) -> Non
         conn.send(("error", str(exc)))
         return
     conn.send(("ready", server.port))
+
+    def report() -> None:
+        stats = {"sent": dict(server.sent), "clients": server.clients, "refused": server.refused}
+        bridge.stats.put(pickle.dumps(stats))
+
     try:
-        while not conn.poll(STATS_PERIOD_S):
-            if os.getppid() != options.daemon_pid:
-                break
-            stats = {"sent": dict(server.sent), "clients": server.clients,
-                     "refused": server.refused}  # fmt: skip
-            bridge.stats.put(pickle.dumps(stats))
-    except (EOFError, OSError):
-        pass
+        serve_until_stopped(conn, options.daemon_pid, STATS_PERIOD_S, report)
     finally:
         server.stop()
 
 
-class DashboardProcess:
+class DashboardProcess(HelperHandle):
     """The daemon's handle on its dashboard's process (see the module doc). start() returns once
     the server listens, or raises OSError saying why it cannot (a port taken, an address this
     machine does not have); or launch() now and await_ready() on another thread, so that the
@@ -150,8 +147,7 @@ class DashboardProcess:
         self.log = log
         self.host = options.host
         self.port = options.port
-        self._process: Any = None
-        self._conn: Connection | None = None
+        self._helper: Helper | None = None
         self._stats = Latest(bridge.stats)
         self.ready = False  # listening (set by start() or await_ready())
 
@@ -175,10 +171,6 @@ class DashboardProcess:
     def refused(self) -> int:
         return int(self._stat("refused") or 0)
 
-    @property
-    def alive(self) -> bool:
-        return self._process is not None and self._process.is_alive()
-
     def start(self, timeout_s: float = START_TIMEOUT_S) -> DashboardProcess:
         """Start the process and wait until it listens (OSError when it cannot)."""
         self.launch()
@@ -189,30 +181,14 @@ class DashboardProcess:
 
     def launch(self) -> None:
         """Start the process without waiting for it (await_ready() says how it went)."""
-        ctx = multiprocessing.get_context("spawn")
-        ours, theirs = ctx.Pipe()
-        process = ctx.Process(
-            target=child_main,
-            args=(theirs, self.bridge, self.options),
-            name="pete-dashboard",
-            daemon=True,
-        )
-        process.start()
-        theirs.close()
-        self._process, self._conn = process, ours
+        self._helper = Helper.spawn(child_main, (self.bridge, self.options), "pete-dashboard")
 
     def await_ready(self, timeout_s: float = START_TIMEOUT_S) -> str | None:
         """Wait for the launched process to listen: None when it does (`port` is then where),
         else why it cannot (it is stopped)."""
-        process, conn = self._process, self._conn
-        if process is None or conn is None:
+        if self._helper is None:
             return "the dashboard's process was not launched"
-        reply: Any = None
-        deadline = time.monotonic() + timeout_s
-        while reply is None and time.monotonic() < deadline and process.is_alive():
-            with contextlib.suppress(EOFError, OSError):
-                if conn.poll(0.1):
-                    reply = conn.recv()
+        reply = self._helper.await_reply(timeout_s)
         if reply is None or reply[0] != "ready":
             self.stop(0.5)
             why = reply[1] if reply else "its process did not start in time"
@@ -222,18 +198,8 @@ class DashboardProcess:
         return None
 
     def stop(self, timeout_s: float = 1.0) -> None:
-        process, conn = self._process, self._conn
-        if conn is not None:
-            with contextlib.suppress(OSError, ValueError):
-                conn.send("stop")
-        if process is not None:
-            process.join(timeout_s)
-            if process.is_alive():
-                process.terminate()
-                process.join(timeout_s)
-        if conn is not None:
-            conn.close()
-        self._conn = None
+        if self._helper is not None:
+            self._helper.stop(timeout_s)
 
 
 def live_server(

@@ -6,10 +6,6 @@ from __future__ import annotations
 
 import io
 import json
-import os
-import subprocess
-import sys
-import textwrap
 import time
 from pathlib import Path
 from typing import Any
@@ -120,42 +116,3 @@ def test_a_camera_that_cannot_open_is_retried_and_logged(tmp_path: Path) -> None
         assert camera.alive and camera.latest() is None
     finally:
         camera.stop()
-
-
-def test_the_camera_ends_with_the_daemon_process(tmp_path: Path) -> None:
-    """A daemon killed outright (SIGKILL: no stop() runs) takes its camera's process with it."""
-    script = textwrap.dedent(
-        f"""
-        import io, time
-        from jetson.camera_process import CameraProcess
-        from jetson.log import EventLog
-        from jetson.settings import CameraSettings
-
-        settings = CameraSettings(source={str(tmp_path)!r}, detector="classical", retry_s=0.05)
-        camera = CameraProcess(settings, EventLog(io.StringIO()))
-        camera.start()
-        print(camera._process.pid, flush=True)
-        time.sleep(60)
-        """
-    )
-    parent = subprocess.Popen(
-        [sys.executable, "-c", script], stdout=subprocess.PIPE, text=True, cwd=os.getcwd()
-    )
-    try:
-        assert parent.stdout is not None
-        child_pid = int(parent.stdout.readline())
-        assert _alive(child_pid)
-        parent.kill()
-        parent.wait(10)
-        assert wait_for(lambda: not _alive(child_pid), 5.0), "the camera outlived the daemon"
-    finally:
-        if parent.poll() is None:
-            parent.kill()
-
-
-def _alive(pid: int) -> bool:
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except FileNotFoundError:
-        return False
