@@ -53,13 +53,22 @@ import numpy as np
 from numpy.typing import NDArray
 
 from jetson.autonomy.field_layout import FieldLayout, GoalLayout
-from jetson.autonomy.geometry import angle_diff_deg, field_to_robot, to_alliance_frame
+from jetson.autonomy.geometry import (
+    angle_diff_deg,
+    field_to_robot,
+    robot_to_field,
+    to_alliance_frame,
+)
 from jetson.autonomy.observation import RobotView
 from jetson.autonomy.ring_memory import RingMemory
 from jetson.autonomy.skills import Trail, arc_through, back_onto, pursuit_point, turn_first
 from jetson.autonomy.spec import SPEC_VERSION, ObservationSpec
 
 Vec = NDArray[np.float64]
+
+# The colour of a goal's base as the goal detector reports it (jetson/perception/goals.py):
+# neutral goals are yellow, alliance goals their alliance's colour.
+GOAL_COLOUR_CODES: dict[str, int] = {"yellow": 0, "red": 1, "blue": 2}
 
 
 @dataclass(frozen=True)
@@ -131,21 +140,30 @@ class AllianceConfig:
     # and climbs to `partner_along_m` at `climb_15_s`.
     climb_24_s: float = 24.0
     hold_along_m: float = 0.2
-    settle_s: float = 5.0
+    settle_s: float = 9.0
     drop_15_s: float = 24.0
     carry_goal_15: bool = True  # the 15" climbs with its goal (elevated 40) instead of dropping it
     stage_15_s: float = 18.0
-    climb_15_s: float = 11.5
+    climb_15_s: float = 14.0
     partner_along_m: float = -0.10
     stage_along_m: float = 0.95  # the stage in front of the board, from the hinge
     board_y_24_m: float = -0.30  # where on the board each robot stands (alliance frame)
     board_y_15_m: float = 0.28
     board_speed_mps: float = 0.35
+    lane_tolerance_m: float = 0.07  # off its lane on the board by more: back off and come again
+    lane_fix_m: float = 0.15
     footprint_margin_m: float = 0.035  # keep the footprint this far inside the board's reach
     # The 15"'s sentry: it mounts the board from `sentry_stage_along_m` and waits at
     # `sentry_along_m` from the hinge, on the field side (its weight keeps the ramp down).
     sentry_stage_along_m: float = 0.65
     sentry_along_m: float = 0.3
+    # The lock: the sentry waits at `lock_along_m` instead, where the board is level under it
+    # and its goal (nobody drives onto a level board), and moves to `sentry_along_m` (the ramp
+    # down) `unlock_s` before the end for the 24" to climb; the 24" starts up the board no
+    # earlier than `climb_after_s` before the end. None: no lock (the ramp down all match).
+    lock_along_m: float | None = -0.07
+    unlock_s: float = 22.0
+    climb_after_s: float = 20.5
     # guard: after its isolation work a robot drives to stand in front of the platform in its
     # climbing lane (goals pushed at the board meet it instead); off: it stands where it is.
     # Off by default: the drive there met the other alliance's robots (isolation fouls).
@@ -158,6 +176,20 @@ class AllianceConfig:
     tug_window_s: float = 0.75
     tug_distance_m: float = 0.05
     tug_s: float = 1.5
+    # The tug of war that many times while holding one goal: let that goal go and take the next
+    # on the list (0: never). A goal another robot holds keeps that robot attached to this one,
+    # which can then neither collect nor climb.
+    tug_release: int = 1
+    # Goal sightings: one of its own or a neutral goal seen within `sight_match_m` of where it is
+    # believed to be moves the belief there; one seen moving faster than `carried_mps` is carried
+    # by another robot (left alone for `busy_s`); a goal of the other alliance's colour seen
+    # within `conflict_m` of a believed goal in the last `conflict_s` stands where that goal was
+    # believed (the believed one is marked missing).
+    sight_match_m: float = 0.7
+    carried_mps: float = 0.25
+    busy_s: float = 4.0
+    conflict_m: float = 0.5
+    conflict_s: float = 2.0
 
 
 class AllianceInputs(NamedTuple):
@@ -172,6 +204,9 @@ class AllianceInputs(NamedTuple):
     rings_held: int  # rings in the intake, not yet on a goal
     goal_clamped: bool  # the clamp holds a goal
     lift_up: bool = False
+    # The goal detector's goals now, (N, 3): x, y robot frame and GOAL_COLOUR_CODES (None: no
+    # goal detector, the goals are dead-reckoned from the layout and the clamp only).
+    goals_robot: Vec | None = None
 
 
 class AllianceAction(NamedTuple):
@@ -294,9 +329,16 @@ class AllianceStrategy:
         self._guarding = False
         self._sentry_set = False
         self._tug_until = -1.0
+        self._tugs = 0
+        self._lane_fix = False
         self._moves: list[tuple[float, float, float, float]] = []  # t, x, y, commanded v
         self._stage_goal: str | None = None
         self._last_t = 0.0
+        self._now = 0.0
+        self._goal_seen: dict[str, tuple[float, Vec]] = {}  # name -> (time, where) last seen
+        self._busy: dict[str, float] = {}  # name -> carried by another robot until
+        self._opponent_goals: list[tuple[float, Vec]] = []  # (time, where) of the other colour
+        self._given_up: set[str] = set()  # goals let go in a tug of war
         self.intent = "start"  # what the last step was doing, for logs and tests
 
     def step(self, inputs: AllianceInputs) -> AllianceAction:
@@ -316,41 +358,67 @@ class AllianceStrategy:
             goal_clamped=inputs.goal_clamped,
         )
         self.memory.observe(view)
+        self._now = pose.t
         self._track_clamp(pose, inputs.goal_clamped)
+        if inputs.goals_robot is not None:
+            self._see_goals(pose, inputs.alliance, inputs.goals_robot)
         self._forget_goals(pose)
         self._trail.push(pose.t, float(pose.xy[0]), float(pose.xy[1]))
         v, w, clamp = self._decide(pose, inputs, dt)
-        v, w = self._tug(pose, inputs, v, w)
+        v, w, let_go = self._tug(pose, inputs, v, w)
+        if let_go:
+            clamp = False
         intake = self.phase not in ("climb", "stage", "balance", "drop", "sentry", "park")
         lift = bool(self.role.reaches_high_branch and inputs.goal_clamped and intake)
         return AllianceAction(float(v), float(w), clamp, lift, intake)
 
-    def _tug(self, pose: _Pose, inputs: AllianceInputs, v: float, w: float) -> tuple[float, float]:
+    def _tug(
+        self, pose: _Pose, inputs: AllianceInputs, v: float, w: float
+    ) -> tuple[float, float, bool]:
         """A robot of the other alliance clamped the goal this one holds and drags it (the
         robot drives forward yet moves backward): pull away at full speed, straight, for a
-        while (a tug of war goes to the stronger pull)."""
+        while (a tug of war goes to the stronger pull); the `tug_release`-th time with one goal,
+        let it go instead (the third value: release the clamp)."""
         c = self.config
         endgame = self.phase in ("climb", "balance", "stage")
         h = math.radians(pose.heading)
         self._moves.append((pose.t, float(pose.xy[0]), float(pose.xy[1]), v))
         while self._moves and self._moves[0][0] < pose.t - c.tug_window_s:
             self._moves.pop(0)
+        if not inputs.goal_clamped:
+            self._tugs = 0
         if not inputs.goal_clamped or endgame:
             self._tug_until = -1.0
-            return v, w
+            return v, w, False
         if pose.t < self._tug_until:
             self.intent = "tug"
-            return self.role.max_linear_mps, 0.0
+            return self.role.max_linear_mps, 0.0, False
         m = self._moves
         if len(m) >= 3 and m[-1][0] - m[0][0] >= c.tug_window_s * 0.9:
             moved = (m[-1][1] - m[0][1]) * math.sin(h) + (m[-1][2] - m[0][2]) * math.cos(h)
             forward = all(k[3] >= 0.1 for k in m[:-1])
             if forward and moved < -c.tug_distance_m:
-                self._tug_until = pose.t + c.tug_s
                 self._moves.clear()
+                self._tugs += 1
+                if c.tug_release and self._tugs >= c.tug_release:
+                    self._let_go(pose)
+                    return 0.0, 0.0, True
+                self._tug_until = pose.t + c.tug_s
                 self.intent = "tug"
-                return self.role.max_linear_mps, 0.0
-        return v, w
+                return self.role.max_linear_mps, 0.0, False
+        return v, w, False
+
+    def _let_go(self, pose: _Pose) -> None:
+        """Give up the goal held in a tug of war: it is not where this robot can score it (the
+        other robot keeps it), so it is marked missing, and the next goal on the list is next."""
+        if self.holding is not None:
+            self.goals[self.holding].xy = None
+            self._given_up.add(self.holding)
+        self.holding = None
+        self._tugs = 0
+        self.intent = "let_go"
+        if self.phase not in ("climb", "stage", "balance", "park"):
+            self._set_phase("release", pose.t)
 
     # --- memories ----------------------------------------------------------------------------
 
@@ -379,6 +447,49 @@ class AllianceStrategy:
             belief.xy = self._clamp_point(pose, belief.goal)
             self.holding = None
         self._was_clamped = clamped
+
+    def _see_goals(self, pose: _Pose, alliance: str, goals_robot: Vec) -> None:
+        """Take the goal detector's sightings into the goal beliefs (see AllianceConfig)."""
+        c = self.config
+        seen = np.asarray(goals_robot, dtype=np.float64).reshape(-1, 3)
+        now = pose.t
+        self._opponent_goals = [(t, p) for t, p in self._opponent_goals if t > now - c.conflict_s]
+        if not len(seen):
+            return
+        where = robot_to_field(seen[:, :2], pose.xy, pose.heading)  # the alliance frame
+        own = GOAL_COLOUR_CODES[alliance]
+        for xy, code in zip(where, seen[:, 2].astype(int), strict=True):
+            if code != GOAL_COLOUR_CODES["yellow"] and code != own:
+                self._opponent_goals.append((now, xy.copy()))
+                continue
+            owner = None if code == GOAL_COLOUR_CODES["yellow"] else "own"
+            best, best_d = None, c.sight_match_m
+            revive = None
+            for b in self.goals.values():
+                name = b.goal.name
+                if b.goal.owner != owner or name == self.holding or name in self._given_up:
+                    continue
+                if b.xy is None:
+                    revive = revive or b
+                    continue
+                d = float(np.hypot(*(b.xy - xy)))
+                if d < best_d:
+                    best, best_d = b, d
+            if best is None and revive is not None and revive.tries < c.goal_try_s:
+                best = revive
+            if best is None:
+                continue
+            name = best.goal.name
+            last = self._goal_seen.get(name)
+            if (
+                last is not None
+                and 0.3 <= now - last[0] <= 1.5
+                and float(np.hypot(*(last[1] - xy))) / (now - last[0]) > c.carried_mps
+            ):
+                self._busy[name] = now + c.busy_s
+            if last is None or now - last[0] >= 0.3:
+                self._goal_seen[name] = (now, xy.copy())
+            best.xy = xy.copy()
 
     def _forget_goals(self, pose: _Pose) -> None:
         """A goal whose spot the robot's body now covers is not there (pushed away)."""
@@ -523,11 +634,15 @@ class AllianceStrategy:
             self._climbing = True
         self.intent = "sentry"
         along = plat.along(float(pose.xy[0]))
-        if abs(along - c.sentry_along_m) < 0.03:
+        want = c.sentry_along_m
+        if c.lock_along_m is not None and self._time_left(pose) > c.unlock_s:
+            want = c.lock_along_m
+            self.intent = "lock"
+        if abs(along - want) < 0.03:
             self._sentry_set = True
         if self._sentry_set and pose.t < self.layout.isolation_s:
             return 0.0, 0.0, clamp  # in place: never drive while the other alliance may be near
-        return (*self._on_board(pose, y, c.sentry_along_m), clamp)
+        return (*self._on_board(pose, y, want), clamp)
 
     def _next_goal(self, pose: _Pose) -> None:
         if (
@@ -590,6 +705,12 @@ class AllianceStrategy:
         b = self.goals[name]
         if b.xy is None or b.tries >= self.config.goal_try_s:
             return False
+        if self._busy.get(name, -1.0) > self._now:
+            return False
+        for _, p in self._opponent_goals:
+            if float(np.hypot(*(p - b.xy))) < self.config.conflict_m:
+                b.xy = None  # a goal of the other alliance stands there
+                return False
         half_diag = math.hypot(self.role.length_m, self.role.width_m) / 2
         return not self.layout.platform.contains((float(b.xy[0]), float(b.xy[1])), half_diag)
 
@@ -865,6 +986,9 @@ class AllianceStrategy:
             if abs(heading_err) > 5:
                 self.intent = "line_up"
                 return 0.0, self._turn_to(pose, plat.wall_heading_deg), clamp
+            if big and c.lock_along_m is not None and self._time_left(pose) > c.climb_after_s:
+                self.intent = "wait_unlock"  # the sentry holds the board level until then
+                return 0.0, 0.0, clamp
             self._climbing = True
             self._climb_track = []
         along_now = plat.along(float(pose.xy[0]))
@@ -950,13 +1074,21 @@ class AllianceStrategy:
         """Drive straight toward the wall (or back) to `along` from the hinge, heading held."""
         c = self.config
         plat = self.layout.platform
+        off_lane = (float(pose.xy[1]) - y) * plat.field_side
+        # Slipped out of its lane (a tilted board, a push): back off toward the field by
+        # `lane_fix_m`, leaning into the lane, then drive in again.
+        if abs(off_lane) > c.lane_tolerance_m:
+            self._lane_fix = True
+        elif abs(off_lane) < c.lane_tolerance_m / 2:
+            self._lane_fix = False
+        if self._lane_fix:
+            along += c.lane_fix_m
         err = plat.along(float(pose.xy[0])) - along  # > 0: still toward the field: forward
         v = float(np.clip(2.0 * err, -c.board_speed_mps, c.board_speed_mps))
         if abs(err) < 0.015:
             v = 0.0
         # Hold the heading toward the wall, leaning a little toward the lane's y while moving
         # (> 0: the lane lies to the robot's left, a counter-clockwise turn when driving forward).
-        off_lane = (float(pose.xy[1]) - y) * plat.field_side
         lean = float(np.clip(60.0 * off_lane, -15.0, 15.0)) if v != 0.0 else 0.0
         want = plat.wall_heading_deg - lean * (1.0 if v >= 0 else -1.0)
         heading_err = angle_diff_deg(want, pose.heading)

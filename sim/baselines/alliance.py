@@ -32,6 +32,7 @@ from jetson.autonomy.field_layout import FieldLayout, load_layout
 from sim.baselines.planner import Planner, PlannerConfig
 from sim.baselines.scripted import GreedyChaser
 from sim.config import ROBOTS, RobotConfig
+from sim.goal_sight import visible_goals
 from sim.match import MatchCore
 from sim.world.physics import World
 from sim.world.state import DriveCommand
@@ -58,9 +59,10 @@ def robot_role(world: World, index: int) -> RobotRole:
     )
 
 
-def inputs_from_view(core: MatchCore, index: int) -> AllianceInputs:
+def inputs_from_view(core: MatchCore, index: int, goals: bool = True) -> AllianceInputs:
     """What the daemon hands the strategy: the GPS pose, the camera's rings (robot frame), the
-    intake's count, the clamp, the match clock."""
+    intake's count, the clamp, the match clock, and with `goals` the goals the camera sees
+    (sim/goal_sight.py: what the robot's goal detector reports; None without one)."""
     view = core.view(index)
     return AllianceInputs(
         x=view.x,
@@ -71,6 +73,7 @@ def inputs_from_view(core: MatchCore, index: int) -> AllianceInputs:
         rings_robot_xy=np.asarray(view.rings_robot_xy, dtype=np.float64).reshape(-1, 2),
         rings_held=view.rings_held,
         goal_clamped=view.goal_clamped,
+        goals_robot=visible_goals(core.world, index) if goals else None,
     )
 
 
@@ -83,9 +86,15 @@ class AlliancePlayer:
 
     name = "alliance"
 
-    def __init__(self, config: AllianceConfig | None = None, layout: FieldLayout | None = None):
+    def __init__(
+        self,
+        config: AllianceConfig | None = None,
+        layout: FieldLayout | None = None,
+        goal_detector: bool = True,
+    ):
         self.config = config or AllianceConfig()
         self.layout = layout or load_layout()
+        self.goal_detector = goal_detector
         self.strategy: AllianceStrategy | None = None
         self.last_action: AllianceAction | None = None
 
@@ -106,7 +115,7 @@ class AlliancePlayer:
 
     def act(self, core: MatchCore, index: int, obs: np.ndarray | None = None) -> DriveCommand:
         assert self.strategy is not None, "act() before reset()"
-        self.last_action = self.strategy.step(inputs_from_view(core, index))
+        self.last_action = self.strategy.step(inputs_from_view(core, index, self.goal_detector))
         return to_command(self.last_action)
 
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from jetson.autonomy.alliance import (
+    GOAL_COLOUR_CODES,
     AllianceAction,
     AllianceInputs,
     AllianceStrategy,
@@ -140,3 +141,65 @@ def test_the_endgame_balance_point_balances_the_board_with_both_robots_on_it() -
     weight += neutral.mass_kg + partner.mass_kg
     assert abs(torque) < 0.5 * plat.hinge_flat_m * weight
     assert abs(d) + role.length_m / 2 <= half + plat.overhang_m
+
+
+ROLE_24 = RobotRole(
+    role="24in",
+    length_m=0.6096,
+    width_m=0.6096,
+    mass_kg=9.0,
+    max_linear_mps=0.904,
+    max_angular_rad_s=4.8,
+    intake_zone=(-0.15, 0.15, 0.25, 0.44),
+    reaches_high_branch=True,
+    partner_mass_kg=5.5,
+)
+
+
+def sighting(
+    t: float, goals: list[tuple[float, float, str]], alliance: str = "red"
+) -> AllianceInputs:
+    """The 24" standing at (-0.9, -0.9) facing +x (heading 90, red's view) at time t, seeing
+    `goals` (field x, y and colour) through its goal detector."""
+    x, y = -0.9, -0.9
+    rows = [(-(gy - y), gx - x, GOAL_COLOUR_CODES[c]) for gx, gy, c in goals]  # robot frame
+    return AllianceInputs(
+        x, y, 90.0, alliance, t, np.zeros((0, 2)), 0, False,
+        goals_robot=np.array(rows, dtype=np.float64).reshape(-1, 3),
+    )  # fmt: skip
+
+
+def test_a_seen_goal_moves_its_belief_and_a_goal_of_the_other_colour_is_no_target() -> None:
+    """The goal detector's sightings: a neutral goal seen 0.5 m from where the layout put it is
+    believed there; a blue goal seen where a neutral goal was believed means that one is not
+    there (it is no longer a target); without sightings nothing changes."""
+    layout = load_layout()
+    s = AllianceStrategy(ROLE_24, layout)
+    south = np.array(layout.goal("neutral_south").xy)
+    tall = np.array(layout.goal("neutral_tall").xy)
+    s.step(sighting(20.0, []))
+    assert s.goals["neutral_south"].xy == pytest.approx(south)
+    assert s._goal_available("neutral_south") and s._goal_available("neutral_tall")
+    moved = south + np.array([-0.5, 0.1])
+    s.step(sighting(20.1, [(moved[0], moved[1], "yellow"), (tall[0] + 0.05, tall[1], "blue")]))
+    assert s.goals["neutral_south"].xy == pytest.approx(moved, abs=1e-6)
+    assert s._goal_available("neutral_south")
+    assert not s._goal_available("neutral_tall") and s.goals["neutral_tall"].xy is None
+
+
+def test_a_goal_seen_moving_is_carried_and_left_alone_for_a_while() -> None:
+    layout = load_layout()
+    s = AllianceStrategy(ROLE_24, layout)
+    south = np.array(layout.goal("neutral_south").xy)
+    s.step(sighting(20.0, [(south[0], south[1], "yellow")]))
+    s.step(sighting(20.5, [(south[0] - 0.3, south[1], "yellow")]))  # 0.6 m/s: carried
+    assert not s._goal_available("neutral_south")
+    s.step(sighting(20.5 + s.config.busy_s + 0.1, []))
+    assert s._goal_available("neutral_south")
+    # For a blue robot a red base is the other alliance's: seen at the field spot that is its
+    # neutral_south's in its (mirrored) alliance frame, that goal is no target; a blue base
+    # there is its own alliance's goal and changes nothing about the neutral one.
+    for colour, available in (("red", False), ("blue", True)):
+        b = AllianceStrategy(ROLE_24, layout)
+        b.step(sighting(20.0, [(-south[0], -south[1], colour)], alliance="blue"))
+        assert b._goal_available("neutral_south") == available

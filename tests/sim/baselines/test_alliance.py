@@ -8,11 +8,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from jetson.autonomy.alliance import GOAL_COLOUR_CODES
 from jetson.autonomy.field_layout import load_layout
+from jetson.autonomy.geometry import field_to_robot
 from sim.baselines.alliance import AlliancePlayer, ring_race_player, robot_role
 from sim.baselines.planner import Planner
 from sim.config import world_preset
 from sim.field import load_field
+from sim.goal_sight import goal_colour, visible_goals
 from sim.match import EnvConfig, MatchCore
 from sim.players import IdlePlayer, Player
 from sim.world import rules
@@ -177,3 +180,32 @@ def test_it_reads_no_world_truth_beyond_its_sensors() -> None:
             core.close()
     assert logs[0] == logs[1]
     assert any(v != 0.0 for v, _, _ in logs[0])  # it did drive
+
+
+@pytest.mark.parametrize("fidelity", ["training", "high"])
+def test_the_camera_reports_the_goals_in_front_with_their_colours(fidelity: str) -> None:
+    """sim/goal_sight.py, what the robot's goal detector reports: a red robot facing the neutral
+    south goal sees it, yellow, where it stands in the robot frame; turned to its wall it sees
+    no neutral goal; a robot standing in the way hides it (both fidelities)."""
+    core = core_2v2(fidelity=fidelity)
+    try:
+        core.reset(np.random.default_rng(0))
+        w = core.world
+        south = next(g for g in w.goals if g.spec.name == "neutral_south")
+        w.place_robot(0, south.x - 1.0, south.y, 90.0)
+        seen = visible_goals(w, 0)
+        want = field_to_robot(np.array([[south.x, south.y]]), (w.robots[0].x, w.robots[0].y), 90.0)
+        hit = [row for row in seen if np.hypot(*(row[:2] - want[0])) < 0.02]
+        assert len(hit) == 1 and hit[0][2] == GOAL_COLOUR_CODES["yellow"]
+        blue = [g for g in w.goals if g.spec.alliance == "blue"]
+        assert {goal_colour(g.spec.alliance) for g in blue} == {GOAL_COLOUR_CODES["blue"]}
+        w.place_robot(0, south.x - 1.0, south.y, 270.0)
+        assert not any(row[2] == GOAL_COLOUR_CODES["yellow"] for row in visible_goals(w, 0))
+        # Another robot between the camera and the goal hides it.
+        w.place_robot(0, south.x - 1.2, south.y, 90.0)
+        w.place_robot(1, south.x - 0.6, south.y, 0.0)
+        seen = visible_goals(w, 0)
+        want = field_to_robot(np.array([[south.x, south.y]]), (w.robots[0].x, w.robots[0].y), 90.0)
+        assert not any(np.hypot(*(row[:2] - want[0])) < 0.02 for row in seen)
+    finally:
+        core.close()
