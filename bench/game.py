@@ -13,7 +13,10 @@ alliance, 15 s isolation + 105 s interaction) with the robots' GPS noise on. The
 (b) itself, `--seeds` matches.
 
 Measured (vs: the ring-race alliance, self: itself; per match means):
-- win rate against (a) by match score (target >= 0.9; a draw counts half);
+- win rate against (a) by match score (target >= 0.9; a draw counts half), and the same with the
+  credit for the other side's platform-protection fouls taken out of the scripted alliance's
+  score (no target: the credit is part of the score, but one robot bumping a board can be called
+  for dozens of fouls a match);
 - the share of the interaction period the scripted robots are still (measured speed under
   3 cm/s and turn under 0.1 rad/s, off their own platform: a robot waiting on its board keeps
   the ramp down or holds the balance) while rings are left on the floor (target < 0.1, over
@@ -179,6 +182,16 @@ def summarise(records: list[GameRecord], fidelity: str) -> Result:
             for g in vs
         )  # fmt: skip
         r.add("vs_ring_race_win_rate", wins / len(vs))
+        # The same with the credit for the ring-race alliance's platform-protection fouls taken
+        # out of the scripted alliance's score (a robot that keeps bumping a board can be called
+        # for dozens of fouls in one match).
+        plain = [g.score[g.ours] - g.elements[g.ours]["foul_credit"] for g in vs]
+        theirs = [g.score[other(g.ours)] for g in vs]
+        plain_wins = sum(
+            1.0 if a > b else 0.5 if a == b else 0.0 for a, b in zip(plain, theirs, strict=True)
+        )
+        r.add("vs_ring_race_win_rate_without_foul_credit", plain_wins / len(vs))
+        r.add("vs_ring_race_score_ours_without_foul_credit", statistics.fmean(plain))
         r.add("vs_ring_race_score_ours", statistics.fmean(g.score[g.ours] for g in vs))
         r.add("vs_ring_race_score_theirs", statistics.fmean(g.score[other(g.ours)] for g in vs))
         r.add(

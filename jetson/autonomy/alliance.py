@@ -150,8 +150,7 @@ class AllianceConfig:
     board_y_24_m: float = -0.30  # where on the board each robot stands (alliance frame)
     board_y_15_m: float = 0.28
     board_speed_mps: float = 0.35
-    lane_tolerance_m: float = 0.07  # off its lane on the board by more: back off and come again
-    lane_fix_m: float = 0.15
+    board_heading_tolerance_deg: float = 6.0  # standing on the board: heading left this far off
     footprint_margin_m: float = 0.035  # keep the footprint this far inside the board's reach
     # The 15"'s sentry: it mounts the board from `sentry_stage_along_m` and waits at
     # `sentry_along_m` from the hinge, on the field side (its weight keeps the ramp down).
@@ -186,6 +185,7 @@ class AllianceConfig:
     # within `conflict_m` of a believed goal in the last `conflict_s` stands where that goal was
     # believed (the believed one is marked missing).
     sight_match_m: float = 0.7
+    goal_x_max_m: float = 0.45  # no goal is fetched from deeper in the other alliance's half
     carried_mps: float = 0.25
     busy_s: float = 4.0
     conflict_m: float = 0.5
@@ -330,7 +330,6 @@ class AllianceStrategy:
         self._sentry_set = False
         self._tug_until = -1.0
         self._tugs = 0
-        self._lane_fix = False
         self._moves: list[tuple[float, float, float, float]] = []  # t, x, y, commanded v
         self._stage_goal: str | None = None
         self._last_t = 0.0
@@ -705,7 +704,7 @@ class AllianceStrategy:
         b = self.goals[name]
         if b.xy is None or b.tries >= self.config.goal_try_s:
             return False
-        if self._busy.get(name, -1.0) > self._now:
+        if self._busy.get(name, -1.0) > self._now or float(b.xy[0]) > self.config.goal_x_max_m:
             return False
         for _, p in self._opponent_goals:
             if float(np.hypot(*(p - b.xy))) < self.config.conflict_m:
@@ -1075,14 +1074,6 @@ class AllianceStrategy:
         c = self.config
         plat = self.layout.platform
         off_lane = (float(pose.xy[1]) - y) * plat.field_side
-        # Slipped out of its lane (a tilted board, a push): back off toward the field by
-        # `lane_fix_m`, leaning into the lane, then drive in again.
-        if abs(off_lane) > c.lane_tolerance_m:
-            self._lane_fix = True
-        elif abs(off_lane) < c.lane_tolerance_m / 2:
-            self._lane_fix = False
-        if self._lane_fix:
-            along += c.lane_fix_m
         err = plat.along(float(pose.xy[0])) - along  # > 0: still toward the field: forward
         v = float(np.clip(2.0 * err, -c.board_speed_mps, c.board_speed_mps))
         if abs(err) < 0.015:
@@ -1093,8 +1084,8 @@ class AllianceStrategy:
         want = plat.wall_heading_deg - lean * (1.0 if v >= 0 else -1.0)
         heading_err = angle_diff_deg(want, pose.heading)
         w = float(np.clip(3.0 * math.radians(heading_err), -1.5, 1.5))
-        if v == 0.0 and abs(heading_err) < 3:
-            w = 0.0
+        if v == 0.0 and abs(heading_err) < c.board_heading_tolerance_deg:
+            w = 0.0  # turning in place on a tilted board slides the robot sideways
         return v, w
 
     # driving ----------------------------------------------------------------------------------

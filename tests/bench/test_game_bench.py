@@ -1,0 +1,47 @@
+"""bench.game's summary: the win rate counts a draw half, and the win rate without the foul
+credit takes the credit for the other side's platform fouls out of the scripted alliance's
+score (a match won only through that credit is a loss there)."""
+
+from __future__ import annotations
+
+import pytest
+
+from bench.game import GameRecord, summarise
+
+ZERO = {
+    "rings_high": 0.0,
+    "rings_low": 0.0,
+    "rings_base": 0.0,
+    "goals_in_zone": 0.0,
+    "goals_elevated": 0.0,
+    "robots_elevated": 0.0,
+    "foul_credit": 0.0,
+    "autonomous_bonus": 0.0,
+}
+
+
+def record(seed: int, ours: int, theirs: int, credit: float) -> GameRecord:
+    mine = dict(ZERO, foul_credit=credit, goals_in_zone=ours - credit)
+    return GameRecord(
+        seed=seed,
+        opponent="ring_race",
+        ours="red",
+        score={"red": ours, "blue": theirs},
+        elements={"red": mine, "blue": dict(ZERO, goals_in_zone=float(theirs))},
+        fouls={"red": {}, "blue": {"platform_protection": int(credit // 30)}},
+        balanced_both_up={"red": True, "blue": False},
+        awp={"red": False, "blue": False},
+    )
+
+
+def test_the_win_rate_with_and_without_the_foul_credit() -> None:
+    records = [
+        record(0, 200, 100, 0.0),  # won on its own
+        record(1, 220, 150, 90.0),  # won only through the credit: 130 to 150 without it
+        record(2, 150, 150, 0.0),  # a draw
+    ]
+    m = summarise(records, "training").metrics
+    assert m["vs_ring_race_win_rate"] == pytest.approx(2.5 / 3)
+    assert m["vs_ring_race_win_rate_without_foul_credit"] == pytest.approx(1.5 / 3)
+    assert m["vs_ring_race_score_ours_without_foul_credit"] == pytest.approx((200 + 130 + 150) / 3)
+    assert m["vs_ring_race_fouls_theirs_platform_protection"] == pytest.approx(1.0)
