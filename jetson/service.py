@@ -78,6 +78,8 @@ class Service:
     stop_event: StopFlag = field(default_factory=StopFlag)
     _files: list[TextIO] = field(default_factory=list)
     dashboard: Any | None = None  # jetson.dashboard.process.DashboardProcess, not started yet
+    # The PM QoS request run() holds while the loop runs (jetson/cpu_latency.py); None: none.
+    cpu_wake: Any | None = None
     _camera_started: bool = False
 
     def stop(self) -> None:
@@ -96,9 +98,12 @@ class Service:
         if not self.stop_event.is_set():
             self.start_camera()
         self.start_dashboard()
+        self.hold_cpu_wake_latency()
         try:
             self.daemon.run(self.stop_event)
         finally:
+            if self.cpu_wake is not None:
+                self.cpu_wake.release()
             if self.camera is not None:
                 self.camera.stop(CAMERA_WAIT_S)
             if self.dashboard is not None:
@@ -106,6 +111,26 @@ class Service:
             for f in self._files:
                 f.close()
         return 0
+
+    def hold_cpu_wake_latency(self) -> None:
+        """Keep the CPUs quick to wake while the loop runs, or log why they are not."""
+        wake = self.cpu_wake
+        if wake is None:
+            return
+        why = wake.hold()
+        log = self.daemon.log
+        if why is None:
+            log.info(
+                "cpu_wake_latency",
+                f"CPUs wake within {wake.microseconds} us while the daemon runs",
+                microseconds=wake.microseconds,
+            )
+        else:
+            log.warning(
+                "cpu_wake_latency",
+                f"{why}: CPUs may sleep deeply between States, and the latency tail is longer "
+                "(run as root, or install jetson/deploy/99-pete-brain.rules)",
+            )
 
     def start_dashboard(self) -> None:
         """Launch the dashboard's process, if there is one, and go on: a thread waits for it to
@@ -277,7 +302,12 @@ def build(
         f"drives in {', '.join(settings.decision.drive_phases) or 'no phase'}",
         settings=_settings_dict(settings),
     )
-    return Service(daemon, camera, _files=files, dashboard=dashboard)
+    cpu_wake = None
+    if settings.system.cpu_wake_latency_us >= 0 and isinstance(clock, MonotonicClock):
+        from jetson.cpu_latency import CpuWakeLatency
+
+        cpu_wake = CpuWakeLatency(settings.system.cpu_wake_latency_us)
+    return Service(daemon, camera, _files=files, dashboard=dashboard, cpu_wake=cpu_wake)
 
 
 def make_pipeline(camera_settings: Any) -> Any:

@@ -231,6 +231,22 @@ class LogSettings:
 
 
 @dataclass(frozen=True)
+class SystemSettings:
+    # While the daemon runs, CPUs wake within this many microseconds (a PM QoS request on
+    # /dev/cpu_dma_latency, jetson/cpu_latency.py): 0 keeps idle CPUs polling, for the shortest
+    # State -> Command tail at some power; -1 makes no request.
+    cpu_wake_latency_us: int = 0
+
+    def __post_init__(self) -> None:
+        us = self.cpu_wake_latency_us
+        if isinstance(us, bool) or not isinstance(us, int) or not -1 <= us <= 1_000_000:
+            raise SettingsError(
+                "system cpu_wake_latency_us must be a whole number of microseconds in "
+                f"[0, 1000000], or -1 for no request; got {us!r}"
+            )
+
+
+@dataclass(frozen=True)
 class Settings:
     link: LinkConfig = field(default_factory=LinkConfig)
     decision: DecisionConfig = field(default_factory=DecisionConfig)
@@ -239,6 +255,7 @@ class Settings:
     record: RecordSettings = field(default_factory=RecordSettings)
     log: LogSettings = field(default_factory=LogSettings)
     dashboard: DashboardSettings = field(default_factory=DashboardSettings)
+    system: SystemSettings = field(default_factory=SystemSettings)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Settings:
