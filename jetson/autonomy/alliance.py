@@ -147,8 +147,8 @@ class AllianceConfig:
     climb_15_s: float = 14.0
     partner_along_m: float = -0.10
     stage_along_m: float = 0.95  # the stage in front of the board, from the hinge
-    board_y_24_m: float = -0.30  # where on the board each robot stands (alliance frame)
-    board_y_15_m: float = 0.28
+    board_y_24_m: float = -0.25  # where on the board each robot stands (alliance frame)
+    board_y_15_m: float = 0.31
     board_speed_mps: float = 0.35
     board_heading_tolerance_deg: float = 6.0  # standing on the board: heading left this far off
     footprint_margin_m: float = 0.035  # keep the footprint this far inside the board's reach
