@@ -31,6 +31,18 @@ ROLE_15 = RobotRole(
     partner_mass_kg=9.0,
 )
 
+ROLE_24 = RobotRole(
+    role="24in",
+    length_m=0.6096,
+    width_m=0.6096,
+    mass_kg=9.0,
+    max_linear_mps=0.904,
+    max_angular_rad_s=4.8,
+    intake_zone=(-0.15, 0.15, 0.25, 0.44),
+    reaches_high_branch=True,
+    partner_mass_kg=5.5,
+)
+
 
 def inputs(
     alliance: str, x: float, y: float, h: float, t: float, rings: np.ndarray
@@ -112,17 +124,7 @@ def test_the_endgame_balance_point_balances_the_board_with_both_robots_on_it() -
     """The 24"'s balance point: the board's torques (both robots, both carried goals) stay
     within what the hinge's flats hold level, and its whole footprint stays over the board."""
     layout = load_layout()
-    role = RobotRole(
-        role="24in",
-        length_m=0.6096,
-        width_m=0.6096,
-        mass_kg=9.0,
-        max_linear_mps=0.904,
-        max_angular_rad_s=4.8,
-        intake_zone=(-0.15, 0.15, 0.25, 0.44),
-        reaches_high_branch=True,
-        partner_mass_kg=5.5,
-    )
+    role = ROLE_24
     s = AllianceStrategy(role, layout)
     s.holding = "neutral_south"
     d = s._balance_along(AllianceInputs(0, 0, 0, "red", 110.0, np.zeros((0, 2)), 0, True))
@@ -141,19 +143,6 @@ def test_the_endgame_balance_point_balances_the_board_with_both_robots_on_it() -
     weight += neutral.mass_kg + partner.mass_kg
     assert abs(torque) < 0.5 * plat.hinge_flat_m * weight
     assert abs(d) + role.length_m / 2 <= half + plat.overhang_m
-
-
-ROLE_24 = RobotRole(
-    role="24in",
-    length_m=0.6096,
-    width_m=0.6096,
-    mass_kg=9.0,
-    max_linear_mps=0.904,
-    max_angular_rad_s=4.8,
-    intake_zone=(-0.15, 0.15, 0.25, 0.44),
-    reaches_high_branch=True,
-    partner_mass_kg=5.5,
-)
 
 
 def sighting(
