@@ -2,36 +2,36 @@
 a VEX AI alliance (a 24" and a 15") per instance.
 
 It reads only what the robot has: its pose (the GPS, field frame), the rings its camera sees
-(robot frame), the rings its intake holds, the clamp's and the lift's state, the match clock, and
-the field's layout known before the match (jetson/autonomy/field_layout.py). Its memories are its
-own: a RingMemory (jetson/autonomy/ring_memory.py) started from the layout's rings, and a small
-named memory of the goals it moves (where it released them) and the ones it found missing.
-Everything is planned in the alliance frame, so a blue robot plays the same script mirrored.
+(robot frame), the rings its intake holds, the clamp's and the lift's state, the match clock, the
+goals its goal detector reports (robot frame and base colour, optional: jetson/perception/goals.py)
+and the field's layout known before the match (jetson/autonomy/field_layout.py). Its memories are
+its own: a RingMemory (jetson/autonomy/ring_memory.py) started from the layout's rings, and a
+named memory of the goals (the layout's places, moved where it released them or saw them, the
+ones it found missing or saw carried). Everything is planned in the alliance frame, so a blue
+robot plays the same script mirrored.
 
 The two robots share the work by a fixed plan (no radio between them): each role has its own
 goals, its own half of the field for rings, and its own time line.
 
   24" (the high-branch lift)                  15"
-  isolation: back onto the alliance goal on   isolation: back onto the other alliance goal,
-  the AWP line, thread the 3 preloads onto    thread the 3 preloads onto it, let it go
-  it while dragging it clear of the line,     (AWP: a ring on each alliance goal);
-  let it go (the win point);                  wait behind the north neutral goal on its
-  wait behind the south neutral goal on its   own side, then take it as interaction starts;
-  own side (no contact with the other         collect the north half's rings onto it;
-  alliance), take it as interaction starts;   drop it deep in the home zone; climb the
-  collect the south half's rings onto it      platform beside the 24" while the 24" holds
-  (the high branch first, 10 each);           the board's field edge down.
-  climb the platform with it, hold the field
-  edge down until the 15" is on, then move
-  to the balance point.
+  isolation: stand still (its start leaves    isolation: back onto the alliance goal beside
+  no room to turn; standing still it cannot   its start (the preloads thread on), climb the
+  touch the other alliance);                  platform and wait at the hinge: the board level
+  interaction: take a neutral goal (south,    under it and its goal, so nobody drives onto it;
+  tall, then its AWP goal), the preloads on   22 s before the end: move to the field side
+  the high branch, collect its half's rings;  (the ramp down);
+  24 s before the end: line up in front of    14 s before the end: move to its balance spot.
+  the platform, climb from 20.5 s, hold the
+  ramp down; 9 s before the end: move to the
+  balance point.
 
 A goal it cannot find (the clamp does not close where the goal should be, or the robot stands
-where it was) is marked missing and the next one on its list is tried: the other neutral goals
-first (contesting whatever is left), then its own alliance goal where it last let it go. The
-endgame's times and positions come from the see-saw's torque balance (the layout's board mass and
-hinge flats, both robots' masses, the carried goal's): the 24" holds the board tipped toward the
-field at `hold_along_m`, the 15" climbs to `partner_along_m`, then the 24" moves to where the
-torques cancel.
+where it was), one seen carried, or one where a goal of the other alliance's colour is seen, is
+marked missing (or left for a while) and the next one on its list is tried. The endgame's
+positions come from the see-saw's torque balance (the layout's board mass and hinge flats, both
+robots' masses, the carried goals'): the 24" holds the board tipped toward the field at
+`hold_along_m`, the 15" moves to `partner_along_m`, then the 24" moves to where the torques
+cancel.
 
 Interface (what the daemon's decide.py calls):
 
