@@ -27,7 +27,14 @@ from sim.errors import ConfigError
 from sim.field import FieldSpec
 from sim.world import rules, sensors
 from sim.world.physics import World
-from sim.world.state import RING_FLOOR, RING_HELD, DriveCommand, GpsReading, StepEvents
+from sim.world.state import (
+    RING_FLOOR,
+    RING_HELD,
+    AllianceScore,
+    DriveCommand,
+    GpsReading,
+    StepEvents,
+)
 
 REWARD_COMPONENTS = (
     "rings",
@@ -405,6 +412,8 @@ class MatchCore:
         else:
             x, y, h = r.x, r.y, r.heading
         rings = sensors.visible_rings(w, index)
+        # Most steps see no ring: the frame conversion of nothing is nothing.
+        seen = sensors.rings_in_robot_frame(w, index, rings) if len(rings) else np.zeros((0, 2))
         others = np.zeros((0, 2))
         if self.spec.n_other_robots:
             pts = [(o.x, o.y) for o in w.robots if o.index != index]
@@ -416,7 +425,7 @@ class MatchCore:
             heading_deg=h,
             alliance=r.alliance,
             time_s=w.time_s,
-            rings_robot_xy=sensors.rings_in_robot_frame(w, index, rings),
+            rings_robot_xy=seen,
             rings_held=r.held,
             others_robot_xy=others,
             goal_clamped=r.carried_goal is not None,
@@ -440,8 +449,11 @@ class MatchCore:
         view = self.goal_memories[index].observe(view)
         return build_frame(self.spec, view, rng)
 
-    def _score_margin(self, alliance: AllianceName) -> float:
-        s = self.world.score()
+    def _score_margin(
+        self, alliance: AllianceName, score: dict[str, AllianceScore] | None = None
+    ) -> float:
+        """The alliance's lead in `score` (default: the world's score now)."""
+        s = self.world.score() if score is None else score
         other = "blue" if alliance == "red" else "red"
         return float(s[alliance].total - s[other].total)
 
@@ -459,6 +471,8 @@ class MatchCore:
         if events.pins and self.config.end_on_pin:
             self.ended_by_pin = True
         end_rewards = ended and not self.ended_by_pin
+        # Nothing below changes the world: one score serves every robot's reward and info.
+        score = w.score()
         results = []
         for r in w.robots:
             comp = dict.fromkeys(REWARD_COMPONENTS, 0.0)
@@ -483,7 +497,7 @@ class MatchCore:
             if cfg.clamp and r.index in clamped:
                 comp["clamp"] = cfg.clamp
             if cfg.score:
-                margin = self._score_margin(r.alliance)
+                margin = self._score_margin(r.alliance, score)
                 comp["score"] = cfg.score * (margin - self._margin[r.index])
                 self._margin[r.index] = margin
             if end_rewards:
@@ -495,7 +509,7 @@ class MatchCore:
             for k, v in comp.items():
                 self.totals[r.index][k] += v
             obs = self.stacks[r.index].push(self.frame(r.index))
-            info = self.info(r.index)
+            info = self.info(r.index, score)
             info["reward_components"] = comp
             results.append(RobotStep(obs, float(sum(comp.values())), comp, info))
         return results, ended, events
@@ -580,10 +594,12 @@ class MatchCore:
         r = self.world.robots[index]
         return (r.x > 0) if r.alliance == "red" else (r.x < 0)
 
-    def info(self, index: int) -> dict[str, Any]:
+    def info(self, index: int, score: dict[str, AllianceScore] | None = None) -> dict[str, Any]:
+        """Robot `index`'s info now; `score` is the world's score when the caller has it."""
         w = self.world
         r = w.robots[index]
-        score = w.score()
+        if score is None:
+            score = w.score()
         return {
             "robot": r.name,
             "time_s": round(w.time_s, 6),

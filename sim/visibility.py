@@ -96,23 +96,16 @@ def in_frustum(
     return mask, uv, pc
 
 
-def _slab_interval(a: FloatArray, d: FloatArray, half: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Parameter interval [t0, t1] where a + t d lies within |x| <= half (per axis), (N, M)."""
-    t0 = np.full(a.shape[:-1], -np.inf)
-    t1 = np.full(a.shape[:-1], np.inf)
-    for axis in range(2):
-        da = d[..., axis]
-        aa = a[..., axis]
-        h = half[..., axis]
-        parallel = np.abs(da) < _EPS
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ta = (-h - aa) / da
-            tb = (h - aa) / da
-        lo = np.where(parallel, np.where(np.abs(aa) <= h, -np.inf, np.inf), np.minimum(ta, tb))
-        hi = np.where(parallel, np.where(np.abs(aa) <= h, np.inf, -np.inf), np.maximum(ta, tb))
-        t0 = np.maximum(t0, lo)
-        t1 = np.minimum(t1, hi)
-    return t0, t1
+def _slab_interval(aa: FloatArray, da: FloatArray, h: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Parameter interval [lo, hi] where aa + t da lies within |x| <= h along one axis (the
+    arrays broadcast against each other; da has the full shape)."""
+    parallel = np.abs(da) < _EPS
+    ta = (-h - aa) / da
+    tb = (h - aa) / da
+    inside = np.abs(aa) <= h
+    lo = np.where(parallel, np.where(inside, -np.inf, np.inf), np.minimum(ta, tb))
+    hi = np.where(parallel, np.where(inside, np.inf, -np.inf), np.maximum(ta, tb))
+    return lo, hi
 
 
 def _blocked(
@@ -143,38 +136,48 @@ def occluded(
     d = d3[:, :2]
     dz = d3[:, 2]
     hit = np.zeros(n, dtype=bool)
-
-    if len(obstacles.box_xy):
-        h = np.radians(obstacles.box_heading)
-        s, co = np.sin(h), np.cos(h)
-        # Box-local axes: x across (right of its heading), y along its heading.
-        rel = c[:2] - obstacles.box_xy  # (M, 2)
-        a_local = np.stack([rel[:, 0] * co - rel[:, 1] * s, rel[:, 0] * s + rel[:, 1] * co], -1)
-        d_local = np.stack(
-            [
-                d[:, None, 0] * co[None] - d[:, None, 1] * s[None],
-                d[:, None, 0] * s[None] + d[:, None, 1] * co[None],
-            ],
-            -1,
-        )  # (N, M, 2)
-        a_b = np.broadcast_to(a_local[None], d_local.shape)
-        half_b = np.broadcast_to(obstacles.box_half[None], d_local.shape)
-        t0, t1 = _slab_interval(a_b, d_local, half_b)
-        hit |= np.any(_blocked(t0, t1, c[2], dz[:, None], obstacles.box_height[None], t_max), 1)
-
-    if len(obstacles.disc_xy):
-        rel = c[:2] - obstacles.disc_xy  # (M, 2)
-        qa = np.einsum("ij,ij->i", d, d)[:, None]  # (N, 1)
-        qb = 2.0 * (d @ rel.T)  # (N, M)
-        qc = np.einsum("ij,ij->i", rel, rel)[None] - obstacles.disc_radius[None] ** 2
-        disc = qb * qb - 4 * qa * qc
-        ok = (disc >= 0) & (qa > _EPS)
-        root = np.sqrt(np.where(ok, disc, 0.0))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t0 = np.where(ok, (-qb - root) / (2 * qa), np.inf)
-            t1 = np.where(ok, (-qb + root) / (2 * qa), -np.inf)
-        hit |= np.any(_blocked(t0, t1, c[2], dz[:, None], obstacles.disc_height[None], t_max), 1)
+    # A sight line parallel to a slab divides by zero; np.where then keeps the parallel answer.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if len(obstacles.box_xy):
+            hit |= _boxes_blocked(c, d, dz, obstacles, t_max)
+        if len(obstacles.disc_xy):
+            hit |= _discs_blocked(c, d, dz, obstacles, t_max)
     return hit
+
+
+def _boxes_blocked(
+    c: FloatArray, d: FloatArray, dz: FloatArray, obstacles: Obstacles, t_max: float
+) -> NDArray[np.bool_]:
+    """Which sight lines from c along d (N, 2), dz (N,) a box crosses below its height: each
+    box's slabs in its own axes, x across (right of its heading), y along its heading."""
+    h = np.radians(obstacles.box_heading)
+    s, co = np.sin(h), np.cos(h)
+    rel = c[:2] - obstacles.box_xy  # (M, 2)
+    dx, dy = d[:, None, 0], d[:, None, 1]  # (N, 1)
+    lo_x, hi_x = _slab_interval(
+        rel[:, 0] * co - rel[:, 1] * s, dx * co[None] - dy * s[None], obstacles.box_half[:, 0]
+    )
+    lo_y, hi_y = _slab_interval(
+        rel[:, 0] * s + rel[:, 1] * co, dx * s[None] + dy * co[None], obstacles.box_half[:, 1]
+    )
+    t0, t1 = np.maximum(lo_x, lo_y), np.minimum(hi_x, hi_y)  # (N, M)
+    return _blocked(t0, t1, c[2], dz[:, None], obstacles.box_height[None], t_max).any(axis=1)
+
+
+def _discs_blocked(
+    c: FloatArray, d: FloatArray, dz: FloatArray, obstacles: Obstacles, t_max: float
+) -> NDArray[np.bool_]:
+    """Which sight lines from c along d (N, 2), dz (N,) a disc crosses below its height."""
+    rel = c[:2] - obstacles.disc_xy  # (M, 2)
+    qa = np.einsum("ij,ij->i", d, d)[:, None]  # (N, 1)
+    qb = 2.0 * (d @ rel.T)  # (N, M)
+    qc = np.einsum("ij,ij->i", rel, rel)[None] - obstacles.disc_radius[None] ** 2
+    disc = qb * qb - 4 * qa * qc
+    ok = (disc >= 0) & (qa > _EPS)
+    root = np.sqrt(np.where(ok, disc, 0.0))
+    t0 = np.where(ok, (-qb - root) / (2 * qa), np.inf)
+    t1 = np.where(ok, (-qb + root) / (2 * qa), -np.inf)
+    return _blocked(t0, t1, c[2], dz[:, None], obstacles.disc_height[None], t_max).any(axis=1)
 
 
 def visible(

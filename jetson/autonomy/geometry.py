@@ -72,8 +72,17 @@ def angle_diff_deg(a: float, b: float) -> float:
 
 def heading_vector(heading_deg: ArrayLike) -> FloatArray:
     """Unit vector(s) of a heading in the field frame, shape (..., 2)."""
+    if isinstance(heading_deg, float | int):
+        return np.array(heading_sin_cos(heading_deg))
     h = np.radians(np.asarray(heading_deg, dtype=np.float64))
     return np.stack([np.sin(h), np.cos(h)], axis=-1)
+
+
+def heading_sin_cos(heading_deg: float) -> tuple[float, float]:
+    """(sin, cos) of one heading: heading_vector's two values as floats, computed by numpy as
+    heading_vector computes them (math.sin may differ from numpy's in the last bit)."""
+    h = np.radians(np.asarray(heading_deg, dtype=np.float64))
+    return float(np.sin(h)), float(np.cos(h))
 
 
 def heading_of(vector_xy: ArrayLike) -> NDArray[np.float64] | float:
@@ -87,12 +96,15 @@ def field_to_robot(
 ) -> FloatArray:
     """Field-frame points (N, 2) into the frame of a robot at robot_xy with the given heading."""
     p = np.asarray(points_xy, dtype=np.float64) - np.asarray(robot_xy, dtype=np.float64)
+    out = np.empty_like(p)
+    if p.size == 0:  # most control steps see no ring at all
+        return out
     h = math.radians(robot_heading_deg)
     s, c = math.sin(h), math.cos(h)
     # Forward unit (s, c), right unit (c, -s): project onto them.
-    out = np.empty_like(p)
-    out[..., 0] = p[..., 0] * c - p[..., 1] * s
-    out[..., 1] = p[..., 0] * s + p[..., 1] * c
+    px, py = p[..., 0], p[..., 1]
+    out[..., 0] = px * c - py * s
+    out[..., 1] = px * s + py * c
     return out
 
 
@@ -123,6 +135,18 @@ def to_alliance_frame(
     if alliance == "blue":
         h = None if heading_deg is None else float(wrap_heading(heading_deg + 180.0))
         return -p, h
+    raise ValueError(f"alliance must be 'red' or 'blue', got {alliance!r}")
+
+
+def pose_to_alliance_frame(
+    x: float, y: float, heading_deg: float, alliance: AllianceName
+) -> tuple[float, float, float]:
+    """to_alliance_frame of one pose, as floats: the same values without the arrays (the
+    observation converts the robot's own pose every control step)."""
+    if alliance == "red":
+        return float(x), float(y), heading_deg
+    if alliance == "blue":
+        return -float(x), -float(y), float(wrap_heading(heading_deg + 180.0))
     raise ValueError(f"alliance must be 'red' or 'blue', got {alliance!r}")
 
 

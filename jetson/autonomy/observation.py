@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from jetson.autonomy.geometry import AllianceName, to_alliance_frame
+from jetson.autonomy.geometry import AllianceName, pose_to_alliance_frame
 from jetson.autonomy.spec import REMEMBERED, SEEN, ObservationSpec
 from jetson.errors import ObservationError
 
@@ -80,6 +80,44 @@ def _fill_slots(
     block[:, 2] = 1.0 if ok is None else ok[order]
 
 
+@dataclass(frozen=True)
+class _Layout:
+    """Where a spec puts things in a frame (ObservationSpec's offsets, which it works out on
+    every read)."""
+
+    frame_size: int
+    n_scalars: int
+    goal_offset: int
+    route_offset: int
+    ring_offset: int
+    clamped: int  # the scalars' indices; -1 when the spec has none
+    fills: int
+
+
+# Layouts by spec, kept with their spec so that an id is never mistaken for another's.
+_LAYOUTS: dict[int, tuple[ObservationSpec, _Layout]] = {}
+
+
+def _layout(spec: ObservationSpec) -> _Layout:
+    hit = _LAYOUTS.get(id(spec))
+    if hit is not None and hit[0] is spec:
+        return hit[1]
+    scalars = spec.scalars
+    lay = _Layout(
+        frame_size=spec.frame_size,
+        n_scalars=len(scalars),
+        goal_offset=spec.goal_offset,
+        route_offset=spec.route_offset,
+        ring_offset=spec.ring_offset,
+        clamped=scalars.index("clamped") if "clamped" in scalars else -1,
+        fills=scalars.index("fills") if "fills" in scalars else -1,
+    )
+    if len(_LAYOUTS) >= 64:  # a process that makes many specs keeps only the recent ones
+        _LAYOUTS.clear()
+    _LAYOUTS[id(spec)] = (spec, lay)
+    return lay
+
+
 def build_frame(
     spec: ObservationSpec, view: RobotView, rng: np.random.Generator | None = None
 ) -> NDArray[np.float32]:
@@ -95,36 +133,37 @@ def build_frame(
     remembered = as_points(view.rings_remembered_xy, "rings_remembered_xy")
     others = as_points(view.others_robot_xy, "others_robot_xy")
     unit = spec.length_unit_m
-    out = np.zeros(spec.frame_size, dtype=np.float32)
-    pos, heading = to_alliance_frame((view.x, view.y), view.heading_deg, view.alliance)
-    assert heading is not None
+    lay = _layout(spec)
+    out = np.zeros(lay.frame_size, dtype=np.float32)
+    x, y, heading = pose_to_alliance_frame(view.x, view.y, view.heading_deg, view.alliance)
     if rng is not None and spec.position_noise_m > 0:
-        pos = pos + rng.uniform(-spec.position_noise_m, spec.position_noise_m, 2)
+        dx, dy = rng.uniform(-spec.position_noise_m, spec.position_noise_m, 2)
+        x, y = x + dx, y + dy
     h = math.radians(heading)
     out[0] = min(max(view.time_s / spec.match_length_s, 0.0), 1.0)
-    out[1] = pos[0] / unit
-    out[2] = pos[1] / unit
+    out[1] = x / unit
+    out[2] = y / unit
     out[3] = math.cos(h)
     out[4] = math.sin(h)
     out[5] = view.rings_held / spec.ring_capacity_norm
     if spec.goal_memory:
-        out[spec.scalar_index("clamped")] = 1.0 if view.goal_clamped else 0.0
+        out[lay.clamped] = 1.0 if view.goal_clamped else 0.0
         goals = as_points(view.goals_robot_xy, "goals_robot_xy")
-        _fill_slots(out, spec.goal_offset, spec.n_goals, goals, unit, 0.0, None)
+        _fill_slots(out, lay.goal_offset, spec.n_goals, goals, unit, 0.0, None)
     if spec.intake_flag:
-        out[spec.scalar_index("fills")] = 1.0 if view.intake_fills else 0.0
+        out[lay.fills] = 1.0 if view.intake_fills else 0.0
     rel = spec.relative_noise
-    _fill_slots(out, len(spec.scalars), spec.n_other_robots, others, unit, rel, rng)
+    _fill_slots(out, lay.n_scalars, spec.n_other_robots, others, unit, rel, rng)
     ok = None
     if len(remembered):
         ok = np.concatenate([np.full(len(rings), SEEN), np.full(len(remembered), REMEMBERED)])
         rings = np.concatenate([rings, remembered])
-    _fill_slots(out, spec.ring_offset, spec.n_rings, rings, unit, spec.relative_noise, rng, ok)
+    _fill_slots(out, lay.ring_offset, spec.n_rings, rings, unit, spec.relative_noise, rng, ok)
     if spec.route_slots:
         route = as_points(view.route_robot_xy, "route_robot_xy")[: spec.route_slots]
         if rng is not None and rel > 0:
             route = route * (1.0 + rng.uniform(-rel, rel, route.shape))
-        block = out[spec.route_offset : spec.route_offset + 3 * len(route)].reshape(-1, 3)
+        block = out[lay.route_offset : lay.route_offset + 3 * len(route)].reshape(-1, 3)
         block[:, :2] = route / unit  # tour order, not nearest first
         block[:, 2] = 1.0
     return out

@@ -39,8 +39,8 @@ import pybullet as p
 from jetson.autonomy.geometry import (
     AllianceName,
     field_to_robot,
+    heading_sin_cos,
     heading_to_yaw,
-    heading_vector,
     push_out_of_box,
     quaternion_yaw,
     robot_to_field,
@@ -609,9 +609,11 @@ class World:
         """The whole game: robots drive onto a see-saw over its lowered field-side edge, leave it
         when they are off it, and are pushed back from it anywhere else (sim.world.seesaw)."""
         spec = self.field.seesaw
+        boards = [(plat, seesaw.board_box(plat)) for plat in self.field.platforms]
         for r, (x0, y0, _) in zip(self.robots, before, strict=True):
-            for plat in self.field.platforms:
-                ox, oy = seesaw.overlap(seesaw.robot_box(r), seesaw.board_box(plat))
+            box = seesaw.robot_box(r)
+            for plat, board in boards:
+                ox, oy = seesaw.overlap(box, board)
                 if ox <= 0 or oy <= 0:
                     if r.on_platform == plat.alliance:
                         r.on_platform = None
@@ -625,6 +627,7 @@ class World:
                 dx, dy = seesaw.push_out(r, plat)
                 r.x += dx
                 r.y += dy
+                box = seesaw.robot_box(r)
                 self._place(r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading))
 
     def _tug_of_war(self) -> None:
@@ -752,10 +755,10 @@ class World:
         """Where a carried goal's centre sits: just behind the robot's back face (ahead of its
         front with RobotConfig.clamp = "front")."""
         back = self.clamp_offset(r, g)
-        f = heading_vector(r.heading)
+        fx, fy = heading_sin_cos(r.heading)
         if r.config.clamp == "front":
-            return r.x + back * float(f[0]), r.y + back * float(f[1])
-        return r.x - back * float(f[0]), r.y - back * float(f[1])
+            return r.x + back * fx, r.y + back * fy
+        return r.x - back * fx, r.y - back * fy
 
     def _clamp(self, r: RobotState, cmd: DriveCommand, events: StepEvents) -> None:
         want = cmd.clamp if cmd.clamp is not None else (True if self.config.auto_clamp else None)
@@ -816,11 +819,12 @@ class World:
             if r.carried_goal is None:
                 continue
             g = self.goals[r.carried_goal]
+            if g.contested_by == r.index:
+                continue  # the tug's loser: dragged below, with the goal
+            xy = self.clamp_point(r, g)
             if g.contested_by is not None:
-                if g.contested_by == r.index:
-                    continue  # the tug's loser: dragged below, with the goal
-                self._drag(self.robots[g.contested_by], g, self.clamp_point(r, g))
-            g.x, g.y = self.clamp_point(r, g)
+                self._drag(self.robots[g.contested_by], g, xy)
+            g.x, g.y = xy
             pos, _ = p.getBasePositionAndOrientation(g.body, physicsClientId=cid)
             p.resetBasePositionAndOrientation(
                 g.body,
@@ -971,14 +975,18 @@ class World:
 
     def score(self) -> dict[str, AllianceScore]:
         """sim.world.rules.score for the current state, cached until the world changes."""
-        key: tuple = (self.steps, self._edits, tuple(g.rings for g in self.goals))
+        key: tuple
         if self.game:
-            key += (
-                tuple((g.rings_high, g.rings_base) for g in self.goals),
-                tuple(s.tilt for s in self.platforms.values()),
+            key = (
+                self.steps,
+                self._edits,
+                tuple([(g.rings, g.rings_high, g.rings_base) for g in self.goals]),
+                tuple([s.tilt for s in self.platforms.values()]),
                 len(self.fouls),
-                tuple(r.on_platform for r in self.robots),
+                tuple([r.on_platform for r in self.robots]),
             )
+        else:
+            key = (self.steps, self._edits, tuple([g.rings for g in self.goals]))
         if self._score_cache is not None and self._score_cache[0] == key:
             return dict(self._score_cache[1])
         out = rules.score(self)

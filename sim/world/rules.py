@@ -53,6 +53,10 @@ def robot_elevated(world: WorldState, r: RobotState) -> bool:
     """Ring race: a robot is elevated while it stands on its alliance's platform. The whole game:
     it drove onto its alliance's platform, touches nothing else (its whole footprint is on the
     board) and the platform is Balanced."""
+    return _robot_elevated(world, r, _Judged(world))
+
+
+def _robot_elevated(world: WorldState, r: RobotState, judged: _Judged) -> bool:
     try:
         plat = world.field.platform(r.alliance)
     except ValueError:
@@ -61,15 +65,38 @@ def robot_elevated(world: WorldState, r: RobotState) -> bool:
         return (
             r.on_platform == r.alliance
             and footprint_on_board(plat, r, world.field.seesaw.overhang)
-            and platform_balanced(world, r.alliance)
+            and judged.balanced(r.alliance)
         )
     return plat.contains_point(r.x, r.y)
+
+
+class _Judged:
+    """What a score asks of one state again and again (is this robot elevated, is that platform
+    Balanced), each worked out once: the answers hold until the state changes, so a _Judged
+    lives for one question about the world (a score, a goal's owner)."""
+
+    def __init__(self, world: WorldState) -> None:
+        self.world = world
+        self._balanced: dict[AllianceName, bool] = {}
+        self._elevated: dict[int, bool] = {}
+
+    def balanced(self, alliance: AllianceName) -> bool:
+        b = self._balanced.get(alliance)
+        if b is None:
+            b = self._balanced[alliance] = platform_balanced(self.world, alliance)
+        return b
+
+    def elevated(self, r: RobotState) -> bool:
+        e = self._elevated.get(r.index)
+        if e is None:
+            e = self._elevated[r.index] = _robot_elevated(self.world, r, self)
+        return e
 
 
 def goal_owner(world: WorldState, g: GoalState) -> tuple[AllianceName | None, bool]:
     """Which alliance a goal scores for right now, and whether it is elevated."""
     if whole_game(world):
-        return _goal_owner_game(world, g)
+        return _goal_owner_game(world, g, _Judged(world))
     if g.carried_by is not None:
         carrier = world.robots[g.carried_by]
         if robot_elevated(world, carrier) and g.spec.alliance in (None, carrier.alliance):
@@ -92,11 +119,11 @@ def _score_ring_race(world: WorldState) -> dict[str, AllianceScore]:
     """Rings on an alliance goal count for its alliance wherever it is; rings on a neutral goal
     count only while it is in a home zone (or elevated). Every ring counts as on a branch."""
     sc = world.field.scoring
+    owners = [goal_owner(world, g) for g in world.goals]
     out = {}
     for alliance in ("red", "blue"):
         rings = in_zone = elevated_goals = 0
-        for g in world.goals:
-            owner, elevated = goal_owner(world, g)
+        for g, (owner, elevated) in zip(world.goals, owners, strict=True):
             if g.spec.alliance == alliance or (g.spec.alliance is None and owner == alliance):
                 rings += g.rings
             if owner == alliance:
@@ -203,13 +230,15 @@ def goal_lifted(world: WorldState, g: GoalState) -> bool:
     return any(world.robots[i].config.clamp_lifts for i in g.holders)
 
 
-def _goal_owner_game(world: WorldState, g: GoalState) -> tuple[AllianceName | None, bool]:
+def _goal_owner_game(
+    world: WorldState, g: GoalState, judged: _Judged
+) -> tuple[AllianceName | None, bool]:
     """Elevated on an alliance's Balanced platform (resting on the board, or in Possession of an
     Elevated robot of it), else Scored in the home zone its base touches; an alliance goal only
     ever scores for its own alliance."""
     for i in g.holders:
         carrier = world.robots[i]
-        if robot_elevated(world, carrier) and g.spec.alliance in (None, carrier.alliance):
+        if judged.elevated(carrier) and g.spec.alliance in (None, carrier.alliance):
             return carrier.alliance, True
     if g.carried_by is None:
         for alliance in ALLIANCES:
@@ -221,7 +250,7 @@ def _goal_owner_game(world: WorldState, g: GoalState) -> tuple[AllianceName | No
                 goal_on_board(plat, g)
                 and goal_fully_on_board(plat, g)
                 and g.spec.alliance in (None, alliance)
-                and platform_balanced(world, alliance)
+                and judged.balanced(alliance)
             ):
                 return alliance, True
     if goal_lifted(world, g):
@@ -246,10 +275,12 @@ def ring_points(world: WorldState, g: GoalState) -> int:
 def _score_game(world: WorldState) -> dict[str, AllianceScore]:
     sc = world.field.scoring
     rules = world.field.rules
+    judged = _Judged(world)
     elevated_robots = {a: 0 for a in ALLIANCES}
     for r in world.robots:
-        if robot_elevated(world, r):
+        if judged.elevated(r):
             elevated_robots[r.alliance] += 1
+    owners = [_goal_owner_game(world, g, judged) for g in world.goals]
     fouls = {a: 0 for a in ALLIANCES}
     platform_fouls = {a: 0 for a in ALLIANCES}
     for f in world.fouls:
@@ -259,8 +290,7 @@ def _score_game(world: WorldState) -> dict[str, AllianceScore]:
     out = {}
     for alliance in ALLIANCES:
         rings = high = base = points = in_zone = goals_up = 0
-        for g in world.goals:
-            owner, elevated = goal_owner(world, g)
+        for g, (owner, elevated) in zip(world.goals, owners, strict=True):
             if g.spec.alliance == alliance or (g.spec.alliance is None and owner == alliance):
                 rings += g.rings
                 high += g.rings_high
@@ -293,7 +323,7 @@ def _score_game(world: WorldState) -> dict[str, AllianceScore]:
             autonomous_win_point=bool(auto and auto.win_point),
             fouls=fouls[alliance],
             foul_credit=credit,
-            balanced=alliance in world.platforms and platform_balanced(world, alliance),
+            balanced=alliance in world.platforms and judged.balanced(alliance),
         )
     return out
 
@@ -357,8 +387,9 @@ def autonomous_results(world: WorldState) -> dict[str, AutonomousResult]:
 
 def _touches_platform(world: WorldState, r: RobotState, plat: PlatformSpec, margin: float) -> bool:
     """Whether a robot's footprint (its bounding box, grown by margin) meets a platform's board."""
-    xs = [c[0] for c in robot_corners(r)]
-    ys = [c[1] for c in robot_corners(r)]
+    corners = robot_corners(r)
+    xs = [c[0] for c in corners]
+    ys = [c[1] for c in corners]
     hx, hy = plat.size[0] / 2 + margin, plat.size[1] / 2 + margin
     return (
         max(xs) >= plat.center[0] - hx

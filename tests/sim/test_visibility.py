@@ -70,6 +70,20 @@ def test_tall_post_hides_what_is_behind_it_but_a_low_base_does_not_hide_far_ring
     assert not occluded(pose.position, target, base)[0]
 
 
+def test_sight_lines_along_a_box_side_match_brute_force() -> None:
+    """A sight line parallel to a box's side (no slab crossing to divide by) is blocked when it
+    runs on or inside the side, clear outside it, as the sampled reference says."""
+    box = Obstacles.build([(0.0, 1.0, 0.0, 0.19, 0.19, 0.3)], [])
+    ys = np.linspace(1.4, 2.0, 4)  # straight ahead, in the image and in range
+    for x, hidden in ((0.0, True), (0.19, True), (0.19 + 1e-6, False), (0.3, False)):
+        pose = camera_pose((x, 0.0), 0.0, CAM)  # looking along +y, beside or behind the box
+        pts = np.column_stack([np.full(len(ys), x), ys, np.full(len(ys), 0.0127)])
+        assert in_frustum(pts, pose, CAM)[0].all()
+        assert occluded(pose.position, pts, box).tolist() == [hidden] * len(ys), x
+        fast = visible(pts, pose, CAM, box)
+        assert np.array_equal(fast, brute_force_visible(pts, pose, CAM, box, samples=1500)), x
+
+
 def test_world_culling_matches_brute_force() -> None:
     rng = np.random.default_rng(2)
     with World(WorldConfig()) as w:
