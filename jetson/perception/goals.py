@@ -9,9 +9,12 @@ floor in the robot frame. The report is what the scripted alliance reads
 (jetson.autonomy.alliance.AllianceInputs.goals_robot): (N, 3) x, y robot frame (metres, x right,
 y forward) and a colour code, COLOUR_CODES.
 
-Not measured on real photos: the HSV windows are first guesses for saturated field colours,
-checked on synthetic images only (tests/jetson/perception/test_goals.py); the twin reports goals
-from geometry (sim/goal_sight.py), not through this detector.
+The daemon runs it in its perception pipeline when `[camera] goals` is on (jetson/perception/
+pipeline.py); in the twin's own matches the goals come from geometry instead (sim/goal_sight.py),
+while the full stack's daemon runs this detector on the twin's rendered frames. Not measured on
+real photos: the HSV windows are first guesses for saturated field colours, checked on synthetic
+images (tests/jetson/perception/test_goals.py) and the twin's renders; anything of a goal's colour
+and size is a goal to it (a platform's edge, a bumper: jetson/perception/README.md, "Goals").
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from jetson.autonomy.alliance import GOAL_COLOUR_CODES as COLOUR_CODES
+from jetson.autonomy.camera import Intrinsics
 from jetson.perception.camera import CameraConfig
 from jetson.perception.localise import pixel_rays
 from jetson.perception.prefilter import HsvWindow
@@ -74,12 +78,21 @@ class GoalDetector:
         self.camera = camera
         self.config = config or GoalDetectorConfig()
 
-    def detect(self, bgr: NDArray[np.uint8], depth_m: NDArray[np.float32]) -> list[GoalSighting]:
+    def detect(
+        self,
+        bgr: NDArray[np.uint8],
+        depth_m: NDArray[np.float32],
+        intrinsics: Intrinsics | None = None,
+    ) -> list[GoalSighting]:
+        """`intrinsics`: the frame's own (a RealSense and the simulator's stream send theirs);
+        the camera config's by default. Either is scaled to the image's size."""
         cfg = self.config
         h, w = bgr.shape[:2]
         if depth_m.shape[:2] != (h, w):
             raise ValueError(f"depth image {depth_m.shape[:2]} is not the colour's {(h, w)}")
-        intr = self.camera.intrinsics.scaled(w, h)
+        intr = intrinsics or self.camera.intrinsics
+        if (intr.width, intr.height) != (w, h):
+            intr = intr.scaled(w, h)
         scale = w / cfg.reference_width
         hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
         kernel = np.ones((cfg.open_px, cfg.open_px), np.uint8)

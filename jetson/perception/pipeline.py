@@ -10,6 +10,13 @@ image folders and videos get the camera config's) and the camera config's mount.
 The HSV colour mask is computed once per frame and shared: the pre-filter (when enabled) masks
 the detector's input with it, the classical detector thresholds nothing twice, and the localiser
 uses it to pick the ring's own pixels.
+
+With a goal detector (jetson/perception/goals.py; `[camera] goals`, on for the scripted
+alliance) the pipeline also finds the mobile goals in the frame's colour image, unfiltered by the
+pre-filter, with the frame's intrinsics: `result.goals_robot`, (N, 3) x, y robot frame and colour
+code, what jetson.autonomy.alliance.AllianceInputs.goals_robot takes (none from a frame without
+depth: a goal is placed with its depth). Without one it reports no goals, and the rings are
+found exactly as before.
 """
 
 from __future__ import annotations
@@ -27,6 +34,7 @@ from jetson.perception.camera import CameraConfig
 from jetson.perception.classical import ClassicalConfig, ClassicalDetector
 from jetson.perception.detection import Detection, Detector
 from jetson.perception.frame import Frame
+from jetson.perception.goals import GoalDetector, GoalSighting, goals_robot
 from jetson.perception.localise import Localiser, LocaliserConfig, RingEstimate, rings_robot_xy
 from jetson.perception.prefilter import PrefilterConfig, prefilter
 
@@ -57,10 +65,15 @@ class Result:
     detections: list[Detection]
     rings: list[RingEstimate]  # the detections that could be placed, nearest first
     timings_ms: dict[str, float] = field(default_factory=dict)
+    goals: list[GoalSighting] = field(default_factory=list)  # with a goal detector
 
     @property
     def rings_robot_xy(self) -> NDArray[np.float64]:
         return rings_robot_xy(self.rings)
+
+    @property
+    def goals_robot(self) -> NDArray[np.float64]:
+        return goals_robot(self.goals)
 
 
 class Pipeline:
@@ -70,15 +83,18 @@ class Pipeline:
         camera: CameraConfig | None = None,
         prefilter_config: PrefilterConfig | None = None,
         localiser_config: LocaliserConfig | None = None,
+        goal_detector: GoalDetector | None = None,
     ) -> None:
         self.detector = detector
         self.camera = camera or CameraConfig()
         self.prefilter = prefilter_config or PrefilterConfig(enabled=False)
         self.localiser = Localiser(self.camera, localiser_config)
+        self.goal_detector = goal_detector
 
     def process(self, frame: Frame, localiser: Localiser | None = None) -> Result:
         """Detect and place the rings of one frame; `localiser` overrides the pipeline's own
-        (a frame taken from another camera mount)."""
+        (a frame taken from another camera mount; the goals are placed with the goal detector's
+        own mount)."""
         t0 = time.perf_counter()
         image = frame.color
         if self.prefilter.enabled:
@@ -91,12 +107,14 @@ class Pipeline:
         t2 = time.perf_counter()
         rings = (localiser or self.localiser).localise(dets, frame.depth_m, mask, frame.intrinsics)
         t3 = time.perf_counter()
-        return Result(
-            dets,
-            rings,
-            {
-                "prefilter": (t1 - t0) * 1e3,
-                "detect": (t2 - t1) * 1e3,
-                "localise": (t3 - t2) * 1e3,
-            },
-        )
+        timings = {
+            "prefilter": (t1 - t0) * 1e3,
+            "detect": (t2 - t1) * 1e3,
+            "localise": (t3 - t2) * 1e3,
+        }
+        goals: list[GoalSighting] = []
+        # A goal is placed with its depth: a frame without a depth image shows none.
+        if self.goal_detector is not None and frame.depth_m is not None:
+            goals = self.goal_detector.detect(frame.color, frame.depth_m, frame.intrinsics)
+            timings["goals"] = (time.perf_counter() - t3) * 1e3
+        return Result(dets, rings, timings, goals)
