@@ -1,7 +1,8 @@
 """Perception for the daemon: a camera thread that keeps only the latest result.
 
 The control loop never waits for the camera: each State takes whatever result is newest and
-judges its age (decide.py treats an old one as no rings, as the policy was trained to see them).
+judges its age (decide.py treats an old one as no rings and no goals, as the policy was trained
+to see them).
 The thread owns the camera: it opens the source, runs the perception pipeline on every frame, and
 when the camera fails or ends it logs why, closes it and opens it again, forever. It runs at a
 lower priority than the control loop (jetson/threads.py): the loop first, perception with the
@@ -21,7 +22,7 @@ import itertools
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
@@ -31,11 +32,19 @@ from jetson.clock import Clock
 from jetson.log import EventLog
 from jetson.threads import lower_this_thread
 
+NO_GOALS = np.zeros((0, 3))
+NO_GOALS.flags.writeable = False
+
+
+def no_goals() -> NDArray[np.float64]:
+    return NO_GOALS
+
 
 @dataclass(frozen=True)
 class Perceived:
     """One frame's rings in the robot frame (x right, y forward, metres), with its time on the
-    daemon's clock."""
+    daemon's clock; and its goals, (N, 3) x, y robot frame and colour code
+    (jetson/perception/goals.py), when the pipeline has a goal detector (none otherwise)."""
 
     id: int
     stamp_s: float
@@ -44,6 +53,7 @@ class Perceived:
     detections: int = 0
     process_ms: float = 0.0
     error: str | None = None  # perception raised on this frame: no rings to trust
+    goals_robot: NDArray[np.float64] = field(default_factory=no_goals)
 
 
 class PerceptionFeed(Protocol):
@@ -63,12 +73,21 @@ class SourceLike(Protocol):
     def close(self) -> None: ...
 
 
-Processor = Callable[[Any], Any]  # Frame -> object with .rings_robot_xy (and .detections)
+# Frame -> object with .rings_robot_xy (and .detections, and .goals_robot with a goal detector)
+Processor = Callable[[Any], Any]
 
 
 def _rings(result: Any) -> NDArray[np.float64]:
     rings = np.asarray(result.rings_robot_xy, dtype=np.float64)
     return rings.reshape(-1, 2) if rings.size else np.zeros((0, 2))
+
+
+def _goals(result: Any) -> NDArray[np.float64]:
+    goals = getattr(result, "goals_robot", None)
+    if goals is None:
+        return NO_GOALS
+    goals = np.asarray(goals, dtype=np.float64)
+    return goals.reshape(-1, 3) if goals.size else NO_GOALS
 
 
 class _Ids:
@@ -193,7 +212,7 @@ class CameraWorker:
         t0 = time.perf_counter()
         try:
             result = self._process(frame)
-            rings = _rings(result)
+            rings, goals = _rings(result), _goals(result)
         except Exception as exc:
             index = int(getattr(frame, "index", 0))
             self._error(f"perception failed on frame {index}", exc)
@@ -213,6 +232,7 @@ class CameraWorker:
             int(getattr(frame, "index", 0)),
             len(getattr(result, "detections", ()) or ()),
             (time.perf_counter() - t0) * 1e3,
+            goals_robot=goals,
         )
         self._hand_on(latest)
         if self.tap is not None:
@@ -253,12 +273,13 @@ class SyncPerception:
         t0 = time.perf_counter()
         try:
             result = self._process(frame)
-            rings, error = _rings(result), None
+            rings, goals, error = _rings(result), _goals(result), None
             detections = len(getattr(result, "detections", ()) or ())
         except Exception as exc:
-            rings, error, detections = np.zeros((0, 2)), f"{type(exc).__name__}: {exc}", 0
+            rings, goals, error = np.zeros((0, 2)), NO_GOALS, f"{type(exc).__name__}: {exc}"
+            detections = 0
         ms = (time.perf_counter() - t0) * 1e3
-        self._latest = Perceived(self._ids(), stamp, rings, index, detections, ms, error)
+        self._latest = Perceived(self._ids(), stamp, rings, index, detections, ms, error, goals)
         return self._latest
 
     def set_rings(self, rings_robot_xy: ArrayLike, stamp_s: float | None = None) -> Perceived:

@@ -10,7 +10,8 @@ Pure and deterministic (no I/O, no clock: the caller passes the perception's age
 - A skill policy (its policy.json names skills) scores options; jetson.autonomy.skills' controller
   drives the best one from the same observation, as it did in training.
   A perception result older than `perception_max_age_s`, or none, gives no rings: empty slots,
-  as the policy saw rings it could not see.
+  as the policy saw rings it could not see. The same holds for the goals the camera reports
+  (`[camera] goals`, read by the scripted alliance, jetson/scripted.py): an old result has none.
 - A camera result is 50-150 ms old when it is used (exposure, detection, the frame's wait for the
   next one). With `frame_pose` its rings are placed from the pose of that moment (PoseHistory:
   the States' GPS poses, interpolated), then seen from the newest pose: turning at 4 rad/s, the
@@ -37,8 +38,9 @@ Pure and deterministic (no I/O, no clock: the caller passes the perception's age
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import pairwise
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -50,6 +52,7 @@ from jetson.autonomy.observation import FrameStack, RobotView, build_frame
 from jetson.autonomy.policy import Policy
 from jetson.autonomy.ring_memory import RingMemory
 from jetson.autonomy.skills import SkillDriver
+from jetson.camera_feed import NO_GOALS, no_goals
 from jetson.errors import SettingsError
 from jetson.settings import DecisionConfig
 from protocol.messages import (
@@ -77,6 +80,16 @@ class PerceptionInput:
     age_s: float
     rings_robot_xy: NDArray[np.float64]
     error: str | None = None  # perception raised on the newest frame
+    # The goals the camera saw, (N, 3) x, y robot frame and colour code; none without a goal
+    # detector (jetson.camera_feed.Perceived.goals_robot).
+    goals_robot: NDArray[np.float64] = field(default_factory=no_goals)
+
+    @classmethod
+    def of(cls, perceived: Any, age_s: float) -> PerceptionInput:
+        """The decision's view of a camera result (jetson.camera_feed.Perceived), `age_s` old."""
+        return cls(
+            perceived.id, age_s, perceived.rings_robot_xy, perceived.error, perceived.goals_robot
+        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -199,6 +212,16 @@ def perceived_rings(
     if not perception.age_s <= config.perception_max_age_s:
         return _NO_RINGS, "stale"
     return perception.rings_robot_xy, "fresh"
+
+
+def perceived_goals(
+    perception: PerceptionInput | None, config: DecisionConfig
+) -> NDArray[np.float64]:
+    """The camera's goals (robot frame, colour code), by perceived_rings' rule: a stale result,
+    or none, has no goals."""
+    if perception is None or perceived_rings(perception, config)[1] != "fresh":
+        return NO_GOALS
+    return perception.goals_robot
 
 
 def rings_held(state: State, config: DecisionConfig) -> int:

@@ -458,11 +458,7 @@ class Daemon:
         p = None
         try:
             p = self.perception.latest() if self.perception is not None else None
-            pin = (
-                None
-                if p is None
-                else PerceptionInput(p.id, now - p.stamp_s, p.rings_robot_xy, p.error)
-            )
+            pin = None if p is None else PerceptionInput.of(p, now - p.stamp_s)
             t0 = time.perf_counter()
             decision = self.decider.decide(state, pin)
         except Exception as exc:  # the decider catches its own; this is for a broken feed

@@ -8,6 +8,7 @@ gzip-compressed when the name ends in .gz (the default). Records, each with "kin
                 settings and control rate: what replay needs to rebuild the decision code
     reset       the decision's history was cleared (a new session starts with one)
     perception  a perception result the first time a State used it: id, time, rings (robot frame)
+                and, when the camera saw goals, goals (x, y robot frame, colour code)
     cycle       one State and its answer: clock time, the State's fields, the perception id and
                 age used, the Command, the decision's reason, and the latency (ms)
     frame       a downscaled camera frame (JPEG colour and depth, base64) with its detection
@@ -137,18 +138,20 @@ class Recorder:
         if len(self._seen) > 100_000:
             self._seen.clear()
         self._seen.add(result.id)
-        self._put(
-            {
-                "kind": "perception",
-                "id": result.id,
-                "stamp": result.stamp_s,
-                "rings": result.rings_robot_xy.tolist(),
-                "frame": result.frame_index,
-                "detections": result.detections,
-                "process_ms": round(result.process_ms, 3),
-                "error": result.error,
-            }
-        )
+        record = {
+            "kind": "perception",
+            "id": result.id,
+            "stamp": result.stamp_s,
+            "rings": result.rings_robot_xy.tolist(),
+            "frame": result.frame_index,
+            "detections": result.detections,
+            "process_ms": round(result.process_ms, 3),
+            "error": result.error,
+        }
+        goals = getattr(result, "goals_robot", None)
+        if goals is not None and len(goals):  # none: the key is left out, as before goals
+            record["goals"] = goals.tolist()
+        self._put(record)
 
     def cycle(self, rec: CycleRecord) -> None:
         self._put(rec)

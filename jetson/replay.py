@@ -1,8 +1,9 @@
 """`pete-jetson replay FILE`: re-run a recorded session through the decision code, offline.
 
-Each recorded State, with the perception result and age it was answered with, goes through a
-fresh Decider built from the recording's header (same settings, same control rate) and the same
-policy (the recorded path, or --policy; its sha256 is compared with the recorded one). Every
+Each recorded State, with the perception result and age it was answered with (its rings, and its
+goals for the scripted alliance), goes through a fresh Decider built from the recording's header
+(same settings, same control rate) and the same policy (the recorded path, or --policy; its
+sha256 is compared with the recorded one), or the scripted alliance it was made with. Every
 Command field and the decision's reason are compared with what was sent. A difference means the
 decision code, the policy or the libraries under them behave differently from the robot's.
 
@@ -273,7 +274,7 @@ def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e
     decider, description = recorded_decider(path, header, policy, warnings)
     report = ReplayReport(path, description)
     report.warnings = warnings
-    rings: dict[int, tuple[np.ndarray, str | None]] = {}
+    perceived: dict[int, PerceptionInput] = {}
     latencies = []
     end = None
     for rec in records:
@@ -283,10 +284,9 @@ def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e
         elif kind == "reset":
             decider.reset()
         elif kind == "perception":
-            xy = np.asarray(rec["rings"], dtype=np.float64).reshape(-1, 2)
-            rings[int(rec["id"])] = (xy, rec.get("error"))
+            perceived[int(rec["id"])] = recorded_perception(rec)
         elif kind == "cycle":
-            _compare(report, decider, rec, rings, tolerance, path)
+            _compare(report, decider, rec, perceived, tolerance, path)
             latencies.append(float(rec.get("latency_ms", math.nan)) / 1e3)
     report.latency = LatencyStats.summary_ms(x for x in latencies if math.isfinite(x))
     report.cut = reader.cut
@@ -296,6 +296,14 @@ def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e
     if end is not None and end.get("stopped"):
         report.warnings.append(f"the recording stopped early: {end['stopped']}")
     return report
+
+
+def recorded_perception(rec: dict[str, Any]) -> PerceptionInput:
+    """A recording's perception record as the decision reads it (its age comes with each cycle
+    that uses it); a record without goals (none seen, or recorded before goals) has none."""
+    xy = np.asarray(rec["rings"], dtype=np.float64).reshape(-1, 2)
+    goals = np.asarray(rec.get("goals") or [], dtype=np.float64).reshape(-1, 3)
+    return PerceptionInput(int(rec["id"]), 0.0, xy, rec.get("error"), goals)
 
 
 def recorded_state(data: dict[str, Any]) -> State:
@@ -321,7 +329,7 @@ def _compare(
     report: ReplayReport,
     decider: Decider,
     rec: dict[str, Any],
-    rings: dict[int, tuple[np.ndarray, str | None]],
+    perceived: dict[int, PerceptionInput],
     tolerance: float,
     path: Path,
 ) -> None:
@@ -335,10 +343,9 @@ def _compare(
     pin = None
     if rec.get("p") is not None:
         pid = int(rec["p"])
-        if pid not in rings:
+        if pid not in perceived:
             raise ReplayError(f"{path}: cycle {index} uses perception {pid}, never recorded")
-        xy, error = rings[pid]
-        pin = PerceptionInput(pid, float(rec["age"]), xy, error)
+        pin = replace(perceived[pid], age_s=float(rec["age"]))
     d = decider.decide(state, pin)
     report.reasons[d.reason] = report.reasons.get(d.reason, 0) + 1
     diffs = []

@@ -3,8 +3,10 @@
 jetson/autonomy/alliance.py's strategy plays the whole Tipping Point match for one robot of a VEX
 AI alliance (the 24" or the 15", `[decision] role`). Here it drives the real robot from what the
 daemon has, the same inputs the twin hands it (sim/baselines/alliance.py): the Brain's pose, the
-camera's rings, the intake's count, the clamp and the lift, the match clock. So a team can field
-the whole game before any learned alliance exists.
+camera's rings and goals (the pipeline's goal detector, jetson/perception/goals.py, on by default
+with this player: `[camera] goals`), the intake's count, the clamp and the lift, the match clock.
+So a team can field the whole game before any learned alliance exists. A camera result older
+than `perception_max_age_s` gives no rings and no goals, as for a policy.
 
 ScriptedDecider has jetson.decide.Decider's interface (decide(State, PerceptionInput) ->
 Decision, reset(), the memories the dashboard draws) and passes the same gates (jetson.decide's
@@ -30,6 +32,7 @@ from jetson.decide import (
     Decision,
     PerceptionInput,
     PhaseTracker,
+    perceived_goals,
     perceived_rings,
     rings_held,
     stop,
@@ -142,6 +145,9 @@ class ScriptedDecider:
                 rings_held=rings_held(state, self.config),
                 goal_clamped=state.goal_clamped == CLAMP_HOLDS,
                 lift_up=state.lift == LiftState.UP,
+                # A daemon without a goal detector reports none: the strategy then plays as
+                # without one (its goals dead-reckoned from the layout and the clamp).
+                goals_robot=perceived_goals(perception, self.config),
             )
             try:
                 self._action = self.strategy.step(inputs)

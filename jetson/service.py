@@ -311,9 +311,12 @@ def build(
 
 
 def make_pipeline(camera_settings: Any) -> Any:
-    """jetson.perception's pipeline as [camera] configures it: (camera config, Pipeline). A
-    missing model or a bad camera config fails here, at start-up."""
+    """jetson.perception's pipeline as [camera] configures it: (camera config, Pipeline), with
+    the goal detector when `goals` is true (make_camera settles it from the whole settings:
+    Settings.detects_goals; None here is off). A missing model or a bad camera config fails
+    here, at start-up."""
     from jetson.perception.camera import CameraConfig
+    from jetson.perception.goals import GoalDetector
     from jetson.perception.pipeline import Pipeline, make_detector
     from jetson.perception.prefilter import PrefilterConfig
 
@@ -321,7 +324,10 @@ def make_pipeline(camera_settings: Any) -> Any:
     camera = CameraConfig.load(Path(cs.config)) if cs.config else CameraConfig()
     model = Path(cs.model) if cs.model else None
     detector = make_detector(cs.detector, camera, model, cs.threshold, providers=cs.providers)
-    return camera, Pipeline(detector, camera, PrefilterConfig(enabled=cs.prefilter))
+    goals = GoalDetector(camera) if cs.goals else None
+    return camera, Pipeline(
+        detector, camera, PrefilterConfig(enabled=cs.prefilter), goal_detector=goals
+    )
 
 
 def memory_camera(camera_settings: Any) -> Any:
@@ -343,11 +349,14 @@ def make_camera(settings: Settings, clock: Any, log: Any, own_process: bool = Fa
     """The camera thread over the configured source and pipeline; a camera that is absent or
     fails later is retried by the thread, forever. `own_process`: the thread runs in a process
     of its own (jetson/camera_process.py), not started yet: its start() builds the pipeline and
-    fails as this function would; `clock` must then be the machine's monotonic clock."""
+    fails as this function would; `clock` must then be the machine's monotonic clock. The goal
+    detector runs when Settings.detects_goals says so."""
+    from dataclasses import replace
+
     from jetson.camera_feed import CameraWorker
     from jetson.perception.sources import open_source
 
-    cs = settings.camera
+    cs = replace(settings.camera, goals=settings.detects_goals())
     if own_process:
         from jetson.camera_process import CameraProcess
 

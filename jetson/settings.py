@@ -161,6 +161,9 @@ class CameraSettings:
     retry_s: float = 1.0  # wait before reopening a failed camera
     frame_clock: bool = False  # frames are stamped on the daemon's clock (a lockstep simulator)
     providers: tuple[str, ...] | None = None  # the CNN's onnxruntime providers; None: the best
+    # Find the mobile goals in each frame too (jetson/perception/goals.py), for the scripted
+    # alliance; None: on when [decision] player is "alliance" (Settings.detects_goals).
+    goals: bool | None = None
 
     def __post_init__(self) -> None:
         _check_providers(self, "camera")
@@ -256,6 +259,13 @@ class Settings:
     log: LogSettings = field(default_factory=LogSettings)
     dashboard: DashboardSettings = field(default_factory=DashboardSettings)
     system: SystemSettings = field(default_factory=SystemSettings)
+
+    def detects_goals(self) -> bool:
+        """Whether the camera finds goals: [camera] goals, or when it is not set, whether the
+        scripted alliance decides (it reads goals; a policy does not)."""
+        if self.camera.goals is not None:
+            return self.camera.goals
+        return self.decision.player == "alliance"
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Settings:
