@@ -87,8 +87,8 @@ def child_main(
     from jetson.camera_feed import CameraWorker
     from jetson.clock import MonotonicClock
     from jetson.frames import FrameTap
+    from jetson.perception.pipeline import make_pipeline
     from jetson.perception.sources import open_source
-    from jetson.service import make_pipeline
 
     log = _QueueLog(lines)
     try:

@@ -310,26 +310,6 @@ def build(
     return Service(daemon, camera, _files=files, dashboard=dashboard, cpu_wake=cpu_wake)
 
 
-def make_pipeline(camera_settings: Any) -> Any:
-    """jetson.perception's pipeline as [camera] configures it: (camera config, Pipeline), with
-    the goal detector when `goals` is true (make_camera settles it from the whole settings:
-    Settings.detects_goals; None here is off). A missing model or a bad camera config fails
-    here, at start-up."""
-    from jetson.perception.camera import CameraConfig
-    from jetson.perception.goals import GoalDetector
-    from jetson.perception.pipeline import Pipeline, make_detector
-    from jetson.perception.prefilter import PrefilterConfig
-
-    cs = camera_settings
-    camera = CameraConfig.load(Path(cs.config)) if cs.config else CameraConfig()
-    model = Path(cs.model) if cs.model else None
-    detector = make_detector(cs.detector, camera, model, cs.threshold, providers=cs.providers)
-    goals = GoalDetector(camera) if cs.goals else None
-    return camera, Pipeline(
-        detector, camera, PrefilterConfig(enabled=cs.prefilter), goal_detector=goals
-    )
-
-
 def memory_camera(camera_settings: Any) -> Any:
     """The camera as the ring memory sees through it (jetson.autonomy.spec.MemoryCamera): [camera]'s
     config file, or the default mount and intrinsics without one."""
@@ -354,6 +334,7 @@ def make_camera(settings: Settings, clock: Any, log: Any, own_process: bool = Fa
     from dataclasses import replace
 
     from jetson.camera_feed import CameraWorker
+    from jetson.perception.pipeline import make_pipeline
     from jetson.perception.sources import open_source
 
     cs = replace(settings.camera, goals=settings.detects_goals())

@@ -25,6 +25,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -118,3 +119,18 @@ class Pipeline:
             goals = self.goal_detector.detect(frame.color, frame.depth_m, frame.intrinsics)
             timings["goals"] = (time.perf_counter() - t3) * 1e3
         return Result(dets, rings, timings, goals)
+
+
+def make_pipeline(camera_settings: Any) -> tuple[CameraConfig, Pipeline]:
+    """The pipeline as `[camera]` (jetson.settings.CameraSettings) configures it: (camera
+    config, Pipeline), with the goal detector when `goals` is true (jetson.service.make_camera
+    settles it from the whole settings: Settings.detects_goals; None here is off). A missing
+    model or a bad camera config fails here, at start-up."""
+    cs = camera_settings
+    camera = CameraConfig.load(Path(cs.config)) if cs.config else CameraConfig()
+    model = Path(cs.model) if cs.model else None
+    detector = make_detector(cs.detector, camera, model, cs.threshold, providers=cs.providers)
+    goals = GoalDetector(camera) if cs.goals else None
+    return camera, Pipeline(
+        detector, camera, PrefilterConfig(enabled=cs.prefilter), goal_detector=goals
+    )

@@ -22,9 +22,10 @@ from jetson.clock import ManualClock, MonotonicClock
 from jetson.decide import PerceptionInput, perceived_goals
 from jetson.errors import SettingsError
 from jetson.log import EventLog
+from jetson.perception.pipeline import make_pipeline
 from jetson.replay import replay
 from jetson.scripted import ROBOTS, ScriptedDecider
-from jetson.service import build, make_camera, make_pipeline
+from jetson.service import build, make_camera
 from jetson.settings import CameraSettings, DecisionConfig, Settings
 from jetson.testing import FakeBrain
 from protocol.messages import State

@@ -21,7 +21,8 @@ from jetson.autonomy.camera import Intrinsics
 from jetson.camera_feed import CameraWorker
 from jetson.clock import MonotonicClock
 from jetson.log import EventLog
-from jetson.service import Service, build, make_pipeline
+from jetson.perception.pipeline import make_pipeline
+from jetson.service import Service, build
 from jetson.settings import CameraSettings, Settings
 from jetson.testing import FakeBrain
 

@@ -17,7 +17,7 @@ import pytest
 from jetson.autonomy.alliance import GOAL_COLOUR_CODES
 from jetson.perception.camera import CameraConfig as JetsonCamera
 from jetson.perception.frame import Frame
-from jetson.service import make_pipeline
+from jetson.perception.pipeline import make_pipeline
 from jetson.settings import Settings
 from sim.camera import render_camera
 from sim.evaluate import eval_env
