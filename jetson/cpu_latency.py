@@ -5,7 +5,7 @@ Between two States the daemon's loop sleeps (4 to 20 ms), and an idle CPU goes i
 state it must climb out of when the next State arrives: a Jetson's deep CPU idle states, or a
 virtual machine's halted vCPU, which the host must schedule again. The first decision after
 the nap then runs slowly, and on such machines those wake-ups, not the decision's own work,
-make the daemon's latency tail (docs/notes/2026-11-26-dashboard-latency.md: on a 2-vCPU VM,
+make the daemon's latency tail (docs/notes/2026-11-26-dashboard-latency.md: on a 16-core VM,
 decide() after a 4-ms nap had a p99 of 4 to 7 ms against 1.6 ms back to back).
 
 Linux's answer is a PM QoS request: while a process holds /dev/cpu_dma_latency open with a value
