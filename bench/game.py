@@ -15,8 +15,8 @@ alliance, 15 s isolation + 105 s interaction) with the robots' GPS noise on. The
 Measured (vs: the ring-race alliance, self: itself; per match means):
 - win rate against (a) by match score (target >= 0.9; a draw counts half), and the same with the
   credit for the other side's platform-protection fouls taken out of the scripted alliance's
-  score (no target: the credit is part of the score, but one robot bumping a board can be called
-  for dozens of fouls a match);
+  score (no target: the credit is part of the score; <SG3> credits an Elevated robot a
+  violation, at most two with the alliance's own, rules.platform_credit);
 - the share of the interaction period the scripted robots are still (measured speed under
   3 cm/s and turn under 0.1 rad/s, off their own platform: a robot waiting on its board keeps
   the ramp down or holds the balance) while rings are left on the floor (target < 0.1, over
@@ -24,7 +24,9 @@ Measured (vs: the ring-race alliance, self: itself; per match means):
   on the platform too (no target: the 15"'s sentry waits there by design);
 - the share of matches against (a) that end with its platform Balanced and both its robots
   Elevated (target >= 0.8);
-- fouls per match of each alliance, by kind; mean scores and the score by element (rings on a
+- fouls per match of each alliance, by kind, and the share of matches in which one of its robots
+  touches the opposing platform as the match ends (<SG3>: a Disqualification in the manual,
+  reported and not scored); mean scores and the score by element (rings on a
   high branch, low branch and base as points, goals in the home zone, goals and robots Elevated,
   credit for the opponent's platform fouls, the autonomous bonus, the win point's rate).
 
@@ -72,6 +74,9 @@ class GameRecord:
     counted_steps: int = 0
     wall_s: float = 0.0
     awp: dict[str, bool] = field(default_factory=dict)
+    # by alliance: one of its robots touched the opposing platform as the match ended (<SG3>
+    # Note 2: a Disqualification in the manual; reported, not scored)
+    platform_contact_at_end: dict[str, bool] = field(default_factory=dict)
 
 
 def elements(s: AllianceScore) -> dict[str, float]:
@@ -148,6 +153,7 @@ def play(seed: int, fidelity: str, opponent: str) -> GameRecord:
             counted_steps=counted,
             wall_s=time.perf_counter() - start,
             awp={a: bool(score[a].autonomous_win_point) for a in ("red", "blue")},
+            platform_contact_at_end=rules.platform_contact_at_end(w),
         )
     finally:
         core.close()
@@ -183,8 +189,8 @@ def summarise(records: list[GameRecord], fidelity: str) -> Result:
         )  # fmt: skip
         r.add("vs_ring_race_win_rate", wins / len(vs))
         # The same with the credit for the ring-race alliance's platform-protection fouls taken
-        # out of the scripted alliance's score (a robot that keeps bumping a board can be called
-        # for dozens of fouls in one match).
+        # out of the scripted alliance's score (the credit tops its Elevated robots up to two,
+        # rules.platform_credit).
         plain = [g.score[g.ours] - g.elements[g.ours]["foul_credit"] for g in vs]
         theirs = [g.score[other(g.ours)] for g in vs]
         plain_wins = sum(
@@ -225,6 +231,11 @@ def summarise(records: list[GameRecord], fidelity: str) -> Result:
             r.add(
                 f"vs_ring_race_fouls_theirs_{kind}",
                 statistics.fmean(g.fouls[other(g.ours)].get(kind, 0) for g in vs),
+            )
+        for side, pick in (("ours", lambda g: g.ours), ("theirs", lambda g: other(g.ours))):
+            r.add(
+                f"vs_ring_race_{side}_platform_contact_at_end_rate",
+                statistics.fmean(float(g.platform_contact_at_end.get(pick(g), False)) for g in vs),
             )
     if selfplay:
         both = [s for g in selfplay for s in g.score.values()]

@@ -157,6 +157,8 @@ class RulesSpec:
     pin_time_s: float
     endgame_s: float = 30.0  # <SG3>: the platforms are protected in the match's last seconds
     platform_foul_credit: int = 1  # Elevated robots credited to the opponent per <SG3> violation
+    # <SG3>: the most Elevated robots (real and credited) an alliance scores; 0: no bound
+    elevated_robots_max: int = 2
     isolation_contact_foul: bool = True  # robots of both alliances touching in isolation
     isolation_foul_forfeits: bool = True  # ... gives the opponent the bonus and the win point
     isolation_home_zone_foul: bool = False  # a robot in the opponent's home zone in isolation
@@ -482,6 +484,9 @@ def parse_field(data: dict[str, Any], source: str = "<field>") -> FieldSpec:
         platform_foul_credit=r.integer(rules_t, "platform_foul_credit", "rules")
         if "platform_foul_credit" in rules_t
         else defaults.platform_foul_credit,
+        elevated_robots_max=r.integer(rules_t, "elevated_robots_max", "rules")
+        if "elevated_robots_max" in rules_t
+        else defaults.elevated_robots_max,
         isolation_contact_foul=r.flag(rules_t, "isolation_contact_foul", "rules", True),
         isolation_foul_forfeits=r.flag(rules_t, "isolation_foul_forfeits", "rules", True),
         isolation_home_zone_foul=r.flag(rules_t, "isolation_home_zone_foul", "rules", False),

@@ -272,12 +272,41 @@ def ring_points(world: WorldState, g: GoalState) -> int:
     )
 
 
+def platform_credit(violations: int, elevated: int, robots: int, most: int) -> int:
+    """The Elevated robots credited to an alliance for the opponent's <SG3> violations (v2.2):
+    each violation that does not interfere with gameplay credits "one additional Elevated
+    Robot", and "Alliances may still only receive points for a maximum of two Elevated Robots"
+    (`most`, the field file's elevated_robots_max; 0: no bound). The credit fills only what the
+    alliance's own Elevated robots leave of that bound, and (a choice, for the twin's 1v1
+    configs: the manual's alliances always field two robots) of the robots it fields: a
+    credited robot stands for one of its own that the violation kept off its platform."""
+    if most <= 0:
+        return violations
+    return max(0, min(violations, min(most, robots) - elevated))
+
+
+def platform_contact_at_end(world: WorldState) -> dict[str, bool]:
+    """By alliance: whether one of its robots touches the opposing alliance's platform (itself or
+    through an opposing robot standing on it) in the step the match ends with. <SG3> (v2.2, its
+    Note 2): a violation still going on at the end of the match interferes with gameplay, a
+    Disqualification. The twin reports it and does not score it (the match's points stand)."""
+    out = {a: False for a in ALLIANCES}
+    if world.time_s < world.match_length_s - 1e-9:
+        return out
+    for robot, _, kind in world.foul_contacts:
+        if kind == "platform_protection":
+            out[world.robots[robot].alliance] = True
+    return out
+
+
 def _score_game(world: WorldState) -> dict[str, AllianceScore]:
     sc = world.field.scoring
     rules = world.field.rules
     judged = _Judged(world)
     elevated_robots = {a: 0 for a in ALLIANCES}
+    robots = {a: 0 for a in ALLIANCES}
     for r in world.robots:
+        robots[r.alliance] += 1
         if judged.elevated(r):
             elevated_robots[r.alliance] += 1
     owners = [_goal_owner_game(world, g, judged) for g in world.goals]
@@ -301,7 +330,12 @@ def _score_game(world: WorldState) -> dict[str, AllianceScore]:
                     goals_up += 1
                 else:
                     in_zone += 1
-        credit = rules.platform_foul_credit * platform_fouls[other(alliance)]
+        credit = platform_credit(
+            rules.platform_foul_credit * platform_fouls[other(alliance)],
+            elevated_robots[alliance],
+            robots[alliance],
+            rules.elevated_robots_max,
+        )
         auto = world.autonomous[alliance] if world.autonomous else None
         bonus = auto.bonus if auto else 0
         total = (

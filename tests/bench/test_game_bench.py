@@ -45,3 +45,14 @@ def test_the_win_rate_with_and_without_the_foul_credit() -> None:
     assert m["vs_ring_race_win_rate_without_foul_credit"] == pytest.approx(1.5 / 3)
     assert m["vs_ring_race_score_ours_without_foul_credit"] == pytest.approx((200 + 130 + 150) / 3)
     assert m["vs_ring_race_fouls_theirs_platform_protection"] == pytest.approx(1.0)
+
+
+def test_the_platform_contact_at_the_end_is_reported_by_side() -> None:
+    """A robot touching the opposing platform as the match ends (<SG3>: a Disqualification) is
+    a share of matches by side; it does not change the win rate (points decide it)."""
+    records = [record(0, 200, 100, 0.0), record(1, 100, 200, 0.0)]
+    records[0].platform_contact_at_end = {"red": False, "blue": True}
+    m = summarise(records, "training").metrics
+    assert m["vs_ring_race_theirs_platform_contact_at_end_rate"] == pytest.approx(0.5)
+    assert m["vs_ring_race_ours_platform_contact_at_end_rate"] == pytest.approx(0.0)
+    assert m["vs_ring_race_win_rate"] == pytest.approx(0.5)

@@ -25,6 +25,7 @@ def test_the_whole_game_tables_load() -> None:
     assert f.seesaw.overhang == pytest.approx(3 * INCH)
     assert f.seesaw.start_down == "field"
     assert f.rules.endgame_s == 30.0 and f.rules.platform_foul_credit == 1
+    assert f.rules.elevated_robots_max == 2
     assert f.rules.isolation_contact_foul and f.rules.isolation_foul_forfeits
     assert not f.rules.isolation_home_zone_foul
     assert (f.scoring.autonomous_bonus, f.scoring.autonomous_bonus_tie) == (20, 10)
@@ -48,7 +49,12 @@ def test_the_whole_game_tables_load() -> None:
 def test_a_field_without_them_gets_the_defaults() -> None:
     data = raw()
     del data["seesaw"]
-    for key in ("endgame_s", "platform_foul_credit", "isolation_contact_foul"):
+    for key in (
+        "endgame_s",
+        "platform_foul_credit",
+        "elevated_robots_max",
+        "isolation_contact_foul",
+    ):
         del data["rules"][key]
     del data["scoring"]["autonomous_bonus_tie"]
     for key in ("red_awp_line", "red_awp_goal", "blue_awp_line", "blue_awp_goal"):
@@ -59,6 +65,7 @@ def test_a_field_without_them_gets_the_defaults() -> None:
     f = parse_field(data)
     assert f.seesaw == SeesawSpec()
     assert f.rules.endgame_s == 30.0 and f.scoring.autonomous_bonus_tie == 10
+    assert f.rules.elevated_robots_max == 2
     assert f.awp_lines == {} and f.awp_goals == {}
     assert not any(g.has_high_branch for g in f.goals)
 
@@ -70,6 +77,7 @@ def test_a_field_without_them_gets_the_defaults() -> None:
         (lambda d: d["seesaw"].update(board_mass_kg=0), "seesaw.board_mass_kg"),
         (lambda d: d["zones"].update(red_awp_goal="nowhere"), "zones.red_awp_goal"),
         (lambda d: d["rules"].update(isolation_contact_foul="yes"), "rules.isolation_contact_foul"),
+        (lambda d: d["rules"].update(elevated_robots_max=-1), "rules.elevated_robots_max"),
         (lambda d: d["goal_kinds"]["neutral"].update(high_branch_capacity=-1), "high_branch"),
     ],
 )

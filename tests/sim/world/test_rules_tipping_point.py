@@ -305,6 +305,73 @@ def test_platform_protection_credits_an_elevated_robot() -> None:
         assert s["blue"].foul_credit == 1
         assert s["blue"].total == s["blue"].goals_in_zone * 20 + 30 + s["blue"].autonomous_bonus
         assert s["red"].fouls == 1
+        assert rules.platform_contact_at_end(w) == {"red": False, "blue": False}  # not over
+        # Still on blue's platform when the match ends: a violation at the end (<SG3> Note 2,
+        # a Disqualification), reported; no second foul for the same contact.
+        while not w.over:
+            fouls += w.step(commands).fouls
+        assert len(fouls) == 1
+        assert rules.platform_contact_at_end(w) == {"red": True, "blue": False}
+
+
+def test_platform_protection_credit_is_bounded_by_two_elevated_robots() -> None:
+    """<SG3> (v2.2): each violation credits one additional Elevated robot, and an alliance still
+    scores at most two Elevated robots: the credit fills what its own Elevated robots leave."""
+    assert rules.platform_credit(1, 0, 2, 2) == 1  # bumped and drove away: one robot
+    assert rules.platform_credit(9, 0, 2, 2) == 2  # bumped nine times: still two robots
+    assert rules.platform_credit(3, 1, 2, 2) == 1  # one robot up: one more
+    assert rules.platform_credit(5, 2, 2, 2) == 0  # both up: nothing to credit
+    assert rules.platform_credit(0, 0, 2, 2) == 0
+    assert rules.platform_credit(4, 0, 1, 2) == 1  # a 1v1 alliance: its one robot
+    assert rules.platform_credit(4, 1, 2, 0) == 4  # elevated_robots_max = 0: no bound
+
+
+def _blue_platform_fouls(w: World, n: int) -> None:
+    for k in range(n):
+        w.fouls.append(Foul(w.match_length_s - 20.0 + k, 2, "blue", "platform_protection"))
+
+
+def test_many_platform_fouls_credit_at_most_two_robots(game: World) -> None:
+    """Five <SG3> violations by blue, no red robot Elevated: red is credited two Elevated
+    robots (60), not five; the fouls are all counted."""
+    _blue_platform_fouls(game, 5)
+    s = game.score()
+    assert s["red"].foul_credit == 2 and s["red"].total == 60
+    assert s["blue"].fouls == 5 and s["blue"].total == 0
+
+
+def test_platform_fouls_credit_nothing_when_both_robots_are_elevated(game: World) -> None:
+    """Both red robots Elevated on their Balanced platform: blue's violations add nothing (the
+    alliance already scores its two Elevated robots); one robot Elevated: one more."""
+    park(game, 0, -0.3)
+    park(game, 1, 0.35)
+    game.settle_platforms()
+    before = game.score()["red"]
+    assert before.robots_elevated == 2
+    _blue_platform_fouls(game, 3)
+    s = game.score()["red"]
+    assert s.foul_credit == 0 and s.total == before.total
+    game.place_robot(0, -0.9, -0.5, 0.0)  # the 24" off the platform
+    game.settle_platforms()
+    s = game.score()["red"]
+    assert s.robots_elevated == 1 and s.foul_credit == 1 and s.total == 2 * 30
+
+
+def test_a_field_may_leave_the_platform_credit_unbounded() -> None:
+    """elevated_robots_max = 0 in the field file: every violation credits one robot."""
+    from dataclasses import replace
+
+    from sim.field import load_field
+
+    field = load_field()
+    field = replace(field, rules=replace(field.rules, elevated_robots_max=0))
+    with World(world_preset("tipping_point_2v2", preloads=False), field_spec=field) as w:
+        w.reset(np.random.default_rng(0))
+        w.set_floor_rings(np.zeros((0, 2)))
+        for i, (x, y) in enumerate(FAR):
+            w.place_goal(i, x, y)
+        _blue_platform_fouls(w, 5)
+        assert w.score()["red"].foul_credit == 5
 
 
 def test_ring_race_is_unchanged_by_the_whole_game_fields() -> None:
