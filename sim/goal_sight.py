@@ -10,7 +10,7 @@ obstacles); high fidelity asks PyBullet's ray test. The camera sees nothing whil
 faster than its `max_turn_rate_rad_s`, as for rings.
 
 A report is (N, 3): x, y in the robot frame (metres, x right, y forward) and the colour code
-(jetson.autonomy.alliance.GOAL_COLOUR_CODES: 0 yellow, 1 red, 2 blue).
+(jetson.autonomy.goal_colours.GOAL_COLOUR_CODES: 0 yellow, 1 red, 2 blue).
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from __future__ import annotations
 import numpy as np
 import pybullet as p
 
-from jetson.autonomy.alliance import GOAL_COLOUR_CODES as COLOUR_CODES
 from jetson.autonomy.geometry import field_to_robot
+from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES as COLOUR_CODES
 from sim.visibility import Obstacles, in_frustum, visible
 from sim.world.sensors import camera_pose
 from sim.world.state import WorldState

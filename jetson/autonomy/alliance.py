@@ -59,16 +59,13 @@ from jetson.autonomy.geometry import (
     robot_to_field,
     to_alliance_frame,
 )
+from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES
 from jetson.autonomy.observation import RobotView
 from jetson.autonomy.ring_memory import RingMemory
 from jetson.autonomy.skills import Trail, arc_through, back_onto, pursuit_point, turn_first
 from jetson.autonomy.spec import SPEC_VERSION, ObservationSpec
 
 Vec = NDArray[np.float64]
-
-# The colour of a goal's base as the goal detector reports it (jetson/perception/goals.py):
-# neutral goals are yellow, alliance goals their alliance's colour.
-GOAL_COLOUR_CODES: dict[str, int] = {"yellow": 0, "red": 1, "blue": 2}
 
 
 @dataclass(frozen=True)

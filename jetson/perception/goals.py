@@ -25,8 +25,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from jetson.autonomy.alliance import GOAL_COLOUR_CODES as COLOUR_CODES
 from jetson.autonomy.camera import Intrinsics
+from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES as COLOUR_CODES
 from jetson.perception.camera import CameraConfig
 from jetson.perception.localise import pixel_rays
 from jetson.perception.prefilter import HsvWindow

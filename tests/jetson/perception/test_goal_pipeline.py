@@ -10,8 +10,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from jetson.autonomy.alliance import GOAL_COLOUR_CODES
 from jetson.autonomy.camera import CameraMount, Intrinsics
+from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES
 from jetson.perception.camera import CameraConfig
 from jetson.perception.frame import Frame
 from jetson.perception.goals import GoalDetector

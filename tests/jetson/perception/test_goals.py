@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from jetson.autonomy.alliance import GOAL_COLOUR_CODES
 from jetson.autonomy.camera import project_points
+from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES
 from jetson.perception.camera import CameraConfig
 from jetson.perception.goals import GoalDetector, GoalDetectorConfig, goals_robot
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jetson.autonomy.alliance import GOAL_COLOUR_CODES
+from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES
 from jetson.perception.camera import CameraConfig as JetsonCamera
 from jetson.perception.frame import Frame
 from jetson.perception.pipeline import make_pipeline
