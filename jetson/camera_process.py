@@ -36,7 +36,7 @@ from typing import Any
 
 from jetson.camera_feed import Perceived
 from jetson.errors import CameraProcessError
-from jetson.frames import frame_bytes_for
+from jetson.frames import FrameView, frame_bytes_for, newest_view, view_for
 from jetson.helper_process import Helper, HelperHandle, serve_until_stopped
 from jetson.log import LogLevels
 from jetson.slots import Latest, Slot
@@ -134,7 +134,7 @@ class RemoteTap:
         self.period_s = period_s
         self.width = width
         self._latest = Latest(slot, wait=False)
-        self._views: deque[Any] = deque(maxlen=keep)
+        self._views: deque[FrameView] = deque(maxlen=keep)
 
     def _refresh(self) -> None:
         seq = self._latest.seq
@@ -143,21 +143,16 @@ class RemoteTap:
             self._views.append(view)
 
     @property
-    def views(self) -> tuple[Any, ...]:
+    def views(self) -> tuple[FrameView, ...]:
         self._refresh()
         return tuple(self._views)
 
     @property
-    def newest(self) -> Any:
-        self._refresh()
-        return self._views[-1] if self._views else None
+    def newest(self) -> FrameView | None:
+        return newest_view(self.views)
 
-    def get(self, result_id: int) -> Any:
-        self._refresh()
-        for v in reversed(self._views):
-            if v.id == result_id:
-                return v
-        return None
+    def get(self, result_id: int) -> FrameView | None:
+        return view_for(self.views, result_id)
 
 
 class CameraProcess(HelperHandle):

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import base64
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -81,6 +81,20 @@ def shrink(image: NDArray[Any], width: int, nearest: bool = False) -> NDArray[An
     return cv2.resize(image, size, interpolation=cv2.INTER_NEAREST if nearest else cv2.INTER_AREA)
 
 
+def newest_view(views: Sequence[FrameView]) -> FrameView | None:
+    """The newest of a tap's views (kept oldest first), None when it has none."""
+    return views[-1] if views else None
+
+
+def view_for(views: Sequence[FrameView], result_id: int) -> FrameView | None:
+    """The view of perception result `result_id` among a tap's views, newest first; None when
+    it is not (or no longer) among them."""
+    for v in reversed(views):
+        if v.id == result_id:
+            return v
+    return None
+
+
 class FrameTap:
     """The camera thread's frames for the recording and the dashboard (see the module doc).
 
@@ -102,14 +116,10 @@ class FrameTap:
 
     @property
     def newest(self) -> FrameView | None:
-        views = self.views
-        return views[-1] if views else None
+        return newest_view(self.views)
 
     def get(self, result_id: int) -> FrameView | None:
-        for v in reversed(self.views):
-            if v.id == result_id:
-                return v
-        return None
+        return view_for(self.views, result_id)
 
     def offer(self, result_id: int, stamp_s: float, frame: Any, result: Any) -> None:
         """A processed frame (jetson.perception.frame.Frame) and its pipeline Result; kept when
