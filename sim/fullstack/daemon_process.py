@@ -22,9 +22,10 @@ the in-process one. What the process adds:
   goes to a pipe (as to the journal), not a file, so it is not affected.
 
 Each turn's answer carries what the match reads of the daemon (the bytes it wrote on this
-connection, its counters, the latencies and camera results since the last turn), so nothing is
-lost when a process is killed. The child's JSON-lines log is its stdout; a thread here copies it
-into the run folder's daemon.jsonl.
+connection, its counters, the latencies and camera results since the last turn: each result's
+rings and the goals the daemon's goal detector saw), so nothing is lost when a process is
+killed. The child's JSON-lines log is its stdout; a thread here copies it into the run folder's
+daemon.jsonl.
 
 The simulator's clock is frozen while a process starts (imports, the ONNX sessions, the camera
 thread): a restart costs RestartSec of simulated time, not the start-up's wall time, which
@@ -289,11 +290,9 @@ class DaemonProcess:
         self._now.counters = r["counters"]
         self._now.link_errors = r["link_errors"]
         self._latencies.extend(r.get("lat", ()))
-        for index, rid, stamp, rings, frame, error in r.get("res", ()):
-            self.results[int(index)] = Perceived(
-                int(rid), float(stamp), np.asarray(rings, dtype=np.float64).reshape(-1, 2),
-                int(frame), error=error,
-            )  # fmt: skip
+        for row in r.get("res", ()):
+            index, perceived = result_of_row(row)
+            self.results[index] = perceived
         self.failed_frames.update(int(i) for i in r.get("fail", ()))
 
     def _crashed(self) -> None:
@@ -437,6 +436,25 @@ class DaemonProcess:
             self._reap(STOP_TIMEOUT_S)
 
 
+def result_row(index: int, p: Perceived) -> list[Any]:
+    """A camera result as a turn's answer carries it (JSON): the frame's index, the result's id,
+    stamp, rings, frame index and error, and the goals the goal detector saw (x, y, colour code
+    rows; none without one)."""
+    return [
+        index, p.id, p.stamp_s, p.rings_robot_xy.tolist(), p.frame_index, p.error,
+        p.goals_robot.tolist(),
+    ]  # fmt: skip
+
+
+def result_of_row(row: list[Any]) -> tuple[int, Perceived]:
+    """result_row's inverse: (the frame's index, the result)."""
+    index, rid, stamp, rings, frame, error, goals = row
+    return int(index), Perceived(
+        int(rid), float(stamp), np.asarray(rings, dtype=np.float64).reshape(-1, 2), int(frame),
+        error=error, goals_robot=np.asarray(goals, dtype=np.float64).reshape(-1, 3),
+    )  # fmt: skip
+
+
 def _spin(seconds: float) -> None:
     """Wait a short while precisely (sleep's resolution is too coarse below a millisecond)."""
     end = time.perf_counter() + seconds
@@ -549,10 +567,7 @@ class _Child:
         if new:
             out["res"] = []
             for k in new:
-                p = self.host.results[k]
-                out["res"].append(
-                    [k, p.id, p.stamp_s, p.rings_robot_xy.tolist(), p.frame_index, p.error]
-                )
+                out["res"].append(result_row(k, self.host.results[k]))
                 self._res_sent.add(k)
         failed = self.host.failed_frames - self._fail_sent
         if failed:
