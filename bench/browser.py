@@ -85,21 +85,38 @@ class Browser:
             todo += children.get(pid, [])
         return out
 
-    def pin(self, cpus: set[int]) -> None:
-        """Keep the browser's processes on `cpus` (a benchmark keeps it off the daemon's)."""
+    def threads(self) -> list[int]:
+        """Every thread of the browser's processes: Linux schedules each on its own (its own
+        niceness, CPUs and policy), and a call given a process's id changes its first thread
+        only."""
+        out = []
         for pid in self.pids():
+            try:
+                out += [int(t.name) for t in Path(f"/proc/{pid}/task").iterdir()]
+            except OSError:  # it ended meanwhile
+                continue
+        return out
+
+    def pin(self, cpus: set[int]) -> None:
+        """Keep the browser's threads on `cpus` (a benchmark keeps it off the daemon's)."""
+        for tid in self.threads():
             with contextlib.suppress(OSError):  # it ended meanwhile
-                os.sched_setaffinity(pid, cpus)
+                os.sched_setaffinity(tid, cpus)
 
     def renice(self, nice: int = 19) -> None:
         """Give the browser's processes the lowest priority (a benchmark: it stands for a
         laptop's browser, which does not share the robot's CPU)."""
-        for pid in self.pids():
+        for tid in self.threads():
             with contextlib.suppress(OSError):
-                os.setpriority(os.PRIO_PROCESS, pid, nice)
+                os.setpriority(os.PRIO_PROCESS, tid, nice)
 
     def open(self, url: str) -> None:
         self.driver.get(url)
+
+    def before_each_page(self, script: str) -> None:
+        """Run `script` in every page this browser opens from now on, before the page's own
+        scripts (Chrome DevTools' Page.addScriptToEvaluateOnNewDocument)."""
+        self.driver.execute_cdp_cmd("Page.addScriptToEvaluateOnNewDocument", {"source": script})
 
     def js(self, script: str, *args: Any) -> Any:
         """Run `script` in the page with `D` bound to window.peteDashboard."""

@@ -80,9 +80,11 @@ SOURCES: dict[str, Source] = {
     "dashboard": Source(
         "python -m bench.dashboard",
         "What the live dashboard costs the robot and what a browser gets (issue 43): the daemon "
-        "in its own process with the camera thread, States at 100 Hz, without the dashboard and "
-        "with it open in headless Chromium: the daemon's State -> Command p50/p99 and their "
-        "ratio, the process's CPU, the snapshots and camera frames a second the page counts.",
+        "in its own process with the camera in its own, States at 100 Hz, without the dashboard, "
+        "with it open in headless Chromium, and with the same page in Chromium fed the same "
+        "messages without a dashboard (the browser's load alone): the daemon's State -> Command "
+        "p50/p99 of each and their ratios, the process's CPU, the snapshots and camera frames a "
+        "second the page counts.",
     ),
     "deploy": Source(
         "python -m bench.deploy",

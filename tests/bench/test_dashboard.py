@@ -1,4 +1,4 @@
-"""bench.dashboard, tiny: both scenarios once for two seconds, into a temporary folder."""
+"""bench.dashboard, tiny: its three scenarios once for two seconds, into a temporary folder."""
 
 from __future__ import annotations
 
@@ -23,10 +23,19 @@ def test_a_tiny_run_writes_every_metric(tmp_path: Path) -> None:
     data = json.loads((tmp_path / "dashboard.json").read_text())
     m = data["metrics"]
     assert data["benchmark"] == "dashboard"
-    assert m["cycles_without"] >= 90 and m["cycles_with"] >= 90
-    assert m["unanswered_without"] == 0 and m["unanswered_with"] == 0
+    for scenario in ("without", "with", "browser"):
+        assert m[f"cycles_{scenario}"] >= 90 and m[f"unanswered_{scenario}"] == 0
     assert m["page_state_hz"] > 0 and m["page_frame_hz"] > 0
+    # the browser scenario's page draws the with run's messages, replayed without a server
+    assert m["page_state_hz_browser"] > 0 and m["page_frame_hz_browser"] > 0
     assert set(data["targets"]) == {
-        "daemon_p99_ratio_with_to_without", "daemon_p99_ms_with", "page_state_hz",
+        "daemon_p99_ratio_with_to_browser", "daemon_p99_ms_with", "page_state_hz",
         "page_frame_hz",
     }  # fmt: skip
+
+
+def test_the_browser_scenario_needs_a_with_run_first() -> None:
+    from bench.dashboard import run_scenario
+
+    with pytest.raises(ValueError, match="run `with` first"):
+        run_scenario(1.0, 50.0, "browser")
