@@ -1,20 +1,32 @@
-"""The classical mobile-goal detector: colour masks, blobs, depth, the camera model.
+"""The classical mobile-goal detector: colour masks, blobs, each blob's points in 3D, shape tests.
 
-A Tipping Point mobile goal stands on a large coloured base (a 13 in disc): yellow for the neutral
-goals, red or blue for the alliance goals. The detector masks each colour in HSV, keeps blobs big
-enough for a goal base at the camera's range, takes each blob's median depth (the depth image,
-aligned to the colour image) and puts the blob's centre pixel at that depth through the camera
-model (jetson.autonomy.camera: the one pinhole model and mount), giving the goal's place on the
-floor in the robot frame. The report is what the scripted alliance reads
+A Tipping Point mobile goal stands on a large coloured base (at most 13 in across, 3 in high):
+yellow for the neutral goals, red or blue for the alliance goals. The detector masks each colour
+in HSV and keeps blobs big enough for a goal base at the camera's range. Each blob's pixels with a
+depth reading (the depth image, aligned to the colour image) are placed in the robot frame through
+the camera model (jetson.autonomy.camera: the one pinhole model and mount), and the blob is a goal
+only when those points are shaped like a base standing on the floor:
+
+- its base: enough points no higher than the base (a goal's post, of the same colour, rises above
+  it and is left out of the tests); an alliance-coloured bumper or license plate on a robot, all
+  above that height, has none;
+- as wide across the camera's ray as a good share of the base's diameter (cut by the image's left
+  or right edge, the part inside is tested);
+- inside one base: the base's middle is put a base radius beyond the nearest of the blob's points
+  along the ray (the camera sees the base's near face and its top, never its far side from
+  below), and nearly all the points lie within a radius (and a margin) of it; a piece of a
+  platform of the goal's colour (the twin's platforms are the alliance goals' red and blue),
+  larger than a base or long and thin, leaves points outside.
+
+The base's middle is where the goal is reported: the report is what the scripted alliance reads
 (jetson.autonomy.alliance.AllianceInputs.goals_robot): (N, 3) x, y robot frame (metres, x right,
-y forward) and a colour code, COLOUR_CODES.
+y forward) and a colour code, COLOUR_CODES (jetson/autonomy/goal_colours.py).
 
 The daemon runs it in its perception pipeline when `[camera] goals` is on (jetson/perception/
 pipeline.py); in the twin's own matches the goals come from geometry instead (sim/goal_sight.py),
-while the full stack's daemon runs this detector on the twin's rendered frames. Not measured on
-real photos: the HSV windows are first guesses for saturated field colours, checked on synthetic
-images (tests/jetson/perception/test_goals.py) and the twin's renders; anything of a goal's colour
-and size is a goal to it (a platform's edge, a bumper: jetson/perception/README.md, "Goals").
+while the full stack's daemon runs this detector on the twin's rendered frames
+(`python -m sim.goal_survey` measures it there). Not measured on real photos: the HSV windows are
+first guesses for saturated field colours, and a real base is a heptagon, not the twin's disc.
 """
 
 from __future__ import annotations
@@ -25,11 +37,13 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from jetson.autonomy.camera import Intrinsics
+from jetson.autonomy.camera import Intrinsics, project_points
 from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES as COLOUR_CODES
 from jetson.perception.camera import CameraConfig
 from jetson.perception.localise import pixel_rays
 from jetson.perception.prefilter import HsvWindow
+
+INCH = 0.0254
 
 
 def _default_windows() -> dict[str, tuple[HsvWindow, ...]]:
@@ -49,26 +63,51 @@ class GoalDetectorConfig:
     windows: dict[str, tuple[HsvWindow, ...]] = field(default_factory=_default_windows)
     reference_width: int = 640  # min_area_px is for this image width and scales with it
     min_area_px: float = 400.0  # a goal base 3 m away covers ~1500 px at 640x480
-    base_width_m_range: tuple[float, float] = (0.15, 0.6)  # the blob's physical width, with depth
     open_px: int = 3
+    base_radius_m: float = 6.5 * INCH  # the manual: a base at most 13 in across
+    base_height_m: float = 3.0 * INCH
+    # The shape tests (the module's doc), on the blob's points in the robot frame:
+    height_margin_m: float = 0.03  # a base's point is no higher than the base and this
+    min_base_points: int = 12  # fewer of them: no base
+    min_width: float = 0.45  # across the ray, at least this share of the base's diameter
+    min_depth: float = 0.5  # along the ray (its top seen from above), this share of it
+    disc_margin_m: float = 0.06  # a base's point lies within its radius and this of its middle
+    min_inside: float = 0.9  # the share of the base's points that must
+    max_cut_edges: int = 1  # a base running off more of the image's edges is not tested
 
     def __post_init__(self) -> None:
         unknown = set(self.windows) - set(COLOUR_CODES)
         if unknown:
             raise ValueError(f"goal colours must be among {sorted(COLOUR_CODES)}: {unknown}")
-        lo, hi = self.base_width_m_range
-        if self.min_area_px <= 0 or not 0 < lo < hi:
-            raise ValueError("min_area_px > 0 and 0 < base width low < high")
+        if self.min_area_px <= 0 or self.base_radius_m <= 0 or self.base_height_m <= 0:
+            raise ValueError("min_area_px, base_radius_m and base_height_m must be > 0")
+        if not (0 < self.min_inside <= 1 and 0 <= self.min_width <= 1 and 0 <= self.min_depth <= 1):
+            raise ValueError("min_inside in (0, 1], min_width and min_depth in [0, 1]")
 
 
 @dataclass(frozen=True)
 class GoalSighting:
     colour: str
-    u: float  # the blob's centre pixel
+    u: float  # the base's pixels' middle
     v: float
-    depth_m: float
-    x: float  # robot frame, metres
+    depth_m: float  # their median depth
+    x: float  # the base's middle, robot frame, metres
     y: float
+
+
+@dataclass(frozen=True)
+class BlobShape:
+    """What the shape tests made of one blob (GoalDetector.blobs): `goal` is the verdict and
+    `why` the first test it failed ("" for a goal)."""
+
+    goal: bool
+    why: str
+    x: float = float("nan")  # the base's middle, robot frame
+    y: float = float("nan")
+    width_m: float = 0.0  # the base's points across the ray
+    depth_m: float = 0.0  # and along it
+    inside: float = 0.0  # the share of the base's points within a radius of the middle
+    edges: str = ""  # the image's edges the base's pixels run off: "left", "top,right"...
 
 
 class GoalDetector:
@@ -86,6 +125,16 @@ class GoalDetector:
     ) -> list[GoalSighting]:
         """`intrinsics`: the frame's own (a RealSense and the simulator's stream send theirs);
         the camera config's by default. Either is scaled to the image's size."""
+        return [s for s, shape in self.blobs(bgr, depth_m, intrinsics) if shape.goal]
+
+    def blobs(
+        self,
+        bgr: NDArray[np.uint8],
+        depth_m: NDArray[np.float32],
+        intrinsics: Intrinsics | None = None,
+    ) -> list[tuple[GoalSighting, BlobShape]]:
+        """Every blob big enough for a base, with what the shape tests made of it (the goals
+        and the rest: what sim.goal_survey counts)."""
         cfg = self.config
         h, w = bgr.shape[:2]
         if depth_m.shape[:2] != (h, w):
@@ -96,7 +145,7 @@ class GoalDetector:
         scale = w / cfg.reference_width
         hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
         kernel = np.ones((cfg.open_px, cfg.open_px), np.uint8)
-        out: list[GoalSighting] = []
+        out: list[tuple[GoalSighting, BlobShape]] = []
         for colour, windows in cfg.windows.items():
             mask = np.zeros((h, w), np.uint8)
             for win in windows:
@@ -107,20 +156,114 @@ class GoalDetector:
             for k in range(1, n):
                 if stats[k, cv2.CC_STAT_AREA] < cfg.min_area_px * scale * scale:
                     continue
-                pix = labels == k
-                d = depth_m[pix]
-                d = d[np.isfinite(d) & (d > 0)]
-                if not len(d):
+                x0, y0 = stats[k, cv2.CC_STAT_LEFT], stats[k, cv2.CC_STAT_TOP]
+                x1 = x0 + stats[k, cv2.CC_STAT_WIDTH]
+                y1 = y0 + stats[k, cv2.CC_STAT_HEIGHT]
+                vs, us = np.nonzero(labels[y0:y1, x0:x1] == k)
+                d = depth_m[vs + y0, us + x0]
+                ok = np.isfinite(d) & (d > 0)
+                if not ok.any():
                     continue
-                z = float(np.median(d))
-                width_m = stats[k, cv2.CC_STAT_WIDTH] * z / intr.fx
-                lo_w, hi_w = cfg.base_width_m_range
-                if not lo_w <= width_m <= hi_w:
+                vs, us, z = vs[ok], us[ok], d[ok].astype(np.float64)
+                uv = np.column_stack([us + x0, vs + y0]).astype(np.float64)
+                height = self._points(uv, z, intr)[:, 2]
+                low = height <= cfg.base_height_m + cfg.height_margin_m
+                if low.sum() < cfg.min_base_points:
+                    u, v = (float(c) for c in centroids[k])
+                    nan = float("nan")
+                    sighting = GoalSighting(colour, u, v, float(np.median(z)), nan, nan)
+                    out.append((sighting, BlobShape(False, "above the floor")))
                     continue
-                u, v = (float(c) for c in centroids[k])
-                point = self.camera.mount.camera_to_robot(pixel_rays(np.array([[u, v]]), intr) * z)
-                out.append(GoalSighting(colour, u, v, z, float(point[0, 0]), float(point[0, 1])))
+                # The blob's parts no higher than a base, apart in the image once the posts are
+                # left out: two goals one behind the other (the nearer one's post across the
+                # farther one's base) are two bases.
+                part = np.zeros((y1 - y0, x1 - x0), np.uint8)
+                part[vs[low], us[low]] = 255
+                m, parts = cv2.connectedComponents(part)
+                of = parts[vs[low], us[low]]
+                for j in range(1, m):
+                    mine = of == j
+                    if mine.sum() < cfg.min_base_points:
+                        continue
+                    puv, pz = uv[low][mine], z[low][mine]
+                    shape = self.shape(puv, pz, intr)
+                    u, v = (float(c) for c in puv.mean(axis=0))
+                    sighting = GoalSighting(colour, u, v, float(np.median(pz)), shape.x, shape.y)
+                    out.append((sighting, shape))
         return out
+
+    def _points(
+        self, uv: NDArray[np.float64], depth: NDArray[np.float64], intr: Intrinsics
+    ) -> NDArray[np.float64]:
+        """Pixels (N, 2) at their depths (N,) -> points (N, 3), robot frame, z up."""
+        return self.camera.mount.camera_to_robot(pixel_rays(uv, intr) * depth[:, None])
+
+    def shape(
+        self, uv: NDArray[np.float64], depth: NDArray[np.float64], intr: Intrinsics
+    ) -> BlobShape:
+        """The shape tests (the module's doc) on a blob's pixels (N, 2) and their depths (N,),
+        in an image of `intr`'s size."""
+        cfg = self.config
+        r = cfg.base_radius_m
+        mount = self.camera.mount
+        points = self._points(uv, depth, intr)
+        low = points[:, 2] <= cfg.base_height_m + cfg.height_margin_m
+        if low.sum() < cfg.min_base_points:
+            return BlobShape(False, "above the floor")
+        base, pix = points[low], uv[low]
+        # The image's edges the base's pixels run off.
+        cut = {
+            "left": pix[:, 0].min() < 1,
+            "right": pix[:, 0].max() > intr.width - 2,
+            "top": pix[:, 1].min() < 1,
+            "bottom": pix[:, 1].max() > intr.height - 2,
+        }
+        edges = ",".join(k for k, v in cut.items() if v)
+        if sum(cut.values()) > cfg.max_cut_edges:
+            return BlobShape(False, "cut by the image", edges=edges)
+        # The ray from the camera to the blob, on the floor: along it (s) and across it (a, to
+        # the right, as the image's u grows).
+        cam = mount.position[:2]
+        rel = base[:, :2] - cam
+        ray = np.median(rel, axis=0)
+        ray = ray / max(float(np.hypot(*ray)), 1e-9)
+        across = np.array([ray[1], -ray[0]])
+        s, a = rel @ ray, rel @ across
+        a_lo, a_hi = (float(q) for q in np.quantile(a, [0.03, 0.97]))
+        width = a_hi - a_lo
+        if cut["left"]:
+            mid_a = a_hi - r
+        elif cut["right"]:
+            mid_a = a_lo + r
+        else:
+            mid_a = (a_lo + a_hi) / 2
+            if width < cfg.min_width * 2 * r:
+                return BlobShape(False, "too narrow", width_m=width, edges=edges)
+        middle = np.abs(a - mid_a) <= r / 2
+        s_mid = s[middle] if middle.sum() >= 3 else s
+        s_lo, s_hi = (float(q) for q in np.quantile(s_mid, [0.02, 0.98]))
+        deep = s_hi - s_lo
+        if deep < cfg.min_depth * 2 * r and not (cut["top"] or cut["bottom"]):
+            return BlobShape(False, "too shallow", width_m=width, depth_m=deep, edges=edges)
+        # The near face is the base's edge, unless it is below the image: then its top's far edge.
+        along = s_hi - r if cut["bottom"] else s_lo + r
+        centre = cam + along * ray + mid_a * across
+        x, y = float(centre[0]), float(centre[1])
+        inside = float(np.mean(np.hypot(*(base[:, :2] - centre).T) <= r + cfg.disc_margin_m))
+        found = {"x": x, "y": y, "width_m": width, "depth_m": deep, "inside": inside}
+        if inside < cfg.min_inside:
+            return BlobShape(False, "not one base", **found, edges=edges)
+        # As the twin's sighting (sim/goal_sight.py): a goal whose middle is out of view is not
+        # reported (a sliver at the image's edge could be anything of its colour); the middle
+        # may be placed a third of a radius off.
+        mid = mount.robot_to_camera_points(np.array([[x, y, cfg.base_height_m / 2]]))
+        (pu, pv), pz = (q[0] for q in project_points(mid, intr.fx, intr.fy, intr.cx, intr.cy))
+        margin = intr.fx * r / 3 / max(float(pz), 1e-3)
+        if not (
+            pz > 0 and -margin <= pu < intr.width + margin and -margin <= pv < intr.height + margin
+        ):
+            return BlobShape(False, "middle out of view", **found, edges=edges)
+        return BlobShape(True, "", **found, edges=edges)
 
 
 def goals_robot(sightings: list[GoalSighting]) -> NDArray[np.float64]:

@@ -1,77 +1,111 @@
-"""The classical goal detector (jetson/perception/goals.py) on synthetic images: a goal base of
-each colour drawn where the camera model projects a floor point, with a depth image, is found at
-that point in the robot frame with its colour; blobs too small or of other colours are not goals.
-Not real photos: the HSV windows are unmeasured (the module's doc says so)."""
+"""The classical goal detector (jetson/perception/goals.py) on synthetic frames with depth
+(jetson/perception/synthetic.py: boxes on a floor, ray-traced): a goal base of each colour is
+found at its middle with its colour; what is of a goal's colour but not shaped like a base
+standing on the floor (a robot's bumper, a platform's board, a strip of tape, a far wider blob)
+is not a goal, nor is a blob without depth. Not real photos: the HSV windows are unmeasured (the
+module's doc says so); the twin's renders are sim/goal_survey.py's."""
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pytest
 
-from jetson.autonomy.camera import project_points
+from jetson.autonomy.camera import CameraMount, Intrinsics, project_points
 from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES
 from jetson.perception.camera import CameraConfig
 from jetson.perception.goals import GoalDetector, GoalDetectorConfig, goals_robot
+from jetson.perception.synthetic import Obstacle, Scene, render
 
 CAMERA = CameraConfig()
 BASE_RADIUS_M = 0.1651
+BASE_HEIGHT_M = 0.0762
 BGR = {"yellow": (20, 210, 235), "red": (40, 30, 200), "blue": (190, 80, 30)}
 
 
-def scene(
-    goals: list[tuple[str, float, float]], radius_m: float = BASE_RADIUS_M
-) -> tuple[np.ndarray, np.ndarray]:
-    """A grey floor at 3 m depth with a disc per goal (colour, x, y robot frame) drawn at the
-    pixel of its base's middle, the disc's depth that point's."""
-    intr, mount = CAMERA.intrinsics, CAMERA.mount
-    bgr = np.full((intr.height, intr.width, 3), 110, np.uint8)
-    depth = np.full((intr.height, intr.width), 3.0, np.float32)
-    for colour, x, y in goals:
-        pc = mount.robot_to_camera_points(np.array([[x, y, 0.05]]))
-        uv, z = project_points(pc, intr.fx, intr.fy, intr.cx, intr.cy)
-        centre = (round(float(uv[0, 0])), round(float(uv[0, 1])))
-        r = max(1, round(intr.fx * radius_m / float(z[0])))
-        cv2.circle(bgr, centre, r, BGR[colour], -1)
-        disc = np.zeros(depth.shape, np.uint8)
-        cv2.circle(disc, centre, r, 255, -1)
-        depth[disc > 0] = float(z[0])
-    return bgr, depth
+def base(colour: str, x: float, y: float, radius: float = BASE_RADIUS_M) -> Obstacle:
+    """A goal's base as a box of its diameter and height, centred on (x, y), robot frame."""
+    return Obstacle(
+        (x - radius, y - radius, 0.0), (x + radius, y + radius, BASE_HEIGHT_M), BGR[colour]
+    )
+
+
+def frame(*things: Obstacle, size: tuple[int, int] = (640, 480)) -> tuple[np.ndarray, np.ndarray]:
+    rendered = render(
+        Scene(obstacles=list(things)), Intrinsics().scaled(*size), CameraMount(), None
+    )
+    assert rendered.frame.depth_m is not None
+    return rendered.frame.color, rendered.frame.depth_m
+
+
+def detect(bgr: np.ndarray, depth: np.ndarray) -> list[tuple[str, float, float]]:
+    return sorted((s.colour, s.x, s.y) for s in GoalDetector(CAMERA).detect(bgr, depth))
 
 
 @pytest.mark.parametrize("colour", ["yellow", "red", "blue"])
-def test_a_goal_base_is_found_where_it_stands_with_its_colour(colour: str) -> None:
-    bgr, depth = scene([(colour, 0.25, 1.6)])
-    found = GoalDetector(CAMERA).detect(bgr, depth)
+@pytest.mark.parametrize("where", [(0.25, 1.25), (-0.2, 1.2), (0.0, 1.4)])
+def test_a_goal_base_is_found_at_its_middle_with_its_colour(
+    colour: str, where: tuple[float, float]
+) -> None:
+    found = GoalDetector(CAMERA).detect(*frame(base(colour, *where)))
     assert [s.colour for s in found] == [colour]
-    assert (found[0].x, found[0].y) == pytest.approx((0.25, 1.6), abs=0.04)
+    # The base's middle, not its near face (a base radius, 0.165 m, nearer); the box's corner
+    # nearest the camera is a little nearer than a round base's edge would be.
+    assert (found[0].x, found[0].y) == pytest.approx(where, abs=0.04)
     report = goals_robot(found)
     assert report.shape == (1, 3) and report[0, 2] == GOAL_COLOUR_CODES[colour]
 
 
-def test_several_goals_and_nothing_else() -> None:
-    bgr, depth = scene([("yellow", -0.5, 1.8), ("blue", 0.5, 1.4)])
-    # A purple ring-sized blob and a small yellow speck are not goals.
-    cv2.circle(bgr, (320, 430), 25, (160, 40, 150), -1)
-    cv2.circle(bgr, (40, 40), 4, BGR["yellow"], -1)
-    found = sorted(GoalDetector(CAMERA).detect(bgr, depth), key=lambda s: s.x)
-    assert [s.colour for s in found] == ["yellow", "blue"]
-    assert (found[0].x, found[0].y) == pytest.approx((-0.5, 1.8), abs=0.05)
-    assert (found[1].x, found[1].y) == pytest.approx((0.5, 1.4), abs=0.05)
+def test_several_goals_at_the_full_stacks_size() -> None:
+    bgr, depth = frame(base("yellow", -0.2, 1.35), base("blue", 0.25, 1.0), size=(240, 180))
+    found = detect(bgr, depth)
+    assert [c for c, _, _ in found] == ["blue", "yellow"]
+    assert found[0][1:] == pytest.approx((0.25, 1.0), abs=0.04)
+    assert found[1][1:] == pytest.approx((-0.2, 1.35), abs=0.04)
 
 
-def test_a_blob_of_the_wrong_physical_size_is_no_goal() -> None:
-    """A yellow blob far wider than a goal base at its depth (a wall, a banner) is left out,
-    as is one with no depth."""
-    bgr, depth = scene([("yellow", 0.0, 1.5)], radius_m=0.6)
-    assert GoalDetector(CAMERA).detect(bgr, depth) == []
-    bgr, depth = scene([("yellow", 0.0, 1.5)])
-    assert GoalDetector(CAMERA).detect(bgr, np.zeros_like(depth)) == []
+def test_a_bumper_of_a_goals_colour_is_no_goal() -> None:
+    """A robot's alliance-coloured bumper (the twin's: a stripe 8 cm high across the robot's
+    front, 11-19 cm up), of a 15 in robot and of a 24 in one, in front of a goal."""
+    for width in (0.34, 0.55):
+        bumper = Obstacle((-width / 2, 1.2, 0.11), (width / 2, 1.22, 0.19), BGR["red"])
+        assert detect(*frame(bumper)) == []
+    bumper = Obstacle((0.05, 0.9, 0.11), (0.6, 0.92, 0.19), BGR["blue"])
+    assert [c for c, _, _ in detect(*frame(bumper, base("blue", -0.15, 1.3)))] == ["blue"]
+
+
+@pytest.mark.parametrize("span", [(-0.6, 0.6), (0.15, 0.9), (-0.2, 0.25)])
+def test_a_platform_board_of_a_goals_colour_is_no_goal(span: tuple[float, float]) -> None:
+    """The twin's platforms are the alliance goals' red and blue: a board (2 ft deep, 3 in up)
+    seen whole, its end, and a piece no wider than a base: all deeper than one base."""
+    board = Obstacle((span[0], 0.8, 0.07), (span[1], 1.41, 0.08), BGR["blue"])
+    assert detect(*frame(board)) == []
+
+
+def test_tape_and_blobs_of_the_wrong_size_are_no_goals() -> None:
+    tape = Obstacle((-0.8, 1.4, 0.0), (0.8, 1.45, 0.002), BGR["yellow"])  # a line on the floor
+    assert detect(*frame(tape)) == []
+    assert detect(*frame(base("yellow", 0.0, 1.3, radius=0.5))) == []
+    bgr, depth = frame(base("yellow", 0.0, 1.25))
+    assert detect(bgr, np.zeros_like(depth)) == []
+
+
+def test_a_goal_cut_by_the_images_edge_is_placed_from_its_visible_side() -> None:
+    """Its middle just inside the image's right edge, half the base beyond it."""
+    intr, mount = CAMERA.intrinsics, CAMERA.mount
+    y = 1.0
+    xs = np.linspace(0.0, 2.0, 2001)
+    pts = mount.robot_to_camera_points(np.column_stack([xs, np.full_like(xs, y), xs * 0 + 0.04]))
+    uv, _ = project_points(pts, intr.fx, intr.fy, intr.cx, intr.cy)
+    x_edge = float(xs[np.argmax(uv[:, 0] >= intr.width)])  # the floor's x at the right edge
+    found = detect(*frame(base("red", x_edge - 0.03, y)))
+    assert len(found) == 1 and found[0][1:] == pytest.approx((x_edge - 0.03, y), abs=0.07)
 
 
 def test_bad_inputs_are_refused() -> None:
     with pytest.raises(ValueError, match="purple"):
         GoalDetectorConfig(windows={"purple": ()})
-    bgr, depth = scene([])
+    with pytest.raises(ValueError, match="min_inside"):
+        GoalDetectorConfig(min_inside=0.0)
+    bgr, depth = frame()
     with pytest.raises(ValueError, match="depth image"):
         GoalDetector(CAMERA).detect(bgr, depth[:10])

@@ -3,7 +3,7 @@ in `pete-sim match --world tipping_point_2v2` the red 24" runs the scripted alli
 camera pipeline has the goal detector (`[camera] goals` defaults on for that player), and the
 frames the twin renders for it (sim/camera.py: the field file's goal colours, yellow neutral, red
 and blue alliance goals) give the goals the twin's geometric sighting reports (sim/goal_sight.py),
-within the base's radius (the detector places the base's near face)."""
+at their bases' middles (sim/goal_survey.py measures it over many poses)."""
 
 from __future__ import annotations
 
@@ -72,8 +72,8 @@ def test_a_rendered_goal_is_found_where_the_twin_sees_it(
     nearest = rows[np.argmin(np.hypot(rows[:, 0], rows[:, 1]))]
     frame = Frame(np.ascontiguousarray(f.rgb[:, :, ::-1]), f.depth, cam.intrinsics, 0.0, 1)
     found = pipeline.process(frame).goals_robot
-    # The goal's sighting; an alliance goal by its platform may come with a piece of the
-    # platform's edge, which has the goal's colour (jetson/perception/README.md).
+    # The goal's sighting (a piece of a platform of the goal's colour at the image's edge can
+    # still pass the shape tests: jetson/perception/README.md).
     found = found[found[:, 2] == GOAL_COLOUR_CODES[colour]]
     assert len(found), truth
     best = found[[np.argmin(np.hypot(*(found[:, :2] - nearest[:2]).T))]]
