@@ -6,6 +6,12 @@ rebuilt exactly as the robot had them; every SAMPLE_S of the daemon's clock the 
 live dashboard gets is kept (jetson/dashboard/snapshot.py). The recorded camera frames (`frame`
 records, a few a second) are shown at their time. Without the policy (another machine, a moved
 file) the timeline still has the pose, the Commands, the link and the rings seen, but no memory.
+
+The goals the camera saw (a daemon with the goal detector records them with each perception
+result, jetson/recorder.py) go to the decision with the rings, as they went on the robot, and
+each snapshot shows the last fresh result's goals as it shows its rings: `field.goals_seen`,
+[x, y, colour code] in the field frame (jetson.autonomy.goal_colours), and their count in
+`perception.goals` and in the cycles (the report's figures).
 """
 
 from __future__ import annotations
@@ -21,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from jetson.autonomy.geometry import robot_to_field
 from jetson.dashboard.snapshot import (
     FIELD_HALF_M,
     LATENCY_WINDOW,
@@ -77,6 +84,7 @@ class Timeline:
         decider = self._decider(header, policy) if self.memories else None
         forgetting = Forgetting(decider.spec.memory_merge_m if decider else 0.12)
         rings: dict[int, tuple[np.ndarray, str | None]] = {}
+        goals: dict[int, np.ndarray] = {}
         perceptions: dict[int, dict[str, Any]] = {}
         latencies: deque[float] = deque(maxlen=LATENCY_WINDOW)
         lines: deque[list[Any]] = deque(maxlen=30)
@@ -93,6 +101,7 @@ class Timeline:
             elif kind == "perception":
                 xy = np.asarray(rec["rings"], dtype=np.float64).reshape(-1, 2)
                 rings[int(rec["id"])] = (xy, rec.get("error"))
+                goals[int(rec["id"])] = recorded_goals(rec)
                 perceptions[int(rec["id"])] = rec
             elif kind == "frame":
                 msg = {"kind": "frame", **{k: v for k, v in rec.items() if k != "kind"}}
@@ -110,7 +119,7 @@ class Timeline:
                 pid = rec.get("p")
                 if pid is not None and int(pid) in rings:
                     xy, error = rings[int(pid)]
-                    pin = PerceptionInput(int(pid), float(rec["age"]), xy, error)
+                    pin = PerceptionInput(int(pid), float(rec["age"]), xy, error, goals[int(pid)])
                 if decider is not None:
                     decider.decide(state, pin)
                 latency = rec.get("latency_ms")
@@ -128,6 +137,7 @@ class Timeline:
                         "left": state.left_speed, "right": state.right_speed,
                         "phase": state.phase.name.lower(), "reason": rec.get("reason"),
                         "rings": rec.get("rings") or 0, "perception": rec.get("perception"),
+                        "goals": len(goals_seen(pin, rec.get("perception"))),
                         "latency_ms": latency, "x": state.x, "y": state.y,
                         "driver": who_drives(state, cmd),
                     }
@@ -156,6 +166,7 @@ class Timeline:
     ) -> None:  # fmt: skip
         field = field_view(decider, state, seen)
         field["forgotten"] = forgetting.update(t, field)
+        field["goals_seen"] = goals_field(goals_seen(pin, decision.perception), state)
         h = self.header
         snap = {
             "kind": "state",
@@ -176,6 +187,7 @@ class Timeline:
                 "id": perception["id"],
                 "age_ms": None if pin is None else round(pin.age_s * 1e3, 1),
                 "rings": len(perception.get("rings") or ()),
+                "goals": len(perception.get("goals") or ()),
                 "detections": perception.get("detections", 0),
                 "process_ms": perception.get("process_ms"), "error": perception.get("error"),
             },
@@ -209,6 +221,31 @@ class Timeline:
         if i < 0:
             return None
         return i, self.frames[i][2]
+
+
+def recorded_goals(record: dict[str, Any]) -> np.ndarray:
+    """A perception record's goals, (N, 3) x, y robot frame and colour code: none when the
+    record has no `goals` (a daemon without the goal detector, or none seen)."""
+    return np.asarray(record.get("goals") or (), dtype=np.float64).reshape(-1, 3)
+
+
+def goals_seen(pin: PerceptionInput | None, perception: str | None) -> np.ndarray:
+    """The goals of the cycle's perception result when the decision took it fresh (the rings'
+    rule), else none."""
+    if pin is None or perception != "fresh":
+        return np.zeros((0, 3))
+    return pin.goals_robot
+
+
+def goals_field(goals_robot: np.ndarray, state: State) -> list[list[float]]:
+    """Goals (robot frame, colour code) -> [x, y, colour code] in the field frame (GPS, metres)."""
+    if not len(goals_robot):
+        return []
+    xy = robot_to_field(goals_robot[:, :2], (float(state.x), float(state.y)), float(state.heading))
+    return [
+        [round(float(x), 3), round(float(y), 3), int(c)]
+        for (x, y), c in zip(xy, goals_robot[:, 2], strict=True)
+    ]
 
 
 class ReplaySource:

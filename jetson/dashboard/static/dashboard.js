@@ -257,6 +257,18 @@
       }
       g.closePath(); g.strokeStyle = "#fd3"; g.lineWidth = 2; g.stroke();
     });
+    // the goals the camera saw (a recording's; jetson/dashboard/replay.py): [x, y, colour code],
+    // filled in the base's colour (jetson/autonomy/goal_colours.py: yellow, red, blue)
+    (f.goals_seen || []).forEach((p) => {
+      const [u, v] = T.px(p[0], p[1]);
+      g.beginPath();
+      for (let k = 0; k < 6; k++) {
+        const a = Math.PI / 3 * k;
+        const q = [u + 8 * Math.cos(a), v + 8 * Math.sin(a)];
+        if (k) g.lineTo(q[0], q[1]); else g.moveTo(q[0], q[1]);
+      }
+      g.closePath(); g.fillStyle = ["#fd3", "#e33", "#38f"][p[2]] || "#fff"; g.fill();
+    });
     (f.forgotten || []).forEach((p) => {
       const [u, v] = T.px(p[0], p[1]);
       const alpha = Math.max(0.15, 1 - p[2] / 5);
@@ -278,7 +290,7 @@
       D.drawn.rings.forgotten + " forgotten" + (f.memory ? "" : " (this policy has no ring memory)"));
     $("ring-counts").dataset.seen = D.drawn.rings.seen;
     $("ring-counts").dataset.remembered = D.drawn.rings.remembered;
-    text("goal-counts", D.drawn.goals + " remembered" + (f.holding ? ", holding one" : "") +
+    text("goal-counts", (f.goals_seen ? f.goals_seen.length + " seen, " : "") + D.drawn.goals + " remembered" + (f.holding ? ", holding one" : "") +
       (f.goal_memory ? "" : " (no goal memory)"));
     text("skill", f.skill ? f.skill + (f.target ? " -> (" + fmt(f.target[0], 2) + ", " + fmt(f.target[1], 2) + ")" : "") : "-");
     // the robot, last so it is on top

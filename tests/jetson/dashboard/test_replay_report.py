@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import aiohttp
+import numpy as np
 import pytest
 
 from jetson.dashboard.replay import ReplaySource, Timeline
@@ -134,3 +135,32 @@ def test_dashboard_command_serves_a_recording(recording: Path) -> None:
         capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     assert bad.returncode == 2 and "error" in bad.stderr
+
+
+def test_the_timeline_shows_the_goals_the_camera_saw(recording: Path, tmp_path: Path) -> None:
+    """A daemon with the goal detector records each result's goals (jetson/recorder.py): the
+    timeline hands them to the decision and shows the last fresh result's goals in the field
+    frame, as it shows its rings."""
+    from jetson.autonomy.geometry import robot_to_field
+    from jetson.replay import Records
+
+    goal = [0.1, 0.9, 2.0]  # a blue goal 0.9 m ahead, a little right
+    path = tmp_path / "with-goals.jsonl"
+    with path.open("w") as f:
+        for rec in Records(recording):
+            if rec.get("kind") == "perception" and rec["id"] % 2 == 0:
+                rec["goals"] = [goal]
+            f.write(json.dumps(rec) + "\n")
+    plain, tl = Timeline(recording, memories=False), Timeline(path, memories=False)
+    assert not any(s["field"]["goals_seen"] for s in plain.snapshots)
+    assert not any(c["goals"] for c in plain.cycles)
+    shown = [s for s in tl.snapshots if s["field"]["goals_seen"]]
+    assert shown and len(shown) < len(tl.snapshots)  # the odd results have none
+    for snap in shown:
+        assert snap["perception"]["goals"] == 1 and snap["perception"]["id"] % 2 == 0
+        assert snap["command"]["perception"] == "fresh"
+        pose = snap["pose"]
+        want = robot_to_field(np.array([goal[:2]]), (pose["x"], pose["y"]), pose["heading"])[0]
+        ((x, y, code),) = snap["field"]["goals_seen"]
+        assert code == 2 and np.hypot(x - want[0], y - want[1]) < 0.01
+    assert any(c["goals"] == 1 for c in tl.cycles)
