@@ -11,6 +11,10 @@ constexpr double kDegToRad = kPi / 180.0;
 constexpr double kRadToDeg = 180.0 / kPi;
 // An IMU rotation step larger than this (a sensor reset, a glitch) is not believed.
 constexpr double kMaxImuStepRad = 1.0;
+// The wheels' turn may differ from the IMU's by this fraction of the turn before it is slip (a
+// skid-steer drive's effective track is not its geometric one; the twin's 24-inch robot has a
+// wider track than kRobotConfig's).
+constexpr double kTurnTolerance = 0.75;
 
 double wrap(double a) {
   a = std::fmod(a, 2.0 * kPi);
@@ -93,6 +97,14 @@ void PoseFilter::remember() {
   if (hist_count_ < kHistory) ++hist_count_;
 }
 
+void PoseFilter::commanded(double left_mps, double right_mps) {
+  cmd_known_ = finite(left_mps) && finite(right_mps);
+  if (cmd_known_) {
+    cmd_left_ = left_mps;
+    cmd_right_ = right_mps;
+  }
+}
+
 void PoseFilter::predict(double dt_s, double left_mps, double right_mps, bool imu_ok,
                          double imu_deg, double track_width_m) {
   const bool imu_good = imu_ok && finite(imu_deg);
@@ -109,6 +121,26 @@ void PoseFilter::predict(double dt_s, double left_mps, double right_mps, bool im
   const double wheel_turn = (l - r) / track_width_m * dt_s;  // clockwise
   const bool imu_used = use_imu && std::fabs(imu_step) <= kMaxImuStepRad;
   const double dh = imu_used ? imu_step : wheel_turn;
+
+  // Slip: how far the wheels' measured speeds are from what the motors were told, and the
+  // wheels' turn from the IMU's (as a wheel surface speed), beyond what normal driving gives.
+  double disagree = 0.0;
+  if (cmd_known_) {
+    disagree = std::fmax(std::fabs(cmd_left_ - l), std::fabs(cmd_right_ - r));
+    cmd_known_ = false;  // one command per step
+  }
+  if (imu_used) {
+    // A skid-steer drive's effective track differs from the geometric one (scrub), so the
+    // wheels' turn may be off the IMU's by kTurnTolerance of the turn before it counts.
+    const double half_track = 0.5 * track_width_m / dt_s;
+    const double turn_mps = std::fabs(wheel_turn - imu_step) * half_track -
+                            kTurnTolerance * std::fabs(imu_step) * half_track;
+    disagree = std::fmax(disagree, turn_mps);
+  }
+  const double slip = disagree > config_.slip_deadband_mps
+                          ? (disagree - config_.slip_deadband_mps) * dt_s
+                          : 0.0;
+  slip_m_ += slip;
   const double hm = h_ + 0.5 * dh;
   const double s = std::sin(hm);
   const double c = std::cos(hm);
@@ -133,7 +165,7 @@ void PoseFilter::predict(double dt_s, double left_mps, double right_mps, bool im
   }
   // Slip: mostly along the direction driven, some sideways; plus a little with time.
   const double q = config_.odom_var_per_m * std::fabs(d);
-  const double qt = config_.pos_var_per_s * dt_s;
+  const double qt = config_.pos_var_per_s * dt_s + config_.slip_var_per_m * slip;
   n[0][0] += q * s * s + 0.25 * q + qt;
   n[1][1] += q * c * c + 0.25 * q + qt;
   n[0][1] += q * s * c;
@@ -204,8 +236,13 @@ GpsUpdate PoseFilter::correct(double x_m, double y_m, double heading_deg, double
       return GpsUpdate::reanchored;
     }
     // The robot may be moving without its wheels saying so: widen the position's uncertainty
-    // to what push_mps covers in the time the readings have disagreed.
-    const double spread = config_.push_mps * static_cast<double>(for_ms) / 1000.0;
+    // to what push_mps covers in the time the GPS has not been believed: since the last accepted
+    // reading (after a dropout the robot may have been pushed all through it, unseen), or since
+    // the rejections began.
+    const uint32_t unseen_ms =
+        ever_fixed_ && now_ms - last_fix_ms_ > for_ms ? now_ms - last_fix_ms_ : for_ms;
+    double spread = config_.push_mps * static_cast<double>(unseen_ms) / 1000.0;
+    if (spread > 0.5 * config_.lost_std_m) spread = 0.5 * config_.lost_std_m;  // never lost by it
     const double add = spread * spread - push_var_;
     if (add > 0.0) {
       p_[0][0] += add;

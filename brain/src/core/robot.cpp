@@ -166,6 +166,8 @@ void Robot::step() {
   const float right_speed =
       std::isfinite(fb.right_rpm) ? model.motor_rpm_to_wheel(fb.right_rpm) : 0.0f;
   const ImuReading imu = hw_.imu.read();
+  const WheelSpeeds told = drive_.stopped() ? WheelSpeeds{} : model.wheels(drive_.commanded());
+  pose_.commanded(static_cast<double>(told.left), static_cast<double>(told.right));
   pose_.predict(static_cast<double>(dt_s), static_cast<double>(left_speed),
                 static_cast<double>(right_speed), imu.ok, imu.rotation_deg,
                 static_cast<double>(config_.drive.track_width_m));

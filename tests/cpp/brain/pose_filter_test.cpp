@@ -200,6 +200,34 @@ TEST(PoseFilter, RejectionsWidenTheUncertaintyAndASidewaysPushIsFollowedQuickly)
   EXPECT_EQ(f.reanchors(), 0u);
 }
 
+TEST(PoseFilter, AfterADropoutThePoseFollowsAGpsThatDisagreesWithinAFewReadings) {
+  // Three seconds with the strip hidden, standing against another robot that shoves this one
+  // 0.5 m sideways; its wheels and the IMU see nothing. When the strip comes back the readings
+  // disagree with the pose by 0.5 m: it follows them within a few readings, not after the
+  // second of rejections a glitch would need, and never says lost meanwhile.
+  PoseFilter f(kRobotConfig.pose);
+  Sim sim(f, 9);
+  sim.gps();
+  for (int step = 0; step < 100; ++step) {
+    sim.drive(0.0, 0.0);
+    sim.gps();
+  }
+  for (int step = 0; step < 300; ++step) {
+    sim.drive(0.0, 0.0);
+    if (step >= 100 && step < 200) sim.truth().x += 0.005;  // 0.5 m in a second, unseen
+  }
+  ASSERT_GT(sim.error_m(), 0.45);
+  int steps = 0;
+  for (; steps < 100 && sim.error_m() > 0.03; ++steps) {
+    sim.drive(0.0, 0.0);
+    sim.gps();
+    EXPECT_NE(f.fix(sim.now_ms()), msg::PoseFix::lost) << "step " << steps;
+  }
+  EXPECT_LT(sim.error_m(), 0.03);
+  EXPECT_LE(steps, 5) << "followed within a few readings";
+  EXPECT_EQ(f.reanchors(), 0u);
+}
+
 TEST(PoseFilter, HeadingWrapsAroundNorth) {
   PoseFilter f(kRobotConfig.pose);
   f.correct(0.0, 0.0, 359.5, 0.013, 0);
@@ -248,6 +276,79 @@ TEST(PoseFilter, WithoutAnImuTheWheelsTurnItAndTrustGrowsFaster) {
   EXPECT_NEAR(with.heading_deg(), 180.0 / kPi, 0.01);
   EXPECT_NEAR(without.heading_deg(), 180.0 / kPi, 0.01);
   EXPECT_GT(without.heading_std_deg(), 2.0 * with.heading_std_deg());
+}
+
+TEST(PoseFilter, SlipThroughADropoutWidensTheTrustToCoverTheError) {
+  // Pushing a goal across the field with the strip hidden: the motors are told 0.8 m/s, the
+  // wheels measure 0.3 m/s (spinning), and the robot is shoved 0.4 m sideways in 2 s, which its
+  // wheels never see. Without the told speeds the filter is sure to centimetres; with them it
+  // says it is not, and its error stays inside three of its standard deviations.
+  PoseFilter told(kRobotConfig.pose);
+  PoseFilter blind(kRobotConfig.pose);
+  told.correct(0.0, 0.0, 0.0, 0.013, 0);
+  blind.correct(0.0, 0.0, 0.0, 0.013, 0);
+  double tx = 0.0;
+  double ty = 0.0;
+  for (int step = 0; step < 200; ++step) {
+    ty += 0.3 * kDt;
+    tx += 0.2 * kDt;  // sideways (+x while heading +y), unseen
+    told.commanded(0.8, 0.8);
+    told.predict(kDt, 0.3, 0.3, true, 0.0, kTrack);
+    blind.predict(kDt, 0.3, 0.3, true, 0.0, kTrack);
+    const double err = std::hypot(told.x() - tx, told.y() - ty);
+    EXPECT_LE(err, 3.0 * told.position_std_m()) << "step " << step;
+  }
+  EXPECT_GT(told.slip_m(), 0.65) << "0.4 m/s beyond the deadband for 2 s";
+  EXPECT_LT(blind.position_std_m(), 0.06) << "odometry alone cannot see the slip";
+  EXPECT_GT(told.position_std_m(), 3.0 * blind.position_std_m());
+  EXPECT_GT(std::hypot(blind.x() - tx, blind.y() - ty), 3.0 * blind.position_std_m())
+      << "the blind filter is overconfident: the case this guards against";
+  // The strip comes back: the first reading is believed and the pose snaps to it.
+  EXPECT_EQ(told.correct(tx, ty, 0.0, 0.013, 2000), GpsUpdate::accepted);
+  EXPECT_LT(std::hypot(told.x() - tx, told.y() - ty), 0.03);
+}
+
+TEST(PoseFilter, DrivingAsToldDoesNotWidenTheTrust) {
+  // Normal driving: the measured speeds trail the told ones by the motors' lag (under the
+  // deadband) and noise. The trust grows as it does without the told speeds.
+  PoseFilter told(kRobotConfig.pose);
+  PoseFilter plain(kRobotConfig.pose);
+  told.correct(0.0, 0.0, 0.0, 0.013, 0);
+  plain.correct(0.0, 0.0, 0.0, 0.013, 0);
+  std::mt19937 rng(1);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  double imu = 0.0;
+  for (int step = 0; step < 300; ++step) {
+    const double v = step < 100 ? 0.012 * step : 1.2;  // accelerating, then cruising
+    const double w = step < 150 ? 0.5 : -0.5;
+    const double l = v + 0.5 * w * kTrack;
+    const double r = v - 0.5 * w * kTrack;
+    imu += w * kDt * 180.0 / kPi;
+    const double ml = l - 0.06 + noise(rng);
+    const double mr = r - 0.06 + noise(rng);
+    told.commanded(l, r);
+    told.predict(kDt, ml, mr, true, imu, kTrack);
+    plain.predict(kDt, ml, mr, true, imu, kTrack);
+  }
+  EXPECT_LT(told.slip_m(), 0.01);
+  EXPECT_NEAR(told.position_std_m(), plain.position_std_m(), 0.002);
+}
+
+TEST(PoseFilter, WheelsTurningWhereTheImuDoesNotIsSlip) {
+  // One side's wheels spin (0.9 m/s against 0.1 m/s) while the IMU says the robot goes straight.
+  PoseFilter f(kRobotConfig.pose);
+  PoseFilter g(kRobotConfig.pose);
+  f.correct(0.0, 0.0, 0.0, 0.013, 0);
+  g.correct(0.0, 0.0, 0.0, 0.013, 0);
+  f.predict(kDt, 0.0, 0.0, true, 0.0, kTrack);  // the IMU's first reading: the reference
+  g.predict(kDt, 0.0, 0.0, true, 0.0, kTrack);
+  for (int step = 0; step < 100; ++step) {
+    f.predict(kDt, 0.9, 0.1, true, 0.0, kTrack);
+    g.predict(kDt, 0.5, 0.5, true, 0.0, kTrack);
+  }
+  EXPECT_NEAR(f.heading_deg(), 0.0, 1e-9) << "the IMU's heading, not the wheels'";
+  EXPECT_GT(f.slip_m(), 0.2) << "0.3 m/s beyond the deadband for 1 s";
+  EXPECT_GT(f.position_std_m(), 2.0 * g.position_std_m());
 }
 
 }  // namespace

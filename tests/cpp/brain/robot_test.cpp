@@ -244,12 +244,16 @@ TEST(Robot, ThePoseRidesThroughAGpsDropoutOnOdometryAndTheImu) {
   r.sim.imu.set_rotation(0.0);
   r.run(10 * kPeriod);
   r.sim.gps.set_status(msg::GpsStatus::error);  // the strip is blocked
-  // The wheels report 0.5 m/s on both sides for 2 s: 1 m further along +x.
+  // The Jetson drives at 0.5 m/s and the wheels report 0.5 m/s on both sides for 2 s: 1 m
+  // further along +x (the wheels doing what they are told: no slip).
   r.sim.drive.measured_override = true;
   const float rpm = r.sim.robot.model().wheel_to_motor_rpm(0.5f);
   r.sim.drive.measured.left_rpm = rpm;
   r.sim.drive.measured.right_rpm = rpm;
-  r.run(200 * kPeriod);
+  for (uint32_t seq = 1; seq <= 200; ++seq) {
+    r.send(downlink(command(seq, 0.5f, 0.0f, 1000, false)));
+    r.run(kPeriod);
+  }
   const msg::State s = last_state(r);
   EXPECT_EQ(s.pose_fix, msg::PoseFix::odometry);
   EXPECT_NEAR(s.x, 1.5f, 0.02);

@@ -145,6 +145,8 @@ inline constexpr Config kRobotConfig{
         /*reanchor_ms=*/1000,
         /*gps_fix_hold_ms=*/250,
         /*lost_std_m=*/1.0,
+        /*slip_deadband_mps=*/0.1,        // the motors' lag behind the slew-limited command
+        /*slip_var_per_m=*/0.08,          // 28 cm std per metre the wheels did not drive as told
     },
     /*find_alliance=*/{
         /*red_side_x_sign=*/-1.0f,   // red's half is x < 0 (the simulator's field file)
@@ -223,7 +225,7 @@ constexpr const char* config_error(const Config& c) {
                                  f.odom_var_per_m, f.pos_var_per_s, f.heading_var_per_rad_imu,
                                  f.heading_var_per_s_imu, f.heading_var_per_rad_wheels,
                                  f.heading_var_per_m_wheels, f.gate_chi2, f.push_mps,
-                                 f.lost_std_m};
+                                 f.lost_std_m, f.slip_deadband_mps, f.slip_var_per_m};
   for (double v : pose_numbers) {
     if (!(v >= 0.0 && v < 1e6)) return "pose filter numbers must be finite and not negative";
   }
