@@ -26,12 +26,15 @@ Pure and deterministic (no I/O, no clock: the caller passes the perception's age
   autonomous (VEX AI's interaction period after its isolation period), with or without the
   field's disable between them: the same match goes on, with its stack and memories.
 - The pose is the Brain's (the GPS fused with wheel odometry and the IMU): the policy drives
-  while the State has one (pose_fix gps or odometry) and its pose_std is at most
-  `pose_max_std_m`, so a GPS dropout (the strip hidden by robots, goals or the platform) is
-  driven through on odometry until the Brain's trust runs out.
+  while the State has one (pose_fix gps or odometry), so a GPS dropout (the strip hidden by
+  robots, goals or the platform) is driven through on odometry. At full speed while its
+  pose_std is at most `pose_max_std_m`; beyond that, slower (`pose_speed_scale`: the speeds
+  times pose_max_std_m / pose_std, never below half), so a worn pose is driven on carefully
+  rather than stopped on (a stopped robot beside what hides the strip would wait for ever);
+  only the Brain's pose_fix lost (its trust run out) is a stop.
 - Anything that goes wrong (perception that raised on the newest frame, an observation that
-  cannot be built, a policy that raises or returns NaN, no pose or a pose not trusted enough,
-  an unknown alliance) gives a stop with the reason named. A camera that stops delivering is
+  cannot be built, a policy that raises or returns NaN, no pose (pose_fix lost), an unknown
+  alliance) gives a stop with the reason named. A camera that stops delivering is
   not an error: its last result ages into "no rings".
 """
 
@@ -70,6 +73,8 @@ RINGS_UNKNOWN = 255  # State.rings_held when the Brain has no ring counter
 # Decision.reason when the decision-maker drives: the policy, or the scripted alliance
 # (jetson/scripted.py); any other reason is a stop.
 DRIVING_REASONS = frozenset({"policy", "scripted"})
+# The slowest a worn pose (pose_std beyond pose_max_std_m) makes the robot drive, as a fraction.
+UNCERTAIN_SPEED_MIN = 0.5
 CLAMP_HOLDS = 1  # State.goal_clamped: 1 holds a goal, 0 open, 255 no clamp sensor fitted
 _NO_RINGS = np.zeros((0, 2))
 
@@ -186,20 +191,28 @@ class PhaseTracker:
 
 
 def why_not_drive(state: State, config: DecisionConfig) -> str | None:
-    """The stop reason a State in a drive phase still gives (an unknown alliance; no pose, or
-    one not trusted enough), or None: the pose is the Brain's, the GPS fused with odometry and
-    the IMU, driven on while it rests on the GPS or, through a dropout, on odometry, and its
-    standard deviation is within pose_max_std_m."""
+    """The stop reason a State in a drive phase still gives (an unknown alliance; no pose), or
+    None: the pose is the Brain's, the GPS fused with odometry and the IMU, driven on while it
+    rests on the GPS or, through a dropout, on odometry (pose_speed_scale says how fast)."""
+    del config  # the pose's trust sets the speed (pose_speed_scale), not whether to drive
     if state.alliance == Alliance.UNKNOWN:
         # The Brain finds it at run time: its screen's pick, or the GPS start pose.
         return "alliance unknown: pick it on the Brain's screen"
     gps = state.gps_status.name.lower()
     if state.pose_fix == PoseFix.LOST:
         return "pose lost" if state.gps_status == GpsStatus.OK else f"gps {gps}"
-    limit = config.pose_max_std_m
-    if not state.pose_std <= limit:  # NaN never reaches here (the codec refuses it)
-        return f"pose uncertain: {state.pose_std:.2f} m > {limit:.2f} m (gps {gps})"
     return None
+
+
+def pose_speed_scale(state: State, config: DecisionConfig) -> float:
+    """What the decision's speeds are multiplied by for the pose's trust: 1 while the Brain's
+    pose_std is within pose_max_std_m; beyond it pose_max_std_m / pose_std, never below
+    UNCERTAIN_SPEED_MIN (a robot on a worn pose drives on, carefully, until the strip is seen
+    again and the GPS corrects it)."""
+    limit = config.pose_max_std_m
+    if state.pose_std <= limit:  # NaN never reaches here (the codec refuses it)
+        return 1.0
+    return max(UNCERTAIN_SPEED_MIN, limit / state.pose_std)
 
 
 def perceived_rings(
@@ -324,9 +337,10 @@ class Decider:
                 return Decision(
                     0.0, 0.0, False, "error", seen, len(rings), f"{type(exc).__name__}: {exc}"
                 )
-            return Decision(linear, angular, True, "policy", seen, len(rings))
+            k = pose_speed_scale(state, self.config)
+            return Decision(k * linear, k * angular, True, "policy", seen, len(rings))
         action = np.clip(action, -1.0, 1.0)
-        linear, angular = (action[:2] * self._scale).tolist()
+        linear, angular = (action[:2] * self._scale * pose_speed_scale(state, self.config)).tolist()
         i = self._intake_index
         # Policies trained without an intake action had the intake always on.
         intake = True if i is None else bool(action[i] > 0)

@@ -11,9 +11,10 @@ than `perception_max_age_s` gives no rings and no goals, as for a policy.
 ScriptedDecider has jetson.decide.Decider's interface (decide(State, PerceptionInput) ->
 Decision, reset(), the memories the dashboard draws) and passes the same gates (jetson.decide's
 PhaseTracker and why_not_drive): it drives only in the drive phases, with a known alliance and a
-trusted pose, and keeps its history through the disable between isolation and interaction. It
-steps the strategy at the rate the twin runs it (`decision_hz`, 12 Hz by default) and repeats
-the last action in between, as a policy's frame stack keeps its training's spacing.
+pose (slower on a worn one: pose_speed_scale), and keeps its history through the disable between
+isolation and interaction. It steps the strategy at the rate the twin runs it (`decision_hz`,
+12 Hz by default) and repeats the last action in between, as a policy's frame stack keeps its
+training's spacing.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from jetson.decide import (
     PhaseTracker,
     perceived_goals,
     perceived_rings,
+    pose_speed_scale,
     rings_held,
     stop,
     why_not_drive,
@@ -159,9 +161,10 @@ class ScriptedDecider:
         a = self._action
         if not (math.isfinite(a.linear) and math.isfinite(a.angular)):
             return Decision(0.0, 0.0, False, "strategy output not finite", seen, len(rings))
+        k = pose_speed_scale(state, self.config)  # slower on a worn pose (jetson.decide)
         return Decision(
-            float(a.linear),
-            float(a.angular),
+            k * float(a.linear),
+            k * float(a.angular),
             bool(a.intake),
             DRIVING,
             seen,

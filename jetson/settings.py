@@ -80,8 +80,9 @@ class DecisionConfig:
     # Place a camera result's rings from the pose the robot had when the frame was taken (the
     # States' poses over the last second), not from the newest one.
     frame_pose: bool = True
-    # Drive while the Brain's pose (the GPS fused with odometry and the IMU) is trusted this well:
-    # its State.pose_std at most this many metres; beyond it, or with no pose, a stop.
+    # Drive at full speed while the Brain's pose (the GPS fused with odometry and the IMU) is
+    # trusted this well: its State.pose_std at most this many metres; beyond it slower
+    # (jetson.decide.pose_speed_scale). No pose (pose_fix lost) is a stop.
     pose_max_std_m: float = 0.15
     # The robot's role in its VEX AI alliance: the 24-inch or the 15-inch robot (a strategy that
     # shares the work reads it; the summary reports it).

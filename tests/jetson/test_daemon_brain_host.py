@@ -14,7 +14,6 @@ import io
 import json
 import os
 import pty
-import re
 import select
 import signal
 import subprocess
@@ -349,10 +348,11 @@ class CorruptingRelay:
             os.close(fd)
 
 
-def test_a_gps_dropout_is_driven_through_until_the_brains_trust_runs_out(rig: Lockstep) -> None:
+def test_a_gps_dropout_is_driven_through_as_the_brains_trust_wears(rig: Lockstep) -> None:
     """The field strip hidden (issue 44): the real Brain core keeps its pose on the wheels and the
-    IMU, the daemon keeps driving on it, and stops, naming why, once pose_std passes
-    [decision] pose_max_std_m (0.15 m)."""
+    IMU, the daemon keeps driving on it, and keeps driving (slower) when pose_std passes
+    [decision] pose_max_std_m (0.15 m): here the wheels do not do what they are told, which the
+    Brain sees as slip and trusts its pose less for."""
     rig.host.ok("phase autonomous")
     rig.host.ok(f"gps {X} {Y} {HEADING} 0.01")
     rig.host.ok("imu 0")
@@ -378,16 +378,12 @@ def test_a_gps_dropout_is_driven_through_until_the_brains_trust_runs_out(rig: Lo
     state = rig.daemon.last_state
     assert state is not None and state.pose_fix == PoseFix.ODOMETRY
     assert float(reports[-1]["pose_x"]) == pytest.approx(X, abs=0.05)  # out and back along +x
-    assert 0.03 < state.pose_std <= 0.15
+    # The wheels ran at 1.5 m/s whatever they were told: slip, so the pose is trusted less ...
+    assert state.pose_std > 0.15
+    # ... and the daemon drives on it all the same (slower: jetson.decide.pose_speed_scale).
     decision = rig.daemon.last_decision
-    for _ in range(6):  # up to 12 s more: the uncertainty passes 0.15 m
-        shuttle(200)
-        decision = rig.daemon.last_decision
-        if decision is not None and not decision.drove:
-            break
-    assert decision is not None and not decision.drove
-    why = re.fullmatch(r"pose uncertain: (0\.\d\d) m > 0\.15 m \(gps error\)", decision.reason)
-    assert why is not None and float(why.group(1)) >= 0.15, decision.reason
+    assert decision is not None and decision.drove, decision
+    assert reports[-1]["stopped"] == "0"
     # The strip comes back where the odometry says the robot is: the pose rests on the GPS again
     # and the robot drives.
     report = rig.step()
@@ -396,6 +392,7 @@ def test_a_gps_dropout_is_driven_through_until_the_brains_trust_runs_out(rig: Lo
     for _ in range(30):
         report = rig.step()
     assert report["pose"] == "gps" and report["source"] == "jetson"
+    assert float(report["pose_std"]) < 0.05, "the returning GPS is believed at once"
     assert rig.daemon.last_decision is not None and rig.daemon.last_decision.drove
 
 

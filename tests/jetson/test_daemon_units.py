@@ -15,7 +15,13 @@ import pytest
 
 from jetson.autonomy.policy import OnnxPolicy
 from jetson.autonomy.spec import ObservationSpec
-from jetson.decide import Decider, PerceptionInput, PoseHistory
+from jetson.decide import (
+    UNCERTAIN_SPEED_MIN,
+    Decider,
+    PerceptionInput,
+    PoseHistory,
+    pose_speed_scale,
+)
 from jetson.errors import PolicyError, SettingsError
 from jetson.handshake import Handshake, LinkState
 from jetson.log import EventLog, LatencyStats, percentile
@@ -214,21 +220,27 @@ def test_autonomous_into_driver_keeps_the_match_history() -> None:
     assert obs[0] == pytest.approx(15.0 / 105.0)  # the match clock continues
 
 
-def test_a_gps_dropout_is_driven_through_while_the_brain_trusts_its_pose() -> None:
+def test_a_gps_dropout_is_driven_through_slower_as_the_brains_trust_wears() -> None:
     d = Decider(ProbePolicy(), DecisionConfig(pose_max_std_m=0.15))
+    ok = d.decide(state(pose_fix=PoseFix.GPS, pose_std=0.01), None)
+    assert ok.drove and ok.linear != 0.0
     for status in (GpsStatus.ERROR, GpsStatus.CALIBRATING, GpsStatus.ABSENT):
-        dropout = state(gps_status=status, pose_fix=PoseFix.ODOMETRY, pose_std=0.08)
-        assert d.decide(dropout, None).drove, status
-    worn_pose = state(gps_status=GpsStatus.ERROR, pose_fix=PoseFix.ODOMETRY, pose_std=0.2)
-    worn = d.decide(worn_pose, None)
-    assert not worn.drove
-    assert worn.reason == "pose uncertain: 0.20 m > 0.15 m (gps error)"
+        dropout = d.decide(state(gps_status=status, pose_fix=PoseFix.ODOMETRY, pose_std=0.08), None)
+        assert dropout.drove and dropout.linear == pytest.approx(ok.linear), status
+    # Beyond pose_max_std_m it drives on, slower: 0.15 / 0.2 of the speed, never below half.
+    odometry = {"gps_status": GpsStatus.ERROR, "pose_fix": PoseFix.ODOMETRY}
+    worn = d.decide(state(pose_std=0.2, **odometry), None)
+    assert worn.drove and worn.reason == "policy"
+    assert worn.linear == pytest.approx(0.75 * ok.linear)
+    very = d.decide(state(pose_std=0.9, **odometry), None)
+    assert very.drove and very.linear == pytest.approx(UNCERTAIN_SPEED_MIN * ok.linear)
+    # Only the Brain's "lost" (no pose, or its trust run out) is a stop.
     lost = d.decide(state(pose_fix=PoseFix.LOST, pose_std=0.0), None)
     assert not lost.drove and lost.reason == "pose lost"
-    # The limit is a setting: a stricter one stops sooner.
-    strict = Decider(ProbePolicy(), DecisionConfig(pose_max_std_m=0.05))
-    assert not strict.decide(state(pose_fix=PoseFix.ODOMETRY, pose_std=0.08), None).drove
-    assert strict.decide(state(pose_fix=PoseFix.GPS, pose_std=0.01), None).drove
+    # The limit is a setting: a stricter one slows sooner.
+    strict = DecisionConfig(pose_max_std_m=0.05)
+    assert pose_speed_scale(state(pose_fix=PoseFix.ODOMETRY, pose_std=0.08), strict) == 0.625
+    assert pose_speed_scale(state(pose_fix=PoseFix.GPS, pose_std=0.01), strict) == 1.0
 
 
 def test_the_role_is_a_setting_checked_and_reported() -> None:

@@ -130,8 +130,12 @@ def test_the_gates_stop_it_as_they_stop_the_policy() -> None:
     )
     lost = decider.decide(state(1.1, 2, pose_fix=PoseFix.LOST, gps_status=GpsStatus.ERROR), None)
     assert not lost.drove and lost.reason == "gps error"
-    unsure = decider.decide(state(1.2, 3, pose_fix=PoseFix.ODOMETRY, pose_std=0.4), None)
-    assert not unsure.drove and unsure.reason.startswith("pose uncertain")
+    # A worn pose is driven on, slower (jetson.decide.pose_speed_scale), not stopped on.
+    sure = decider.decide(state(1.2, 3, pose_fix=PoseFix.ODOMETRY, pose_std=0.05), None)
+    unsure = decider.decide(state(1.2, 3, pose_fix=PoseFix.ODOMETRY, pose_std=0.3), None)
+    assert sure.drove and unsure.drove
+    assert unsure.linear == pytest.approx(0.5 * sure.linear)
+    assert unsure.angular == pytest.approx(0.5 * sure.angular)
     d = decider.decide(state(1.3, 4), PerceptionInput(9, 0.05, np.zeros((0, 2)), "boom"))
     assert not d.drove and d.reason == "perception error"
 
