@@ -12,15 +12,17 @@ the Brain's pose filter rides through on odometry and the IMU and the daemon dri
 Brain trusts its pose.
 
 Metrics: red's mean score each way and their ratio (target: >= 0.95, issue 44: within 5 % of a
-perfect GPS), the paired differences, the share of the match the GPS was hidden, the pose's
-error against the truth with dropouts (mean and worst), the steps the pose rested on odometry,
-and the daemon's stops for an untrusted pose. Results: bench/results/dropouts.json; each match's
-run folder under --out.
+perfect GPS), the paired differences (mean, standard deviation, standard error), the share of the
+match the GPS was hidden, the pose's error against the truth with dropouts (mean and worst) and
+the largest standard deviation the Brain reported for it, the steps the pose rested on odometry,
+and the daemon's stops for a lost pose. Results: bench/results/dropouts.json; each match's run
+folder under --out, and every match's numbers in --out/seeds.json.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import multiprocessing
 import statistics
 import sys
@@ -35,8 +37,6 @@ WORLD = "tipping_point_2v2"
 
 def one_match(job: tuple[int, bool, float | None, str]) -> dict[str, Any]:
     """One full-stack match (in a worker process): what the benchmark keeps of it."""
-    import json
-
     from sim.fullstack.options import MatchOptions
     from sim.fullstack.runner import run_match
 
@@ -93,6 +93,9 @@ def main(argv: list[str] | None = None) -> int:
             way = "occluded" if r["occluded"] else "clear"
             print(f"  {i}/{len(jobs)} seed {r['seed']} {way}: red {r['score']}", flush=True)
     by = {(r["seed"], r["occluded"]): r for r in runs}
+    args.out.mkdir(parents=True, exist_ok=True)
+    ordered = [by[(s, occ)] for s in seeds for occ in (False, True)]
+    (args.out / "seeds.json").write_text(json.dumps(ordered, indent=1) + "\n")
     clear = [by[(s, False)]["score"] for s in seeds]
     occl = [by[(s, True)]["score"] for s in seeds]
     result = Result("dropouts")
@@ -106,6 +109,8 @@ def main(argv: list[str] | None = None) -> int:
     result.add("paired_difference_mean", round(statistics.fmean(diffs), 2))
     if len(diffs) > 1:
         result.add("paired_difference_stdev", round(statistics.stdev(diffs), 2))
+        stderr = statistics.stdev(diffs) / len(diffs) ** 0.5
+        result.add("paired_difference_stderr", round(stderr, 2))
     occluded = [by[(s, True)] for s in seeds]
     steps = sum(r["pose"].get("steps", 0) for r in occluded)
     hidden = sum(r["pose"].get("gps_hidden_steps", 0) for r in occluded)
@@ -117,6 +122,7 @@ def main(argv: list[str] | None = None) -> int:
         result.add("pose_error_mean_m", round(statistics.fmean(errs), 4))
     worst = max(r["pose"].get("error_max_m", 0.0) for r in occluded)
     result.add("pose_error_max_m", round(worst, 4))
+    result.add("pose_std_max_m", round(max(r["pose"].get("std_max_m", 0.0) for r in occluded), 4))
     result.add("pose_stops", sum(r["pose_stops"] for r in occluded))
     result.add("checks_failed", sum(not r["passed"] for r in runs))
     result.target("score_ratio", SCORE_RATIO_TARGET, ">=")

@@ -22,10 +22,12 @@ def test_a_tiny_run_writes_every_metric(tmp_path: Path) -> None:
     data = json.loads((tmp_path / "dropouts.json").read_text())
     m = data["metrics"]
     for key in ("red_score_clear", "red_score_occluded", "score_ratio", "gps_hidden_share",
-                "pose_error_max_m", "pose_stops", "checks_failed"):  # fmt: skip
+                "pose_error_max_m", "pose_std_max_m", "pose_stops", "checks_failed"):  # fmt: skip
         assert key in m, key
     assert m["checks_failed"] == 0 and 0 <= m["gps_hidden_share"] <= 1
     assert set(data["targets"]) == {"score_ratio", "checks_failed"}
     assert sorted(p.name for p in (tmp_path / "runs").iterdir()) == [
-        "seed0-clear", "seed0-occluded",
+        "seed0-clear", "seed0-occluded", "seeds.json",
     ]  # fmt: skip
+    per_match = json.loads((tmp_path / "runs" / "seeds.json").read_text())
+    assert [(r["seed"], r["occluded"]) for r in per_match] == [(0, False), (0, True)]
