@@ -184,9 +184,28 @@ class AllianceConfig:
     sight_match_m: float = 0.7
     goal_x_max_m: float = 0.45  # no goal is fetched from deeper in the other alliance's half
     carried_mps: float = 0.25
-    busy_s: float = 4.0
+    busy_s: float = 25.0
     conflict_m: float = 0.5
     conflict_s: float = 2.0
+    # Look before backing onto a goal (interaction, with a goal detector): the goal must have
+    # been seen where it is believed in the last `confirm_s`; else the robot turns to face it
+    # (backing away to `look_from_m` when nearer: the camera sees no goal closer than about
+    # 0.7 m) and looks for up to `look_s`, and a goal not seen then is marked missing (what
+    # stands there may be another robot's goal: backing onto it starts a tug of war; None: no
+    # look).
+    confirm_s: float | None = 1.5
+    look_s: float = 2.5
+    look_from_m: float = 0.85
+    # The 24" with a goal and no ring known for `deposit_after_s` (the floor cleared) leaves
+    # that goal deep in its home zone, at the next of `deposit_spots` (from the hinge toward
+    # the field, and beside the platform's centre: its own side first) while more than
+    # `deposit_until_s` are left, and takes the next goal on its list; with none in hand
+    # `refetch_s` before the end it goes back for the last one it left, to climb with (None:
+    # never deposits).
+    deposit_after_s: float | None = None
+    deposit_until_s: float = 45.0
+    deposit_spots: tuple[tuple[float, float], ...] = ((0.17, -1.05), (0.17, 1.05))
+    refetch_s: float = 34.0
 
 
 class AllianceInputs(NamedTuple):
@@ -261,7 +280,7 @@ def default_plan(role: str, layout: FieldLayout) -> _Plan:
     south, north = neutrals[0].name, neutrals[-1].name
     middle = [g.name for g in neutrals[1:-1]]
     if role == "24in":
-        return _Plan([], [south, *middle, layout.awp_goal])
+        return _Plan([], [south, *middle, north, layout.awp_goal])
     return _Plan(
         [_IsoTask(other_own, None, None, keep=True, wait=False)], [north, other_own], sentry=True
     )
@@ -335,6 +354,11 @@ class AllianceStrategy:
         self._busy: dict[str, float] = {}  # name -> carried by another robot until
         self._opponent_goals: list[tuple[float, Vec]] = []  # (time, where) of the other colour
         self._given_up: set[str] = set()  # goals let go in a tug of war
+        self._detector = False  # a goal detector reports (AllianceInputs.goals_robot)
+        self._confirmed: str | None = None  # the goal seen just before backing onto it
+        self._look_since: float | None = None
+        self._no_ring_since: float | None = None
+        self._deposited: list[str] = []  # goals left in the home zone, oldest first
         self.intent = "start"  # what the last step was doing, for logs and tests
 
     def step(self, inputs: AllianceInputs) -> AllianceAction:
@@ -356,6 +380,7 @@ class AllianceStrategy:
         self.memory.observe(view)
         self._now = pose.t
         self._track_clamp(pose, inputs.goal_clamped)
+        self._detector = inputs.goals_robot is not None
         if inputs.goals_robot is not None:
             self._see_goals(pose, inputs.alliance, inputs.goals_robot)
         self._forget_goals(pose)
@@ -710,6 +735,19 @@ class AllianceStrategy:
         half_diag = math.hypot(self.role.length_m, self.role.width_m) / 2
         return not self.layout.platform.contains((float(b.xy[0]), float(b.xy[1])), half_diag)
 
+    def _interaction_goal(self, pose: _Pose) -> str | None:
+        """The next goal to take: the first available on the list that it has not left in its
+        home zone; with none, from `refetch_s` before the end, one it left there (to climb
+        with)."""
+        for name in self.plan.neutral:
+            if name not in self._deposited and self._goal_available(name):
+                return name
+        if self._time_left(pose) <= self.config.refetch_s:
+            for name in reversed(self._deposited):
+                if self._goal_available(name):
+                    return name
+        return None
+
     def _next_goal_interaction(self, pose: _Pose) -> None:
         if self.plan.sentry:
             self._set_phase("sentry", pose.t)
@@ -718,11 +756,11 @@ class AllianceStrategy:
             self.target_goal = None
             self._set_phase("collect", pose.t)
             return
-        for name in self.plan.neutral:
-            if self._goal_available(name):
-                self.target_goal = name
-                self._set_phase("get_goal", pose.t)
-                return
+        name = self._interaction_goal(pose)
+        if name is not None:
+            self.target_goal = name
+            self._set_phase("get_goal", pose.t)
+            return
         self.target_goal = None
         self._set_phase("collect", pose.t)
 
@@ -790,6 +828,8 @@ class AllianceStrategy:
         if self._stage_goal != name:
             self._stage_goal = name
             self._staged = False
+            self._confirmed = None
+            self._look_since = None
         stage = self._stage_for(goal, pose)
         local = field_to_robot(goal[None, :], pose.xy, pose.heading)[0]
         behind = abs(math.atan2(-float(local[0]), -float(local[1]))) < math.radians(30)
@@ -806,6 +846,9 @@ class AllianceStrategy:
                 v, w = self._drive_to(pose, stage, None, speed=c.speed)
                 return v, w, False
             self._staged = True
+        look = self._look(name, pose, goal)
+        if look is not None:
+            return look
         belief.tries += dt
         if belief.tries > c.goal_try_s:
             belief.xy = None  # not where it was believed to be
@@ -824,6 +867,44 @@ class AllianceStrategy:
             self._staged = False
             return 0.5 * self.role.max_linear_mps, 0.0, True
         return v, w, True
+
+    def _look(self, name: str, pose: _Pose, goal: Vec) -> tuple[float, float, bool | None] | None:
+        """Before backing onto a goal in the interaction period (with a goal detector): unless
+        it was seen where it is believed in the last confirm_s, face it and look; a goal not
+        seen within look_s is marked missing. None: go ahead (confirmed, or no check)."""
+        c = self.config
+        if (
+            c.confirm_s is None
+            or not self._detector
+            or pose.t < self.layout.isolation_s
+            or self._confirmed == name
+        ):
+            return None
+        belief = self.goals[name]
+        seen = self._goal_seen.get(name)
+        if (
+            seen is not None
+            and pose.t - seen[0] <= c.confirm_s
+            and float(np.hypot(*(seen[1] - goal))) < 0.3
+        ):
+            self._confirmed = name
+            self._look_since = None
+            return None
+        if self._look_since is None:
+            self._look_since = pose.t
+            self._staged = True  # look from here, no new stage
+        if pose.t - self._look_since > c.look_s:
+            belief.xy = None  # not seen where it should stand
+            self._staged = False
+            self._look_since = None
+            return 0.0, 0.0, False
+        self.intent = f"look:{name}"
+        d = goal - pose.xy
+        face = float(np.degrees(np.arctan2(d[0], d[1])))
+        v = 0.0
+        if float(np.hypot(*d)) < c.look_from_m and abs(angle_diff_deg(face, pose.heading)) < 30:
+            v = -0.3 * self.role.max_linear_mps  # too near to see it: back away, facing it
+        return v, self._turn_to(pose, face), False
 
     def _back_onto(self, gx: float, gy: float, dist: float) -> tuple[float, float]:
         """(v, w) that turns the back to a goal (robot frame) and reverses onto it: slowly and
@@ -848,19 +929,58 @@ class AllianceStrategy:
         c = self.config
         if not inputs.goal_clamped and pose.t - self.phase_since > 0.5:
             # Lost it (a tug of war) or never had one: look for the next.
-            for name in self.plan.neutral:
-                if self._goal_available(name):
-                    self.target_goal = name
-                    self._set_phase("get_goal", pose.t)
-                    return 0.0, 0.0, False
+            name = self._interaction_goal(pose)
+            if name is not None:
+                self.target_goal = name
+                self._set_phase("get_goal", pose.t)
+                return 0.0, 0.0, False
         target = self._choose_ring(pose)
         keep = bool(inputs.goal_clamped)
         if target is None:
+            if self._no_ring_since is None:
+                self._no_ring_since = pose.t
+            if (
+                c.deposit_after_s is not None
+                and self.role.role == "24in"
+                and keep
+                and self.holding is not None
+                and len(self._deposited) < len(c.deposit_spots)
+                and pose.t - self._no_ring_since >= c.deposit_after_s
+                and self._time_left(pose) > c.deposit_until_s
+            ):
+                self._set_phase("deposit", pose.t)
+                return self._phase_deposit(pose, inputs, dt)
             self.intent = "search"
             return (*self._search(pose), keep)
+        self._no_ring_since = None
         self.intent = "ring"
         v, w = self._drive_to(pose, target, None, speed=c.speed, ring=True)
         return v, w, keep
+
+    def _phase_deposit(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        """Leave the goal it holds deep in the home zone, beside the platform (its rings count
+        there, and it scores 20), then drive off and take the next goal."""
+        c = self.config
+        plat = self.layout.platform
+        along, y = c.deposit_spots[min(len(self._deposited), len(c.deposit_spots) - 1)]
+        spot = np.array([plat.x_at(along), plat.center[1] + y])
+        if inputs.goal_clamped:
+            if float(np.hypot(*(spot - pose.xy))) > 0.12:
+                self.intent = "to_deposit"
+                return (*self._drive_to(pose, spot, None, speed=0.8), True)
+            if self.holding is not None and self.holding not in self._deposited:
+                self._deposited.append(self.holding)
+            self.intent = "deposit"
+            self.phase_since = pose.t
+            return 0.0, 0.0, False
+        self.intent = "deposit"
+        if pose.t - self.phase_since < 0.6:
+            return 0.4 * self.role.max_linear_mps, 0.0, False
+        self._no_ring_since = None
+        self._next_goal_interaction(pose)
+        return 0.0, 0.0, False
 
     def _search(self, pose: _Pose) -> tuple[float, float]:
         """No ring known in its half: sweep its half's waypoints so the camera finds some."""

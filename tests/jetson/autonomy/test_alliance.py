@@ -4,6 +4,7 @@ no simulator. The twin's matches are tests/sim/baselines/test_alliance.py."""
 from __future__ import annotations
 
 import copy
+import math
 import json
 
 import numpy as np
@@ -192,3 +193,87 @@ def test_a_goal_seen_moving_is_carried_and_left_alone_for_a_while() -> None:
         b = AllianceStrategy(ROLE_24, layout)
         b.step(sighting(20.0, [(-south[0], -south[1], colour)], alliance="blue"))
         assert b._goal_available("neutral_south") == available
+
+
+def drive(
+    s: AllianceStrategy,
+    pose: tuple[float, float, float],
+    t0: float,
+    seconds: float,
+    camera: list[tuple[float, float, str]] | None,
+    clamped: bool = False,
+    stop_on_release: bool = False,
+) -> tuple[list[tuple[float, float, float, AllianceAction, str]], bool]:
+    """Run a red robot's strategy `seconds` on a kinematic robot (no other robot, no physics):
+    the camera reports the `camera` goals (field x, y, colour) within 40 degrees of its heading
+    and 3 m (None: no goal detector); the clamp holds from `clamped` until commanded open (then
+    the run stops with `stop_on_release`). Returns each step's pose, action and intent, and
+    the clamp's state at the end."""
+    x, y, h = pose
+    dt = 0.05
+    log = []
+    for k in range(int(seconds / dt)):
+        t = t0 + k * dt
+        goals = None
+        if camera is not None:
+            rows = []
+            for gx, gy, colour in camera:
+                dx, dy = gx - x, gy - y
+                rad = math.radians(h)
+                right = dx * math.cos(rad) - dy * math.sin(rad)
+                ahead = dx * math.sin(rad) + dy * math.cos(rad)
+                if ahead > 0 and math.hypot(dx, dy) < 3 and abs(math.atan2(right, ahead)) < 0.7:
+                    rows.append((right, ahead, GOAL_COLOUR_CODES[colour]))
+            goals = np.array(rows, dtype=np.float64).reshape(-1, 3)
+        a = s.step(AllianceInputs(x, y, h, "red", t, np.zeros((0, 2)), 0, clamped, False, goals))
+        log.append((x, y, h, a, s.intent))
+        if clamped and a.clamp is False:
+            clamped = False
+            if stop_on_release:
+                break
+        rad = math.radians(h)
+        x += a.linear * dt * math.sin(rad)
+        y += a.linear * dt * math.cos(rad)
+        h = (h + math.degrees(a.angular * dt)) % 360.0
+    return log, clamped
+
+
+def test_a_goal_not_seen_where_it_should_stand_is_not_backed_onto() -> None:
+    """With a goal detector, the 24" looks at the neutral goal before it turns its back to it:
+    a goal the camera does not show there (another robot took it) is marked missing, and the
+    robot never reverses toward that spot; one the camera shows is backed onto."""
+    layout = load_layout()
+    south = layout.goal("neutral_south").xy
+    s = AllianceStrategy(ROLE_24, layout)
+    log, _ = drive(s, (-0.9, -0.9, 90.0), 16.0, 8.0, camera=[])
+    intents = [k[4] for k in log]
+    assert "look:neutral_south" in intents
+    assert "back_onto:neutral_south" not in intents
+    assert s.goals["neutral_south"].xy is None
+    seen = AllianceStrategy(ROLE_24, layout)
+    log, _ = drive(seen, (-0.9, -0.9, 90.0), 16.0, 8.0, camera=[(*south, "yellow")])
+    assert "back_onto:neutral_south" in [k[4] for k in log]
+
+
+def test_the_24_leaves_its_goal_in_the_home_zone_once_the_floor_is_clear() -> None:
+    """No ring known (the floor cleared) for deposit_after_s with a goal in the clamp and time
+    enough left: the 24" carries it deep into its home zone, beside the platform, lets it go
+    there and heads for the next goal on its list; the goal left is not that next goal."""
+    from dataclasses import replace
+
+    from jetson.autonomy.alliance import AllianceConfig
+
+    layout = load_layout()
+    # no ring is ever worth taking; deposits on (off by default)
+    config = replace(AllianceConfig(), ring_x_max_m=-10.0, deposit_after_s=4.0)
+    s = AllianceStrategy(ROLE_24, layout, config)
+    s.target_goal = "neutral_south"
+    log, clamped = drive(s, (0.0, -0.4, 0.0), 20.0, 15.0, None, True, stop_on_release=True)
+    assert not clamped and s._deposited == ["neutral_south"]
+    x, y, h = log[-1][:3]
+    goal_at = (x - 0.47 * math.sin(math.radians(h)), y - 0.47 * math.cos(math.radians(h)))
+    assert layout.in_home_zone(goal_at, margin=-0.17)
+    assert not layout.platform.contains(goal_at, margin=0.2)
+    drive(s, (x, y, h), 20.0 + 0.05 * len(log), 2.0, None)
+    assert s.goals["neutral_south"].xy == pytest.approx(goal_at, abs=0.05)
+    assert s.phase == "get_goal" and s.target_goal == "neutral_tall"
