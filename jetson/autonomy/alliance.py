@@ -18,16 +18,18 @@ goals, its own half of the field for rings, and its own time line.
   no room to turn; standing still it cannot   its start (the preloads thread on), climb the
   touch the other alliance);                  platform and wait at the hinge: the board level
   interaction: take a neutral goal (south,    under it and its goal, so nobody drives onto it;
-  tall, then its AWP goal), the preloads on   22 s before the end: move to the field side
-  the high branch, collect its half's rings;  (the ramp down);
+  tall, north, then its AWP goal), the        22 s before the end: move to the field side
+  preloads on the high branch, collect its    (the ramp down);
+  half's rings;
   24 s before the end: line up in front of    14 s before the end: move to its balance spot.
   the platform, climb from 20.5 s, hold the
   ramp down; 9 s before the end: move to the
   balance point.
 
 A goal it cannot find (the clamp does not close where the goal should be, or the robot stands
-where it was), one seen carried, or one where a goal of the other alliance's colour is seen, is
-marked missing (or left for a while) and the next one on its list is tried. The endgame's
+where it was), one seen carried, one where a goal of the other alliance's colour is seen, or
+one the camera does not show where it is believed when the robot looks before backing onto it,
+is marked missing (or left for a while) and the next one on its list is tried. The endgame's
 positions come from the see-saw's torque balance (the layout's board mass and hinge flats, both
 robots' masses, the carried goals'): the 24" holds the board tipped toward the field at
 `hold_along_m`, the 15" moves to `partner_along_m`, then the 24" moves to where the torques
