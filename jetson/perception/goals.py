@@ -250,9 +250,12 @@ class GoalDetector:
         centre = cam + along * ray + mid_a * across
         x, y = float(centre[0]), float(centre[1])
         inside = float(np.mean(np.hypot(*(base[:, :2] - centre).T) <= r + cfg.disc_margin_m))
-        found = {"x": x, "y": y, "width_m": width, "depth_m": deep, "inside": inside}
+
+        def placed(why: str) -> BlobShape:
+            return BlobShape(not why, why, x, y, width, deep, inside, edges)
+
         if inside < cfg.min_inside:
-            return BlobShape(False, "not one base", **found, edges=edges)
+            return placed("not one base")
         # As the twin's sighting (sim/goal_sight.py): a goal whose middle is out of view is not
         # reported (a sliver at the image's edge could be anything of its colour); the middle
         # may be placed a third of a radius off.
@@ -262,8 +265,8 @@ class GoalDetector:
         if not (
             pz > 0 and -margin <= pu < intr.width + margin and -margin <= pv < intr.height + margin
         ):
-            return BlobShape(False, "middle out of view", **found, edges=edges)
-        return BlobShape(True, "", **found, edges=edges)
+            return placed("middle out of view")
+        return placed("")
 
 
 def goals_robot(sightings: list[GoalSighting]) -> NDArray[np.float64]:
