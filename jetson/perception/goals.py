@@ -4,21 +4,26 @@ A Tipping Point mobile goal stands on a large coloured base (at most 13 in acros
 yellow for the neutral goals, red or blue for the alliance goals. The detector masks each colour
 in HSV and keeps blobs big enough for a goal base at the camera's range. Each blob's pixels with a
 depth reading (the depth image, aligned to the colour image) are placed in the robot frame through
-the camera model (jetson.autonomy.camera: the one pinhole model and mount), and the blob is a goal
-only when those points are shaped like a base standing on the floor:
+the camera model (jetson.autonomy.camera: the one pinhole model and mount), and the blob holds a
+goal only where those points are shaped like a base standing on the floor:
 
-- its base: enough points no higher than the base (a goal's post, of the same colour, rises above
-  it and is left out of the tests); an alliance-coloured bumper or license plate on a robot, all
-  above that height, has none;
-- as wide across the camera's ray as a good share of the base's diameter (cut by the image's left
-  or right edge, the part inside is tested);
-- inside one base: the base's middle is put a base radius beyond the nearest of the blob's points
-  along the ray (the camera sees the base's near face and its top, never its far side from
-  below), and nearly all the points lie within a radius (and a margin) of it; a piece of a
-  platform of the goal's colour (the twin's platforms are the alliance goals' red and blue),
-  larger than a base or long and thin, leaves points outside.
+- on the floor: its points no higher than a base (and a margin) are the base; the goal's post,
+  of the same colour, rises above it and is left out. A blob with too few of them (an
+  alliance-coloured bumper or plate on a robot, all above that height) holds none; the base
+  parts that are apart in the image once the posts are left out are tested one by one (a goal
+  behind another, the nearer one's post across its base);
+- one base: across the camera's ray at least part of a base's diameter wide, along it part of a
+  base deep (the camera sees its top from above), and nearly all its points within a radius (and
+  a margin) of its middle. A piece of a platform of a goal's colour (the twin's platforms are the
+  alliance goals' red and blue), bigger than a base or thin, leaves points outside;
+- in view: a base running off more of the image's edges than `max_cut_edges` is not tested (no
+  telling it from something bigger), and one whose middle is out of view is not reported, as the
+  twin's geometric sighting (sim/goal_sight.py) does not report it.
 
-The base's middle is where the goal is reported: the report is what the scripted alliance reads
+The middle is a base radius beyond the base's near face along the ray (the camera never sees its
+far side from below; when the image's bottom cuts the near face, a radius before its top's far
+edge), across the ray the middle of its points (a radius in from the side the image cuts). It is
+where the goal is reported: the report is what the scripted alliance reads
 (jetson.autonomy.alliance.AllianceInputs.goals_robot): (N, 3) x, y robot frame (metres, x right,
 y forward) and a colour code, COLOUR_CODES (jetson/autonomy/goal_colours.py).
 
@@ -26,7 +31,8 @@ The daemon runs it in its perception pipeline when `[camera] goals` is on (jetso
 pipeline.py); in the twin's own matches the goals come from geometry instead (sim/goal_sight.py),
 while the full stack's daemon runs this detector on the twin's rendered frames
 (`python -m sim.goal_survey` measures it there). Not measured on real photos: the HSV windows are
-first guesses for saturated field colours, and a real base is a heptagon, not the twin's disc.
+first guesses for saturated field colours, the shape tests' numbers are chosen on the twin's
+renders (disc bases, depth without noise), and a real base is a heptagon.
 """
 
 from __future__ import annotations
