@@ -21,7 +21,7 @@ goals, its own half of the field for rings, and its own time line.
   tall, north, then its AWP goal), the        22 s before the end: move to the field side
   preloads on the high branch, collect its    (the ramp down);
   half's rings;
-  24 s before the end: line up in front of    14 s before the end: move to its balance spot.
+  32 s before the end: line up in front of    14 s before the end: move to its balance spot.
   the platform, climb from 20.5 s, hold the
   ramp down; 9 s before the end: move to the
   balance point.
@@ -137,7 +137,7 @@ class AllianceConfig:
     # field edge down at `hold_along_m` from the hinge until `settle_s`, then moves to the
     # balance point; the 15" drops its goal at `drop_15_s`, waits at its stage from `stage_15_s`
     # and climbs to `partner_along_m` at `climb_15_s`.
-    climb_24_s: float = 24.0
+    climb_24_s: float = 32.0
     hold_along_m: float = 0.2
     settle_s: float = 9.0
     drop_15_s: float = 24.0
@@ -205,6 +205,10 @@ class AllianceConfig:
     # `refetch_s` before the end it goes back for the last one it left, to climb with (None:
     # never deposits).
     deposit_after_s: float | None = None
+    # How many neutral goals (south, tall, north) the 24" tries before its AWP goal: a goal
+    # the other alliance holds and stands still with looks free (a tug of war when clamped),
+    # and the AWP goal is never another robot's.
+    neutral_goals_24: int = 3
     deposit_until_s: float = 45.0
     deposit_spots: tuple[tuple[float, float], ...] = ((0.17, -1.05), (0.17, 1.05))
     refetch_s: float = 34.0
@@ -324,6 +328,10 @@ class AllianceStrategy:
         self.memory.reset()
         self._trail.clear()
         self.plan = default_plan(self.role.role, self.layout)
+        if self.role.role == "24in":
+            neutral = [n for n in self.plan.neutral if self.layout.goal(n).owner is None]
+            keep = neutral[: max(0, self.config.neutral_goals_24)]
+            self.plan.neutral = [n for n in self.plan.neutral if n in keep or n not in neutral]
         self._iso_index = 0
         self._held_at_clamp = 0
         self.goals = {

@@ -4,8 +4,8 @@ no simulator. The twin's matches are tests/sim/baselines/test_alliance.py."""
 from __future__ import annotations
 
 import copy
-import math
 import json
+import math
 
 import numpy as np
 import pytest
@@ -277,3 +277,18 @@ def test_the_24_leaves_its_goal_in_the_home_zone_once_the_floor_is_clear() -> No
     drive(s, (x, y, h), 20.0 + 0.05 * len(log), 2.0, None)
     assert s.goals["neutral_south"].xy == pytest.approx(goal_at, abs=0.05)
     assert s.phase == "get_goal" and s.target_goal == "neutral_tall"
+
+
+def test_the_24_tries_as_many_neutral_goals_as_configured_then_its_awp_goal() -> None:
+    from jetson.autonomy.alliance import AllianceConfig
+
+    layout = load_layout()
+    for n, want in (
+        (3, ["neutral_south", "neutral_tall", "neutral_north"]),
+        (1, ["neutral_south"]),
+        (0, []),
+    ):
+        s = AllianceStrategy(ROLE_24, layout, AllianceConfig(neutral_goals_24=n))
+        assert s.plan.neutral == [*want, layout.awp_goal]
+    small = AllianceStrategy(ROLE_15, layout, AllianceConfig(neutral_goals_24=0))
+    assert small.plan.neutral == default_plan("15in", layout).neutral
