@@ -175,8 +175,12 @@ def run_survey(
 
 def main(argv: list[str] | None = None) -> int:
     doc = (__doc__ or "").split("\n")[0]
-    ap = argparse.ArgumentParser(prog="python -m sim.goal_survey", description=doc)
-    ap.add_argument("--poses", type=int, default=300)
+    ap = argparse.ArgumentParser(
+        prog="python -m sim.goal_survey",
+        description=doc,
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    ap.add_argument("--poses", type=int, default=300, help="random poses of the red 24in")
     ap.add_argument("--seed", type=int, default=1, help="the poses' and tilts' random seed")
     ap.add_argument("--size", default="240x180", help="the camera's size (the full stack's)")
     ap.add_argument("--match", type=float, default=0.4, help="metres: a true sighting's reach")
