@@ -4,7 +4,8 @@ jetson/autonomy/alliance.py's strategy plays the whole Tipping Point match for o
 AI alliance (the 24" or the 15", `[decision] role`). Here it drives the real robot from what the
 daemon has, the same inputs the twin hands it (sim/baselines/alliance.py): the Brain's pose, the
 camera's rings and goals (the pipeline's goal detector, jetson/perception/goals.py, on by default
-with this player: `[camera] goals`), the intake's count, the clamp and the lift, the match clock.
+with this player: `[camera] goals`; those on a platform's footprint dropped, as only a pose can
+tell them), the intake's count, the clamp and the lift, the match clock.
 So a team can field the whole game before any learned alliance exists. A camera result older
 than `perception_max_age_s` gives no rings and no goals, as for a policy.
 
@@ -26,6 +27,7 @@ import numpy as np
 from jetson.autonomy.alliance import AllianceAction, AllianceInputs, AllianceStrategy, RobotRole
 from jetson.autonomy.field_layout import FieldLayout, load_layout
 from jetson.autonomy.goal_memory import GoalMemory
+from jetson.autonomy.goal_sightings import off_the_platforms
 from jetson.autonomy.ring_memory import RingMemory
 from jetson.decide import (
     CLAMP_HOLDS,
@@ -148,8 +150,14 @@ class ScriptedDecider:
                 goal_clamped=state.goal_clamped == CLAMP_HOLDS,
                 lift_up=state.lift == LiftState.UP,
                 # A daemon without a goal detector reports none: the strategy then plays as
-                # without one (its goals dead-reckoned from the layout and the clamp).
-                goals_robot=perceived_goals(perception, self.config),
+                # without one (its goals dead-reckoned from the layout and the clamp). A sighting
+                # on a platform's footprint is dropped (jetson/autonomy/goal_sightings.py).
+                goals_robot=off_the_platforms(
+                    perceived_goals(perception, self.config),
+                    (state.x, state.y),
+                    state.heading,
+                    self.layout.platform,
+                ),
             )
             try:
                 self._action = self.strategy.step(inputs)

@@ -29,7 +29,7 @@ from jetson.service import build, make_camera
 from jetson.settings import CameraSettings, DecisionConfig, Settings
 from jetson.testing import FakeBrain
 from protocol.messages import State
-from tests.jetson.perception.test_goal_pipeline import NEAR_FACE_M, assert_goal_at, goal_frame
+from tests.jetson.perception.test_goal_pipeline import PLACED_M, assert_goal_at, goal_frame
 from tests.jetson.test_daemon_camera import Streamer, wait_for
 from tests.jetson.test_scripted import state
 
@@ -137,8 +137,8 @@ def test_pete_jetson_run_as_the_alliance_sees_a_goal_base_records_and_replays_it
     tmp_path: Path,
 ) -> None:
     """A yellow goal base 1.2 m ahead and 0.3 m right in the camera stream reaches the strategy
-    through the daemon's camera process, at its place within what the near face allows; the
-    session replays, and replaying it without its goals does not."""
+    through the daemon's camera process, at its base's middle; the session replays, and
+    replaying it without its goals does not."""
     truth = (0.3, 1.2)
     frame = goal_frame([("yellow", *truth)], intr=Intrinsics().scaled(320, 240))
     address = f"unix:{tmp_path / 'frames.sock'}"
@@ -181,7 +181,7 @@ def test_pete_jetson_run_as_the_alliance_sees_a_goal_base_records_and_replays_it
     seen = [g for g in got if len(g)]
     for report in seen:
         assert_goal_at(report, "yellow", *truth)
-    assert NEAR_FACE_M < 0.2  # "the right place": within the base's radius of its centre
+    assert PLACED_M <= 0.05  # "the right place": at the base's middle
     (path,) = sorted((tmp_path / "sessions").glob("session-*.jsonl"))
     report = replay(path)
     assert report.ok and report.cycles > 0, report.text(5)
