@@ -2,6 +2,7 @@
 hidden as on a real field, against a GPS that never fails.
 
     python -m bench.dropouts [--seeds 10] [--first-seed 0] [--seconds S] [--jobs 2] [--strict]
+    python -m bench.dropouts --collect [--seeds N] [--out DIR]   # the matches already played there
 
 For each seed, two lockstep full-stack matches of the whole game (`pete-sim match --world
 tipping_point_2v2 --opponent alliance`: the red 24" is brain_host, the wire and the daemon running
@@ -16,7 +17,9 @@ perfect GPS), the paired differences (mean, standard deviation, standard error),
 match the GPS was hidden, the pose's error against the truth with dropouts (mean and worst) and
 the largest standard deviation the Brain reported for it, the steps the pose rested on odometry,
 and the daemon's stops for a lost pose. Results: bench/results/dropouts.json; each match's run
-folder under --out, and every match's numbers in --out/seeds.json.
+folder under --out, and every match's numbers in --out/seeds.json. `--collect` plays nothing: it
+reads the matches an earlier (or interrupted) run left under --out, each seed whose two matches
+both finished, and reports them the same way.
 """
 
 from __future__ import annotations
@@ -35,6 +38,20 @@ SCORE_RATIO_TARGET = 0.95
 WORLD = "tipping_point_2v2"
 
 
+def _pose_stops(folder: Path) -> int:
+    """The daemon's stops for its pose (it logs each stop once as it starts: event "decision",
+    its reason)."""
+    stops = 0
+    log = folder / "daemon.jsonl"
+    if log.is_file():
+        for line in log.read_text().splitlines():
+            rec = json.loads(line)
+            reason = str(rec.get("reason", ""))
+            if rec.get("event") == "decision" and reason.startswith(("pose", "gps")):
+                stops += 1
+    return stops
+
+
 def one_match(job: tuple[int, bool, float | None, str]) -> dict[str, Any]:
     """One full-stack match (in a worker process): what the benchmark keeps of it."""
     from sim.fullstack.options import MatchOptions
@@ -48,14 +65,7 @@ def one_match(job: tuple[int, bool, float | None, str]) -> dict[str, Any]:
             seconds=seconds, gif=False, plots=False, out=folder,
         )
     )  # fmt: skip
-    stops = 0  # the daemon logs each stop once as it starts: event "decision", its reason
-    log = folder / "daemon.jsonl"
-    if log.is_file():
-        for line in log.read_text().splitlines():
-            rec = json.loads(line)
-            reason = str(rec.get("reason", ""))
-            if rec.get("event") == "decision" and reason.startswith(("pose", "gps")):
-                stops += 1
+    stops = _pose_stops(folder)
     pose = (result.brain or {}).get("pose", {})
     return {
         "seed": seed,
@@ -66,6 +76,27 @@ def one_match(job: tuple[int, bool, float | None, str]) -> dict[str, Any]:
         "pose": pose,
         "pose_stops": stops,
         "wall_s": result.wall_s,
+    }
+
+
+def collected(job: tuple[int, bool, float | None, str]) -> dict[str, Any] | None:
+    """What the benchmark keeps of a match an earlier run played into --out (None: it did not
+    finish there)."""
+    seed, occluded, _seconds, out = job
+    folder = Path(out) / f"seed{seed}-{'occluded' if occluded else 'clear'}"
+    summary = folder / "summary.json"
+    if not summary.is_file():
+        return None
+    data = json.loads(summary.read_text())
+    return {
+        "seed": seed,
+        "occluded": occluded,
+        "score": data["score"],
+        "opponent_score": data["opponent_score"],
+        "passed": data["passed"],
+        "pose": (data.get("brain") or {}).get("pose", {}),
+        "pose_stops": _pose_stops(folder),
+        "wall_s": data["wall_s"],
     }
 
 
@@ -80,18 +111,34 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=Path("runs/bench-dropouts"))
     ap.add_argument("--results", type=Path, default=RESULTS_DIR, help="where dropouts.json goes")
     ap.add_argument("--strict", action="store_true", help="exit 1 when a target is missed")
+    ap.add_argument(
+        "--collect", action="store_true",
+        help="play nothing: report the seeds whose two matches finished under --out",
+    )  # fmt: skip
     args = ap.parse_args(argv)
     if args.seeds < 1 or args.jobs < 1:
         ap.error("--seeds and --jobs must be at least 1")
-    seeds = range(args.first_seed, args.first_seed + args.seeds)
-    jobs = [(s, occ, args.seconds, str(args.out)) for s in seeds for occ in (False, True)]
-    ctx = multiprocessing.get_context("spawn")
-    with ctx.Pool(args.jobs) as pool:
-        runs = []
-        for i, r in enumerate(pool.imap_unordered(one_match, jobs), 1):
-            runs.append(r)
-            way = "occluded" if r["occluded"] else "clear"
-            print(f"  {i}/{len(jobs)} seed {r['seed']} {way}: red {r['score']}", flush=True)
+    asked = range(args.first_seed, args.first_seed + args.seeds)
+    jobs = [(s, occ, args.seconds, str(args.out)) for s in asked for occ in (False, True)]
+    runs = []
+    if args.collect:
+        found = [r for job in jobs if (r := collected(job)) is not None]
+        done = {r["seed"] for r in found if r["occluded"]} & {
+            r["seed"] for r in found if not r["occluded"]
+        }
+        runs = [r for r in found if r["seed"] in done]
+        seeds = [s for s in asked if s in done]
+        if not seeds:
+            ap.error(f"no seed finished both ways under {args.out}")
+        print(f"  collected {len(seeds)} seeds from {args.out}: {seeds}", flush=True)
+    else:
+        seeds = list(asked)
+        ctx = multiprocessing.get_context("spawn")
+        with ctx.Pool(args.jobs) as pool:
+            for i, r in enumerate(pool.imap_unordered(one_match, jobs), 1):
+                runs.append(r)
+                way = "occluded" if r["occluded"] else "clear"
+                print(f"  {i}/{len(jobs)} seed {r['seed']} {way}: red {r['score']}", flush=True)
     by = {(r["seed"], r["occluded"]): r for r in runs}
     args.out.mkdir(parents=True, exist_ok=True)
     ordered = [by[(s, occ)] for s in seeds for occ in (False, True)]
@@ -99,7 +146,7 @@ def main(argv: list[str] | None = None) -> int:
     clear = [by[(s, False)]["score"] for s in seeds]
     occl = [by[(s, True)]["score"] for s in seeds]
     result = Result("dropouts")
-    result.add("seeds", args.seeds)
+    result.add("seeds", len(seeds))
     result.add("match_s", args.seconds or 120.0)
     result.add("red_score_clear", round(statistics.fmean(clear), 2))
     result.add("red_score_occluded", round(statistics.fmean(occl), 2))

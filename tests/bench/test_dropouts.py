@@ -31,3 +31,13 @@ def test_a_tiny_run_writes_every_metric(tmp_path: Path) -> None:
     ]  # fmt: skip
     per_match = json.loads((tmp_path / "runs" / "seeds.json").read_text())
     assert [(r["seed"], r["occluded"]) for r in per_match] == [(0, False), (0, True)]
+    # --collect plays nothing and reports the same from the folders the run left.
+    again = tmp_path / "again"
+    rc = dropouts.main([
+        "--collect", "--seeds", "3", "--out", str(tmp_path / "runs"), "--results", str(again),
+    ])  # fmt: skip
+    assert rc == 0
+    collected = json.loads((again / "dropouts.json").read_text())["metrics"]
+    assert collected["seeds"] == 1  # seeds 1 and 2 were never played there
+    for key in ("red_score_clear", "red_score_occluded", "pose_error_max_m", "pose_stops"):
+        assert collected[key] == m[key], key
