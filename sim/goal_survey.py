@@ -9,9 +9,10 @@ exactly). A sighting within `match_m` of an unmatched seen goal of its colour (n
 true; one within `match_m` of a goal of its colour that the twin's sighting leaves out (its
 middle out of view or hidden) is counted apart; the rest are false, each put down to what stands
 where it was placed (a platform's footprint, a robot, a goal of its colour further off, or
-nothing). It reports the counts, the
-true sightings' placement error (the distance, and the error in range: negative is short) and
-the blobs the shape tests turned down by reason.
+nothing), and those of them off the platforms' footprints counted (what the scripted decider,
+which drops sightings on a footprint, still passes on). It reports the counts, the true
+sightings' placement error (the distance, and the error in range: negative is short) and the
+blobs the shape tests turned down by reason.
 
     python -m sim.goal_survey --poses 300 --seed 1 [--size 240x180] [--out survey.json]
 """
@@ -52,6 +53,8 @@ class Survey:
     beyond: int = 0  # at a goal of its colour that the twin's sighting leaves out (its middle
     # out of view, or hidden): right, but not counted as true
     false: Counter[str] = field(default_factory=Counter)  # by what stands there
+    false_off_platforms: int = 0  # false ones not on a platform's footprint: what the scripted
+    # decider, which drops those (jetson/autonomy/goal_sightings.py), still hands the strategy
     rejected: Counter[str] = field(default_factory=Counter)  # blobs turned down, by reason
     errors_m: list[float] = field(default_factory=list)  # true sightings: distance
     range_errors_m: list[float] = field(default_factory=list)  # range: found minus truth
@@ -74,6 +77,7 @@ class Survey:
             "beyond_the_sighting": self.beyond,
             "false": sum(self.false.values()),
             "false_by_what": dict(self.false.most_common()),
+            "false_off_the_platforms": self.false_off_platforms,
             "recall": round(self.true / self.seen, 3) if self.seen else None,
             "error_m": {"median": q(e, 0.5), "p90": q(e, 0.9), "max": q(e, 1.0)},
             "range_error_m": {"p10": q(re, 0.1), "median": q(re, 0.5), "p90": q(re, 0.9)},
@@ -169,6 +173,9 @@ def run_survey(
                 out.count(sighting.colour, "beyond")
                 continue
             out.false[what_is_there(world, where, sighting.colour, index)] += 1
+            out.false_off_platforms += not any(
+                bool(plat.contains(where)) for plat in world.field.platforms
+            )
             out.count(sighting.colour, "false")
     return out
 

@@ -27,6 +27,10 @@ where the goal is reported: the report is what the scripted alliance reads
 (jetson.autonomy.alliance.AllianceInputs.goals_robot): (N, 3) x, y robot frame (metres, x right,
 y forward) and a colour code, COLOUR_CODES (jetson/autonomy/goal_colours.py).
 
+It knows nothing of where the robot is: the scripted decider, which knows the pose, drops the
+sightings on a platform's footprint (jetson/autonomy/goal_sightings.py), which the shape tests
+can let through when the image's edge cuts a piece of a platform to a base's size.
+
 The daemon runs it in its perception pipeline when `[camera] goals` is on (jetson/perception/
 pipeline.py); in the twin's own matches the goals come from geometry instead (sim/goal_sight.py),
 while the full stack's daemon runs this detector on the twin's rendered frames

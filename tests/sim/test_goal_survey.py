@@ -18,6 +18,7 @@ def test_a_small_survey_adds_up_and_places_goals_at_their_middles() -> None:
     assert 0 < report["true"] <= report["goals_seen"]
     assert len(survey.errors_m) == report["true"] == len(survey.range_errors_m)
     assert report["false"] == sum(report["false_by_what"].values())
+    assert 0 <= report["false_off_the_platforms"] <= report["false"]
     # At the base's middle, not its near face (a base radius, 0.165 m, short).
     assert report["error_m"]["median"] < 0.05 and abs(report["range_error_m"]["median"]) < 0.05
     by_colour = report["by_colour"]
