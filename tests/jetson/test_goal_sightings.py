@@ -110,27 +110,42 @@ def test_the_scripted_decider_hands_the_strategy_the_fresh_goals() -> None:
     assert got[1].goals_robot.shape == (0, 3) and got[2].goals_robot.shape == (0, 3)
 
 
-def test_a_strategy_told_of_no_goals_plays_as_one_without_a_goal_detector() -> None:
-    """A daemon whose camera finds no goals hands the strategy an empty report every step;
-    that is the strategy without a goal detector (AllianceInputs.goals_robot None)."""
+def test_a_strategy_told_of_no_goals_looks_before_backing_onto_a_goal() -> None:
+    """A daemon whose camera finds no goals hands the strategy an empty report every step. In
+    the isolation period that plays as the strategy without a goal detector
+    (AllianceInputs.goals_robot None); in the interaction period a robot with a detector does
+    not back onto a goal it has not just seen where it believes it (what stands there may be
+    another robot's goal): it looks first, where the one without a detector backs on."""
     decider = ScriptedDecider(DecisionConfig())
     a = AllianceStrategy(ROBOTS["24in"], decider.layout)
     b = AllianceStrategy(ROBOTS["24in"], decider.layout)
+    isolation_s = decider.layout.isolation_s
     rng = np.random.default_rng(3)
-    x, y, heading = -1.2, -0.9, 90.0
-    for k in range(600):  # 50 s at 12 Hz, driving where the strategy says
-        base = dict(
-            x=x, y=y, heading_deg=heading, alliance="red", time_s=k / 12.0,
-            rings_robot_xy=rng.uniform(-0.5, 0.5, (k % 3, 2)) + np.array([0.0, 1.0]), rings_held=2,
-            goal_clamped=30 < k < 300,
-        )  # fmt: skip
-        want = a.step(AllianceInputs(**base))
-        got = b.step(AllianceInputs(**base, goals_robot=np.zeros((0, 3))))
-        assert got == want, k
-        heading = (heading + np.degrees(want.angular) / 12.0) % 360.0
-        x += want.linear / 12.0 * np.sin(np.radians(heading))
-        y += want.linear / 12.0 * np.cos(np.radians(heading))
-        x, y = float(np.clip(x, -1.6, 1.6)), float(np.clip(y, -1.6, 1.6))
+    poses = {"a": (-1.2, -0.9, 90.0), "b": (-1.2, -0.9, 90.0)}
+    intents: dict[str, set[str]] = {"a": set(), "b": set()}
+    for k in range(600):  # 50 s at 12 Hz, each driving where its strategy says
+        t = k / 12.0
+        rings = rng.uniform(-0.5, 0.5, (k % 3, 2)) + np.array([0.0, 1.0])
+        actions = {}
+        for name, strategy, goals in (("a", a, None), ("b", b, np.zeros((0, 3)))):
+            x, y, heading = poses[name]
+            actions[name] = strategy.step(
+                AllianceInputs(
+                    x=x, y=y, heading_deg=heading, alliance="red", time_s=t,
+                    rings_robot_xy=rings, rings_held=2, goal_clamped=30 < k < 300,
+                    goals_robot=goals,
+                )
+            )  # fmt: skip
+            if t > isolation_s:
+                intents[name].add(strategy.intent.split(":")[0])
+            heading = (heading + np.degrees(actions[name].angular) / 12.0) % 360.0
+            x += actions[name].linear / 12.0 * np.sin(np.radians(heading))
+            y += actions[name].linear / 12.0 * np.cos(np.radians(heading))
+            poses[name] = (float(np.clip(x, -1.6, 1.6)), float(np.clip(y, -1.6, 1.6)), heading)
+        if t <= isolation_s:
+            assert actions["b"] == actions["a"], k
+    assert "look" in intents["b"] and "look" not in intents["a"]
+    assert "back_onto" in intents["a"]
 
 
 def test_pete_jetson_run_as_the_alliance_sees_a_goal_base_records_and_replays_it(
