@@ -28,14 +28,15 @@ constexpr const char* kUsage =
     "usage: brain_host [--link pty|stdio] [--lockstep | --realtime] [--side stdio|fds:R,W|none]\n"
     "                  [--phase disabled|autonomous|driver] [--alliance red|blue|unknown]\n"
     "                  [--boot-id HEX] [--jetson-in-autonomous 0|1] [--jetson-in-driver 0|1]\n"
-    "                  [--duration-ms MS]\n"
+    "                  [--duration-ms MS] [--track-width-m M]\n"
     "\n"
     "The Brain core on fake hardware. --link pty (default) opens a pseudo-terminal and\n"
     "reports its path in the 'ready' line; --link stdio uses stdin (downlink) and stdout\n"
     "(uplink). The side channel (default: stdin/stdout with --link pty, none with --link\n"
     "stdio) takes one command per line ('help' lists them). --lockstep: the side channel's\n"
     "advance/until run the loop on simulated time; --realtime (default): the loop runs every\n"
-    "period on the wall clock. brain/README.md documents it all.\n";
+    "period on the wall clock. --track-width-m: the drive's track instead of the configuration\n"
+    "header's (a simulator's robot of another size). brain/README.md documents it all.\n";
 
 struct Options {
   bool pty = true;
@@ -52,6 +53,7 @@ struct Options {
   bool jetson_in_auto = pete::core::kRobotConfig.jetson_drives_in_autonomous;
   bool jetson_in_driver = pete::core::kRobotConfig.jetson_drives_in_driver;
   uint64_t duration_ms = 0;
+  std::optional<float> track_width_m;  // the drive's track instead of kRobotConfig's
 };
 
 [[noreturn]] void usage_error(const std::string& what) {
@@ -142,6 +144,17 @@ Options parse_args(int argc, char** argv) {
       char* end = nullptr;
       o.duration_ms = std::strtoull(v.c_str(), &end, 10);
       if (v.empty() || *end != '\0') usage_error("--duration-ms must be a whole number");
+    } else if (a == "--track-width-m") {
+      const std::string v = value();
+      char* end = nullptr;
+      const float m = std::strtof(v.c_str(), &end);
+      if (v.empty() || *end != '\0') usage_error("--track-width-m must be a number of metres");
+      pete::core::Config c = pete::core::kRobotConfig;
+      c.drive.track_width_m = m;
+      if (const char* why = pete::core::config_error(c)) {
+        usage_error(std::string("--track-width-m ") + v + ": " + why);
+      }
+      o.track_width_m = m;
     } else {
       usage_error("unknown option '" + a + "'");
     }
@@ -244,6 +257,7 @@ int main(int argc, char** argv) {
   pete::core::Config config = pete::core::kRobotConfig;
   config.jetson_drives_in_autonomous = opt.jetson_in_auto;
   config.jetson_drives_in_driver = opt.jetson_in_driver;
+  if (opt.track_width_m) config.drive.track_width_m = *opt.track_width_m;
   const uint32_t boot_id = opt.boot_id ? *opt.boot_id : random_boot_id();
 
   Pty pty;

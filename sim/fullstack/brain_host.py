@@ -201,9 +201,12 @@ class BrainHost:
         stderr_path: Path | None = None,
         extra_args: Sequence[str] = (),
         append_stderr: bool = False,
+        track_width_m: float | None = None,
     ) -> BrainHost:
         """Start brain_host with its link on a new pty and its side channel on pipes
-        (`append_stderr`: add to stderr_path, as a restarted one does)."""
+        (`append_stderr`: add to stderr_path, as a restarted one does; `track_width_m`: the
+        drive's track instead of the Brain's configuration header's, for a robot of another
+        size)."""
         exe = find_binary(binary)
         args = [str(exe), "--link", "pty", "--lockstep" if lockstep else "--realtime"]
         args += ["--alliance", alliance]
@@ -213,6 +216,8 @@ class BrainHost:
             if phase not in PHASES:
                 raise ValueError(f"phase must be one of {PHASES}, got {phase!r}")
             args += ["--phase", phase]
+        if track_width_m is not None:
+            args += ["--track-width-m", f"{track_width_m:g}"]
         args += list(extra_args)
         # stderr goes to a file: ASan's report or a crash message must survive the process, and a
         # pipe nobody drains could stall it.
@@ -265,7 +270,10 @@ class BrainHost:
                 continue
             chunk = os.read(self._out, 65536)
             if not chunk:
-                code = self.proc.poll()
+                try:  # its stdout closed as it ends: wait for the status it ends with
+                    code: int | None = self.proc.wait(timeout=1.0)
+                except subprocess.TimeoutExpired:
+                    code = None
                 raise BrainHostError(
                     f"brain_host exited (status {code}) instead of answering" + self._stderr_hint()
                 )

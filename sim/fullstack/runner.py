@@ -514,6 +514,8 @@ class FullStackMatch:
                 binary=self.options.brain_host,
                 stderr_path=self.folder / "brain_host.stderr",
                 append_stderr=append_stderr,
+                # the Brain converts Commands to wheel speeds with the robot's own track
+                track_width_m=self.world.robots[self.ia].config.track_m,
             )
         except BrainHostError as exc:
             raise MatchError(str(exc)) from exc

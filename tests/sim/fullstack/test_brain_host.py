@@ -272,3 +272,35 @@ def test_stderr_goes_to_a_file(tmp_path) -> None:
     finally:
         assert host.close() == 0
     assert log.exists()
+
+
+def _turning_wheels(track_width_m: float | None) -> tuple[float, float]:
+    """The wheel speeds of a brain_host told to turn in place at 1 rad/s."""
+    with BrainHost.start(boot_id=0x5EED0002, track_width_m=track_width_m) as host:
+        port = Port(host.pty_path)
+        try:
+            host.set_phase("driver")
+            host.set_gps(0.0, 0.0, 0.0, 0.02)
+            port.send(hello())
+            host.until(10, rx=port.written)
+            port.send(Command(seq=1, linear=0.0, angular=1.0, intake=False, valid_ms=250))
+            report = host.until(200, rx=port.written)  # past the turn's slew limit
+            return report.left_mps, report.right_mps
+        finally:
+            port.close()
+
+
+def test_the_track_width_given_sets_the_turns_wheel_speeds() -> None:
+    """A robot of another size (the 24" robot's 0.52 m track): the Brain turns it at the rate
+    asked only when it knows where its wheels are."""
+    left, right = _turning_wheels(None)
+    wide_left, wide_right = _turning_wheels(0.52)
+    assert left == pytest.approx(-right) and wide_left == pytest.approx(-wide_right)
+    assert abs(left - right) == pytest.approx(1.0 * 0.30, rel=0.02)  # kRobotConfig's track
+    assert abs(wide_left - wide_right) == pytest.approx(1.0 * 0.52, rel=0.02)
+
+
+def test_a_track_width_out_of_range_is_refused_with_its_reason(tmp_path) -> None:
+    with pytest.raises(BrainHostError, match=r"exited \(status 2\)"):
+        BrainHost.start(track_width_m=2.0, stderr_path=tmp_path / "stderr")
+    assert "--track-width-m 2: track_width_m out of range" in (tmp_path / "stderr").read_text()
