@@ -247,27 +247,24 @@
       D.trail.forEach((p, j) => { const [u, v] = T.px(p[0], p[1]); if (j) g.lineTo(u, v); else g.moveTo(u, v); });
       g.stroke();
     }
-    (f.goals || []).forEach((p) => {
+    // a goal's base: a hexagon of radius r pixels around the point p (field frame)
+    const hexagon = (p, r) => {
       const [u, v] = T.px(p[0], p[1]);
       g.beginPath();
       for (let k = 0; k < 6; k++) {
         const a = Math.PI / 3 * k;
-        const q = [u + 12 * Math.cos(a), v + 12 * Math.sin(a)];
-        if (k) g.lineTo(q[0], q[1]); else g.moveTo(q[0], q[1]);
+        if (k) g.lineTo(u + r * Math.cos(a), v + r * Math.sin(a));
+        else g.moveTo(u + r * Math.cos(a), v + r * Math.sin(a));
       }
-      g.closePath(); g.strokeStyle = "#fd3"; g.lineWidth = 2; g.stroke();
+      g.closePath();
+    };
+    (f.goals || []).forEach((p) => {
+      hexagon(p, 12); g.strokeStyle = "#fd3"; g.lineWidth = 2; g.stroke();
     });
     // the goals the camera saw (a recording's; jetson/dashboard/replay.py): [x, y, colour code],
     // filled in the base's colour (jetson/autonomy/goal_colours.py: yellow, red, blue)
     (f.goals_seen || []).forEach((p) => {
-      const [u, v] = T.px(p[0], p[1]);
-      g.beginPath();
-      for (let k = 0; k < 6; k++) {
-        const a = Math.PI / 3 * k;
-        const q = [u + 8 * Math.cos(a), v + 8 * Math.sin(a)];
-        if (k) g.lineTo(q[0], q[1]); else g.moveTo(q[0], q[1]);
-      }
-      g.closePath(); g.fillStyle = ["#fd3", "#e33", "#38f"][p[2]] || "#fff"; g.fill();
+      hexagon(p, 8); g.fillStyle = ["#fd3", "#e33", "#38f"][p[2]] || "#fff"; g.fill();
     });
     (f.forgotten || []).forEach((p) => {
       const [u, v] = T.px(p[0], p[1]);
