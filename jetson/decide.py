@@ -190,11 +190,10 @@ class PhaseTracker:
         return PhaseStep(True, entering, False)
 
 
-def why_not_drive(state: State, config: DecisionConfig) -> str | None:
+def why_not_drive(state: State) -> str | None:
     """The stop reason a State in a drive phase still gives (an unknown alliance; no pose), or
     None: the pose is the Brain's, the GPS fused with odometry and the IMU, driven on while it
     rests on the GPS or, through a dropout, on odometry (pose_speed_scale says how fast)."""
-    del config  # the pose's trust sets the speed (pose_speed_scale), not whether to drive
     if state.alliance == Alliance.UNKNOWN:
         # The Brain finds it at run time: its screen's pick, or the GPS start pose.
         return "alliance unknown: pick it on the Brain's screen"
@@ -309,7 +308,7 @@ class Decider:
             self._goals.reset()
             if self._driver is not None:
                 self._driver.reset()
-        why = why_not_drive(state, self.config)
+        why = why_not_drive(state)
         if why is not None:
             return stop(why)
         self._poses.push(float(state.time_ms), state.x, state.y, state.heading)

@@ -130,7 +130,7 @@ class ScriptedDecider:
         if step.entering:
             self.strategy.reset()
             self._action = None
-        why = why_not_drive(state, self.config)
+        why = why_not_drive(state)
         if why is not None:
             return stop(why)
         rings, seen = perceived_rings(perception, self.config)

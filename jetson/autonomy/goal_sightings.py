@@ -36,10 +36,9 @@ def off_the_platforms(
     seen = np.asarray(goals_robot, dtype=np.float64).reshape(-1, 3)
     if not len(seen):
         return seen
-    xy = robot_to_field(seen[:, :2], robot_xy, heading_deg)
-    centre = np.asarray(platform.center, dtype=np.float64)
-    half = np.asarray(platform.size, dtype=np.float64) / 2 + margin_m
-    on = np.zeros(len(seen), dtype=bool)
-    for c in (centre, -centre):
-        on |= np.all(np.abs(xy - c) <= half, axis=1)
-    return seen[~on]
+    xy = robot_to_field(seen[:, :2], robot_xy, heading_deg).tolist()
+    # the other alliance's platform is this one turned half a turn about the field's centre
+    on = [
+        platform.contains((x, y), margin_m) or platform.contains((-x, -y), margin_m) for x, y in xy
+    ]
+    return seen[~np.asarray(on, dtype=bool)]
