@@ -198,20 +198,39 @@ class AllianceConfig:
     confirm_s: float | None = 1.5
     look_s: float = 2.5
     look_from_m: float = 0.85
-    # The 24" with a goal and no ring known for `deposit_after_s` (the floor cleared) leaves
-    # that goal deep in its home zone, at the next of `deposit_spots` (from the hinge toward
-    # the field, and beside the platform's centre: its own side first) while more than
-    # `deposit_until_s` are left, and takes the next goal on its list; with none in hand
-    # `refetch_s` before the end it goes back for the last one it left, to climb with (None:
-    # never deposits).
-    deposit_after_s: float | None = None
+    # The 24" with a goal and no ring known for `deposit_after_s` (the floor cleared), its
+    # preloads off its intake, leaves that goal deep in its home zone at the next of
+    # `deposit_spots` (the robot's centre, from the hinge toward the field and beside the
+    # platform's centre; the goal trails it) while more than `deposit_until_s` are left, and
+    # takes the next goal; `refetch_s` before the end, with none in hand, it goes back for the
+    # one it left nearest, to climb with (None: never deposits).
+    deposit_after_s: float | None = 2.0
     # How many neutral goals (south, tall, north) the 24" tries before its AWP goal: a goal
     # the other alliance holds and stands still with looks free (a tug of war when clamped),
     # and the AWP goal is never another robot's.
     neutral_goals_24: int = 3
-    deposit_until_s: float = 45.0
-    deposit_spots: tuple[tuple[float, float], ...] = ((0.17, -1.05), (0.17, 1.05))
-    refetch_s: float = 34.0
+    deposit_until_s: float = 46.0
+    deposit_spots: tuple[tuple[float, float], ...] = (
+        (0.05, -1.3),
+        (0.05, 1.3),
+        (0.3, -1.45),
+        (0.3, 1.45),
+    )
+    refetch_s: float = 44.0
+    # The raid: once it has left its first goal (the preloads on it), the 24" fetches every
+    # goal it believes free outside its home zone, of either alliance's colour or neutral, and
+    # leaves it in its home zone (20 points each; one taken from the other alliance's home
+    # zone is also 20 fewer for them, and goes first when within `raid_prefer_m` of a nearer
+    # one). A goal in the other alliance's half is fetched until `deposit_until_s`, never from
+    # on or beside either platform.
+    raid: bool = True
+    raid_prefer_m: float = 0.8
+    # A goal on the board in the 24"'s lane (pushed up the ramp to the wall, it leaves the 24"
+    # no room and tips the board): the 24" with no goal in its clamp, in front of the board,
+    # backs up its lane onto it and climbs with it, for at most `clear_lane_s` (seen by the
+    # goal detector in the last second; the daemon's filter drops sightings on a platform,
+    # jetson/autonomy/goal_sightings.py, so on a robot this needs the detector trusted there).
+    clear_lane_s: float = 10.0
 
 
 class AllianceInputs(NamedTuple):
@@ -369,6 +388,11 @@ class AllianceStrategy:
         self._look_since: float | None = None
         self._no_ring_since: float | None = None
         self._deposited: list[str] = []  # goals left in the home zone, oldest first
+        self._clamped_at = 0.0  # when the clamp last closed
+        self._sightings: list[tuple[float, Vec]] = []  # (time, where) of every goal seen lately
+        self._lane_goal_xy: Vec | None = None  # a goal on the board in the 24"'s lane
+        self._clear_since: float | None = None
+        self._clear_backing = False
         self.intent = "start"  # what the last step was doing, for logs and tests
 
     def step(self, inputs: AllianceInputs) -> AllianceAction:
@@ -459,6 +483,7 @@ class AllianceStrategy:
 
     def _track_clamp(self, pose: _Pose, clamped: bool) -> None:
         if clamped and not self._was_clamped:
+            self._clamped_at = pose.t
             # The goal now held: the one it was backing onto, else the believed one nearest
             # the clamp point.
             name = self.target_goal
@@ -488,12 +513,17 @@ class AllianceStrategy:
         if not len(seen):
             return
         where = robot_to_field(seen[:, :2], pose.xy, pose.heading)  # the alliance frame
+        self._sightings = [(t, p) for t, p in self._sightings if t > now - 1.0]
+        self._sightings.extend((now, p.copy()) for p in where)
         own = GOAL_COLOUR_CODES[alliance]
         for xy, code in zip(where, seen[:, 2].astype(int), strict=True):
-            if code != GOAL_COLOUR_CODES["yellow"] and code != own:
+            if code == GOAL_COLOUR_CODES["yellow"]:
+                owner: str | None = None
+            elif code == own:
+                owner = "own"
+            else:
                 self._opponent_goals.append((now, xy.copy()))
-                continue
-            owner = None if code == GOAL_COLOUR_CODES["yellow"] else "own"
+                owner = "opponent"
             best, best_d = None, c.sight_match_m
             revive = None
             for b in self.goals.values():
@@ -730,32 +760,84 @@ class AllianceStrategy:
             return 0.0, 0.0, clamp
         return 0.0, self._turn_to(pose, plat.wall_heading_deg), clamp
 
-    def _goal_available(self, name: str) -> bool:
-        """A goal worth going for: believed somewhere, not tried too long, and not on or by the
-        platform (backing onto it there would climb the board)."""
+    def _goal_available(self, name: str, raid: bool = False) -> bool:
+        """A goal worth going for: believed somewhere, not tried too long, not seen carried,
+        not deep in the other alliance's half (unless `raid`), and not on or by either platform
+        (backing onto it there would climb the board)."""
         b = self.goals[name]
         if b.xy is None or b.tries >= self.config.goal_try_s:
             return False
-        if self._busy.get(name, -1.0) > self._now or float(b.xy[0]) > self.config.goal_x_max_m:
+        if self._busy.get(name, -1.0) > self._now:
             return False
-        for _, p in self._opponent_goals:
-            if float(np.hypot(*(p - b.xy))) < self.config.conflict_m:
-                b.xy = None  # a goal of the other alliance stands there
-                return False
+        if not raid and float(b.xy[0]) > self.config.goal_x_max_m:
+            return False
+        if b.goal.owner != "opponent":
+            for _, p in self._opponent_goals:
+                if float(np.hypot(*(p - b.xy))) < self.config.conflict_m:
+                    b.xy = None  # a goal of the other alliance stands there
+                    return False
         half_diag = math.hypot(self.role.length_m, self.role.width_m) / 2
-        return not self.layout.platform.contains((float(b.xy[0]), float(b.xy[1])), half_diag)
+        x, y = float(b.xy[0]), float(b.xy[1])
+        plat = self.layout.platform
+        # The other alliance's platform is this one's half-turn mirror; the raid takes goals
+        # beside it too (not on it): its stage keeps the robot off the board (_stage_for).
+        far = b.goal.base_radius_m + 0.05 if raid else half_diag
+        return not (plat.contains((x, y), half_diag) or plat.contains((-x, -y), far))
+
+    def _raiding(self, pose: _Pose) -> bool:
+        """The raid is on (see AllianceConfig.raid): the 24", a goal detector, its first goal
+        left in the home zone, more than `deposit_until_s` left."""
+        c = self.config
+        return bool(
+            c.raid
+            and self._detector
+            and self.role.role == "24in"
+            and self._deposited
+            and self._time_left(pose) > c.deposit_until_s
+        )
+
+    def _raid_goal(self, pose: _Pose) -> str | None:
+        """The raid's next goal (see AllianceConfig.raid): a free goal outside the home zone,
+        the nearest, one in the other alliance's home zone first within `raid_prefer_m`. Only
+        the 24" raids, only with a goal detector (it finds the goals the others moved), and
+        only while more than `deposit_until_s` are left (_raiding)."""
+        c = self.config
+        if not self._raiding(pose):
+            return None
+        line = self.layout.home_zone[2]  # the home zone's edge toward the field
+        best, best_cost = None, math.inf
+        for name, b in self.goals.items():
+            if name == self.holding or name in self._given_up:
+                continue
+            if not self._goal_available(name, raid=True):
+                continue
+            assert b.xy is not None
+            x = float(b.xy[0])
+            r = b.goal.base_radius_m
+            if x < line + r - 0.03:
+                continue  # scored in the home zone already
+            theirs = x > -line - r + 0.03  # scored in the other alliance's home zone
+            cost = float(np.hypot(*(b.xy - pose.xy))) - (c.raid_prefer_m if theirs else 0.0)
+            if cost < best_cost:
+                best, best_cost = name, cost
+        return best
 
     def _interaction_goal(self, pose: _Pose) -> str | None:
         """The next goal to take: the first available on the list that it has not left in its
-        home zone; with none, from `refetch_s` before the end, one it left there (to climb
-        with)."""
-        for name in self.plan.neutral:
-            if name not in self._deposited and self._goal_available(name):
-                return name
-        if self._time_left(pose) <= self.config.refetch_s:
-            for name in reversed(self._deposited):
-                if self._goal_available(name):
+        home zone (after the first it left, the raid's: _raid_goal); with none, from
+        `refetch_s` before the end, the nearest one it left there (to climb with)."""
+        if self._deposited and self.config.raid and self._detector:
+            raid = self._raid_goal(pose)
+            if raid is not None or self._time_left(pose) > self.config.refetch_s:
+                return raid
+        else:
+            for name in self.plan.neutral:
+                if name not in self._deposited and self._goal_available(name):
                     return name
+        if self._time_left(pose) <= self.config.refetch_s:
+            left = [n for n in self._deposited if self._goal_available(n)]
+            if left:
+                return min(left, key=lambda n: float(np.hypot(*(self.goals[n].xy - pose.xy))))
         return None
 
     def _next_goal_interaction(self, pose: _Pose) -> None:
@@ -784,7 +866,7 @@ class AllianceStrategy:
             self._set_phase("collect", pose.t)
             return self._phase_collect(pose, inputs, dt)
         name = self.target_goal
-        if name is None or not self._goal_available(name):
+        if name is None or not self._goal_available(name, raid=self._raiding(pose)):
             self._next_goal(pose)
             return 0.0, 0.0, True
         self.intent = f"goal:{name}"
@@ -811,7 +893,7 @@ class AllianceStrategy:
             p = goal + reach * np.array([math.cos(a), math.sin(a)])
             if abs(float(p[0])) > limit or abs(float(p[1])) > limit:
                 continue
-            if self.layout.platform.contains((float(p[0]), float(p[1])), margin=body):
+            if self._near_a_platform(p, body) or self._clamped_touches_platform(goal, p):
                 continue
             d = float(np.hypot(*(p - pose.xy)))
             if _segment_distance(goal, pose.xy, p) < need:
@@ -819,6 +901,32 @@ class AllianceStrategy:
             if d < best_d:
                 best, best_d = p, d
         return best
+
+    def _near_a_platform(self, p: Vec, margin: float) -> bool:
+        """A point within `margin` of either platform (the other is this one's mirror)."""
+        plat = self.layout.platform
+        x, y = float(p[0]), float(p[1])
+        return plat.contains((x, y), margin) or plat.contains((-x, -y), margin)
+
+    def _clamped_touches_platform(self, goal: Vec, stage: Vec, margin: float = 0.05) -> bool:
+        """Backing from `stage` onto `goal` would end with the robot's body on (or within
+        `margin` of) a platform: its footprint where the clamp closes, sampled along its
+        edges."""
+        d = stage - goal
+        n = float(np.hypot(*d))
+        if n < 1e-9:
+            return False
+        u = d / n  # from the goal toward the robot's centre (its back faces the goal)
+        side = np.array([-u[1], u[0]])
+        centre = goal + (self.role.length_m / 2 + 0.17) * u
+        hl, hw = self.role.length_m / 2, self.role.width_m / 2
+        for a in np.linspace(-1.0, 1.0, 5):
+            for b in np.linspace(-1.0, 1.0, 5):
+                if abs(a) < 1.0 and abs(b) < 1.0:
+                    continue  # the edges only
+                if self._near_a_platform(centre + a * hl * u + b * hw * side, margin):
+                    return True
+        return False
 
     def _get_goal(
         self,
@@ -957,6 +1065,7 @@ class AllianceStrategy:
                 and len(self._deposited) < len(c.deposit_spots)
                 and pose.t - self._no_ring_since >= c.deposit_after_s
                 and self._time_left(pose) > c.deposit_until_s
+                and (inputs.rings_held == 0 or pose.t - self._clamped_at > c.preload_wait_s + 3)
             ):
                 self._set_phase("deposit", pose.t)
                 return self._phase_deposit(pose, inputs, dt)
@@ -1101,6 +1210,10 @@ class AllianceStrategy:
         big = self.role.role == "24in"
         clamp: bool | None = bool(inputs.goal_clamped)
         y = c.board_y_24_m if big else c.board_y_15_m
+        if big and not self._climbing and not inputs.goal_clamped:
+            cleared = self._clear_lane(pose, y)
+            if cleared is not None:
+                return cleared
         if not self._climbing:
             # Line up first: at the stage in its lane, facing the wall.
             stage = np.array([self._board_x(c.stage_along_m), y])
@@ -1143,6 +1256,49 @@ class AllianceStrategy:
             goal_along = self._balance_along(inputs)
             self.phase = "balance"
         return (*self._on_board(pose, y, goal_along), clamp)
+
+    def _lane_goal(self, y: float) -> Vec | None:
+        """Where a goal seen in the last second stands on the board in the lane at `y`."""
+        plat = self.layout.platform
+        r = self.layout.goals[0].base_radius_m
+        for _, xy in self._sightings:
+            on_board = plat.contains((float(xy[0]), float(xy[1])), margin=0.05)
+            if on_board and abs(float(xy[1]) - y) < self.role.width_m / 2 + r:
+                return xy
+        return None
+
+    def _clear_lane(self, pose: _Pose, y: float) -> tuple[float, float, bool | None] | None:
+        """The 24" before its climb, its clamp empty: a goal on the board in its lane is taken
+        (stand at the stage facing the field, back up the lane onto it) for at most
+        `clear_lane_s`, and then carried up (see AllianceConfig.clear_lane_s). None: nothing
+        to clear (or no time left for it)."""
+        c = self.config
+        seen = self._lane_goal(y)
+        if seen is not None:
+            self._lane_goal_xy = seen
+            if self._clear_since is None:
+                self._clear_since = pose.t
+        if self._lane_goal_xy is None or self._clear_since is None:
+            return None
+        if pose.t - self._clear_since > c.clear_lane_s or self._time_left(pose) < c.settle_s + 6:
+            return None
+        plat = self.layout.platform
+        stage = np.array([self._board_x(c.stage_along_m), y])
+        field_heading = (plat.wall_heading_deg + 180.0) % 360.0
+        if not self._clear_backing:
+            if float(np.hypot(*(stage - pose.xy))) > 0.07:
+                self.intent = "to_stage"
+                return (*self._arrive(pose, stage, field_heading), False)
+            if abs(angle_diff_deg(field_heading, pose.heading)) > 5:
+                self.intent = "line_up"
+                return 0.0, self._turn_to(pose, field_heading), False
+            self._clear_backing = True
+        self.intent = "clear_lane"
+        goal = self._lane_goal_xy
+        local = field_to_robot(goal[None, :], pose.xy, pose.heading)[0]
+        dist = float(np.hypot(*(goal - pose.xy)))
+        v, w = self._back_onto(float(local[0]), float(local[1]), dist)
+        return v, w, True
 
     def _phase_park(
         self, pose: _Pose, inputs: AllianceInputs, dt: float

@@ -292,3 +292,109 @@ def test_the_24_tries_as_many_neutral_goals_as_configured_then_its_awp_goal() ->
         assert s.plan.neutral == [*want, layout.awp_goal]
     small = AllianceStrategy(ROLE_15, layout, AllianceConfig(neutral_goals_24=0))
     assert small.plan.neutral == default_plan("15in", layout).neutral
+
+
+def test_a_goal_of_the_other_colour_seen_moves_that_goals_belief() -> None:
+    """The other alliance's goals are beliefs too (the raid's targets): a blue base seen near
+    where the layout puts a blue goal moves that belief there, and it is not taken for a
+    conflict with itself."""
+    layout = load_layout()
+    s = AllianceStrategy(ROLE_24, layout)
+    theirs = np.array(layout.goal("blue_south").xy)
+    moved = theirs + np.array([-0.3, -0.2])
+    s.step(sighting(40.0, [(moved[0], moved[1], "blue")]))
+    assert s.goals["blue_south"].xy == pytest.approx(moved, abs=1e-6)
+    assert s._goal_available("blue_south", raid=True)
+    assert not s._goal_available("blue_south")  # deep in the other half: the raid's only
+
+
+def test_the_raid_takes_the_other_alliances_zone_first_and_never_one_scored_already() -> None:
+    """After its first goal is left in the home zone, the 24" (goal detector on) fetches free
+    goals from outside its home zone: one in the other alliance's home zone before a nearer
+    neutral one (within raid_prefer_m), never one already in its own zone, one on a platform,
+    one seen carried, and none once deposit_until_s is reached."""
+    layout = load_layout()
+    s = AllianceStrategy(ROLE_24, layout)
+    s.step(sighting(40.0, []))  # the detector reports (nothing seen)
+    s._deposited = ["neutral_south"]
+    s.goals["neutral_south"].xy = np.array([-1.4, -1.3])  # left in the home zone
+    from jetson.autonomy.alliance import _Pose
+
+    here = _Pose(np.array([0.0, 0.0]), 90.0, 40.0)
+    for name in ("red_north", "red_south", "neutral_north", "neutral_tall", "blue_north"):
+        s.goals[name].xy = None
+    s.goals["neutral_tall"].xy = np.array([0.3, 0.6])  # 0.67 m away, in the neutral zone
+    s.goals["blue_south"].xy = np.array([0.9, -1.0])  # 1.35 m away, in their home zone
+    assert s._raid_goal(here) == "blue_south"
+    s.goals["neutral_tall"].xy = np.array([0.1, 0.2])  # much nearer: the neutral one
+    s.goals["blue_south"].xy = np.array([1.5, -1.5])
+    assert s._raid_goal(here) == "neutral_tall"
+    s.goals["neutral_tall"].xy = np.array([1.5, 0.0])  # on the other alliance's platform
+    assert s._raid_goal(here) == "blue_south"
+    s._busy["blue_south"] = 50.0  # seen carried
+    assert s._raid_goal(here) is None
+    s._busy.clear()
+    late = _Pose(here.xy, 90.0, layout.match_length_s - s.config.deposit_until_s + 0.1)
+    assert s._raid_goal(late) is None
+    s._deposited = []
+    assert s._raid_goal(here) is None  # no raid before the first goal is left
+    # the first goal left: the list's goals are then taken only as raid targets
+    s._deposited = ["neutral_south"]
+    s.goals["blue_south"].xy = np.array([-1.0, -1.5])  # already in its own zone
+    assert s._interaction_goal(here) is None
+
+
+def test_a_goal_beside_a_platform_is_backed_onto_from_where_the_robot_stays_off_it() -> None:
+    """The stage chosen for a goal beside the other alliance's platform (its alliance goal's
+    start) leaves the robot's whole footprint off both platforms when the clamp closes."""
+    layout = load_layout()
+    s = AllianceStrategy(ROLE_24, layout)
+    from jetson.autonomy.alliance import _Pose
+
+    goal = np.array(layout.goal("blue_south").xy)
+    for start in ((0.0, 0.0), (0.5, -1.4), (0.6, 0.3)):
+        stage = s._stage_for(goal, _Pose(np.array(start), 90.0, 40.0))
+        assert not s._clamped_touches_platform(goal, stage)
+        assert not s._near_a_platform(stage, 0.3)
+    # straight from the field side the footprint would touch the board's corner
+    assert s._clamped_touches_platform(goal, goal + np.array([-0.8, 0.0]))
+
+
+def test_the_24_takes_a_goal_in_its_lane_on_the_board_before_it_climbs() -> None:
+    """In front of the platform for its climb with an empty clamp, the 24" that sees a goal on
+    the board in its lane turns its back to the board and reverses up its lane toward that goal
+    with the clamp ready; with nothing in its lane it lines up facing the wall as before."""
+    layout = load_layout()
+    plat = layout.platform
+    c = AllianceStrategy(ROLE_24, layout).config
+    t = layout.match_length_s - c.climb_24_s + 1.0
+    stage = (plat.x_at(c.stage_along_m), c.board_y_24_m)
+    on_board = (plat.center[0] - 0.14, c.board_y_24_m + 0.2)
+
+    def at_stage(heading: float, seen: list[tuple[float, float]]) -> AllianceInputs:
+        x, y = stage
+        h = math.radians(heading)
+        rows = [
+            (
+                (gx - x) * math.cos(h) - (gy - y) * math.sin(h),
+                (gx - x) * math.sin(h) + (gy - y) * math.cos(h),
+                GOAL_COLOUR_CODES["yellow"],
+            )
+            for gx, gy in seen
+        ]
+        return AllianceInputs(
+            x, y, heading, "red", t, np.zeros((0, 2)), 0, False,
+            goals_robot=np.array(rows, dtype=np.float64).reshape(-1, 3),
+        )  # fmt: skip
+
+    clear = AllianceStrategy(ROLE_24, layout)
+    clear.phase = "climb"
+    a = clear.step(at_stage(plat.wall_heading_deg, [on_board]))
+    assert clear.intent == "line_up" and a.clamp is False
+    assert a.angular != 0.0  # turning its back to the board
+    a = clear.step(at_stage((plat.wall_heading_deg + 180.0) % 360.0, []))
+    assert clear.intent == "clear_lane" and a.clamp is True and a.linear < 0.0
+    plain = AllianceStrategy(ROLE_24, layout)
+    plain.phase = "climb"
+    plain.step(at_stage(plat.wall_heading_deg, []))
+    assert plain.intent in ("wait_unlock", "climb")
