@@ -227,10 +227,11 @@ class AllianceConfig:
     raid_prefer_m: float = 0.8
     # A goal on the board in the 24"'s lane (pushed up the ramp to the wall, it leaves the 24"
     # no room and tips the board): the 24" with no goal in its clamp, in front of the board,
-    # backs up its lane onto it and climbs with it, for at most `clear_lane_s` (seen by the
-    # goal detector in the last second; the daemon's filter drops sightings on a platform,
-    # jetson/autonomy/goal_sightings.py, so on a robot this needs the detector trusted there).
-    clear_lane_s: float = 10.0
+    # backs up its lane onto it once the sentry unlocks the board, for at most `clear_lane_s`,
+    # and climbs with it (seen by the goal detector in the last second; the daemon's filter
+    # drops sightings on a platform, jetson/autonomy/goal_sightings.py, so on a robot this
+    # needs the detector trusted there).
+    clear_lane_s: float = 6.0
 
 
 class AllianceInputs(NamedTuple):
@@ -1276,11 +1277,9 @@ class AllianceStrategy:
         seen = self._lane_goal(y)
         if seen is not None:
             self._lane_goal_xy = seen
-            if self._clear_since is None:
-                self._clear_since = pose.t
-        if self._lane_goal_xy is None or self._clear_since is None:
+        if self._lane_goal_xy is None or self._time_left(pose) < c.settle_s + 6:
             return None
-        if pose.t - self._clear_since > c.clear_lane_s or self._time_left(pose) < c.settle_s + 6:
+        if self._clear_since is not None and pose.t - self._clear_since > c.clear_lane_s:
             return None
         plat = self.layout.platform
         stage = np.array([self._board_x(c.stage_along_m), y])
@@ -1292,7 +1291,13 @@ class AllianceStrategy:
             if abs(angle_diff_deg(field_heading, pose.heading)) > 5:
                 self.intent = "line_up"
                 return 0.0, self._turn_to(pose, field_heading), False
+            if c.lock_along_m is not None and self._time_left(pose) > c.unlock_s - 0.5:
+                # The sentry holds the board level (its field edge too high to back onto)
+                # until it unlocks.
+                self.intent = "wait_unlock"
+                return 0.0, 0.0, False
             self._clear_backing = True
+            self._clear_since = pose.t
         self.intent = "clear_lane"
         goal = self._lane_goal_xy
         local = field_to_robot(goal[None, :], pose.xy, pose.heading)[0]

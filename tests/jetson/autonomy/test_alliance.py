@@ -362,12 +362,13 @@ def test_a_goal_beside_a_platform_is_backed_onto_from_where_the_robot_stays_off_
 
 def test_the_24_takes_a_goal_in_its_lane_on_the_board_before_it_climbs() -> None:
     """In front of the platform for its climb with an empty clamp, the 24" that sees a goal on
-    the board in its lane turns its back to the board and reverses up its lane toward that goal
-    with the clamp ready; with nothing in its lane it lines up facing the wall as before."""
+    the board in its lane turns its back to the board and, once the sentry has unlocked the
+    board, reverses up its lane toward that goal with the clamp ready (before that it waits);
+    with nothing in its lane it lines up facing the wall as before."""
     layout = load_layout()
     plat = layout.platform
     c = AllianceStrategy(ROLE_24, layout).config
-    t = layout.match_length_s - c.climb_24_s + 1.0
+    t = layout.match_length_s - c.unlock_s + 1.0  # the sentry has unlocked the board
     stage = (plat.x_at(c.stage_along_m), c.board_y_24_m)
     on_board = (plat.center[0] - 0.14, c.board_y_24_m + 0.2)
 
@@ -394,6 +395,12 @@ def test_the_24_takes_a_goal_in_its_lane_on_the_board_before_it_climbs() -> None
     assert a.angular != 0.0  # turning its back to the board
     a = clear.step(at_stage((plat.wall_heading_deg + 180.0) % 360.0, []))
     assert clear.intent == "clear_lane" and a.clamp is True and a.linear < 0.0
+    locked = AllianceStrategy(ROLE_24, layout)
+    locked.phase = "climb"
+    t = layout.match_length_s - c.climb_24_s + 1.0  # still locked
+    locked.step(at_stage(plat.wall_heading_deg, [on_board]))
+    a = locked.step(at_stage((plat.wall_heading_deg + 180.0) % 360.0, []))
+    assert locked.intent == "wait_unlock" and a.linear == 0.0
     plain = AllianceStrategy(ROLE_24, layout)
     plain.phase = "climb"
     plain.step(at_stage(plat.wall_heading_deg, []))
