@@ -119,6 +119,7 @@ class AllianceConfig:
     backoff_s: float = 0.6
     goal_stage_m: float = 0.8  # wait this far from a goal's centre before backing onto it
     goal_try_s: float = 7.0  # backing onto one goal this long without the clamp closing: missing
+    goal_chase_s: float = 15.0  # going for one goal this long (interaction): left for busy_s
     # Start backing onto a neutral goal this long before the isolation period ends (0: as it
     # ends; the step that reaches its end is still judged as isolation).
     isolation_margin_s: float = 0.0
@@ -378,6 +379,7 @@ class AllianceStrategy:
         self._tugs = 0
         self._moves: list[tuple[float, float, float, float]] = []  # t, x, y, commanded v
         self._stage_goal: str | None = None
+        self._stage_since = 0.0
         self._last_t = 0.0
         self._now = 0.0
         self._goal_seen: dict[str, tuple[float, Vec]] = {}  # name -> (time, where) last seen
@@ -946,9 +948,17 @@ class AllianceStrategy:
         dist = float(np.hypot(*(pose.xy - goal)))
         if self._stage_goal != name:
             self._stage_goal = name
+            self._stage_since = pose.t
             self._staged = False
             self._confirmed = None
             self._look_since = None
+        since = max(self._stage_since, self.layout.isolation_s)
+        if pose.t - since > c.goal_chase_s:
+            # This long after one goal in the interaction period (a corner, a crowd): leave it
+            # for a while and take the next.
+            self._busy[name] = pose.t + c.busy_s
+            self._stage_goal = None
+            return 0.0, 0.0, False
         stage = self._stage_for(goal, pose)
         local = field_to_robot(goal[None, :], pose.xy, pose.heading)[0]
         behind = abs(math.atan2(-float(local[0]), -float(local[1]))) < math.radians(30)
