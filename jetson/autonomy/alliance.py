@@ -1269,12 +1269,14 @@ class AllianceStrategy:
         return (*self._on_board(pose, y, goal_along), clamp)
 
     def _lane_goal(self, y: float) -> Vec | None:
-        """Where a goal seen in the last second stands on the board in the lane at `y`."""
+        """Where a goal seen in the last second stands on the board's wall half in the lane at
+        `y` (the sentry's own goal trails it on the field half)."""
         plat = self.layout.platform
         r = self.layout.goals[0].base_radius_m
         for _, xy in self._sightings:
             on_board = plat.contains((float(xy[0]), float(xy[1])), margin=0.05)
-            if on_board and abs(float(xy[1]) - y) < self.role.width_m / 2 + r:
+            wall_half = plat.along(float(xy[0])) < 0.05
+            if on_board and wall_half and abs(float(xy[1]) - y) < self.role.width_m / 2 + r:
                 return xy
         return None
 
