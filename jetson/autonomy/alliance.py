@@ -205,7 +205,7 @@ class AllianceConfig:
     # platform's centre; the goal trails it) while more than `deposit_until_s` are left, and
     # takes the next goal; `refetch_s` before the end, with none in hand, it goes back for the
     # one it left nearest, to climb with (None: never deposits).
-    deposit_after_s: float | None = 2.0
+    deposit_after_s: float | None = None
     # How many neutral goals (south, tall, north) the 24" tries before its AWP goal: a goal
     # the other alliance holds and stands still with looks free (a tug of war when clamped),
     # and the AWP goal is never another robot's.
@@ -224,7 +224,7 @@ class AllianceConfig:
     # zone is also 20 fewer for them, and goes first when within `raid_prefer_m` of a nearer
     # one). A goal in the other alliance's half is fetched until `deposit_until_s`, never from
     # on or beside either platform.
-    raid: bool = True
+    raid: bool = False
     raid_prefer_m: float = 0.8
     # A goal on the board in the 24"'s lane (pushed up the ramp to the wall, it leaves the 24"
     # no room and tips the board): the 24" with no goal in its clamp, in front of the board,

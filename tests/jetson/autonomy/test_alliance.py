@@ -264,7 +264,7 @@ def test_the_24_leaves_its_goal_in_the_home_zone_once_the_floor_is_clear() -> No
     from jetson.autonomy.alliance import AllianceConfig
 
     layout = load_layout()
-    # no ring is ever worth taking; deposits on (off by default)
+    # no ring is ever worth taking; deposits on (off by default), the raid off
     config = replace(AllianceConfig(), ring_x_max_m=-10.0, deposit_after_s=4.0)
     s = AllianceStrategy(ROLE_24, layout, config)
     s.target_goal = "neutral_south"
@@ -313,8 +313,13 @@ def test_the_raid_takes_the_other_alliances_zone_first_and_never_one_scored_alre
     goals from outside its home zone: one in the other alliance's home zone before a nearer
     neutral one (within raid_prefer_m), never one already in its own zone, one on a platform,
     one seen carried, and none once deposit_until_s is reached."""
+    from dataclasses import replace
+
+    from jetson.autonomy.alliance import AllianceConfig
+
     layout = load_layout()
-    s = AllianceStrategy(ROLE_24, layout)
+    raid = replace(AllianceConfig(), raid=True, deposit_after_s=2.0)
+    s = AllianceStrategy(ROLE_24, layout, raid)
     s.step(sighting(40.0, []))  # the detector reports (nothing seen)
     s._deposited = ["neutral_south"]
     s.goals["neutral_south"].xy = np.array([-1.4, -1.3])  # left in the home zone
@@ -342,6 +347,12 @@ def test_the_raid_takes_the_other_alliances_zone_first_and_never_one_scored_alre
     s._deposited = ["neutral_south"]
     s.goals["blue_south"].xy = np.array([-1.0, -1.5])  # already in its own zone
     assert s._interaction_goal(here) is None
+    s.goals["blue_south"].xy = np.array([0.9, -1.0])
+    off = AllianceStrategy(ROLE_24, layout)  # the raid is off by default
+    off.step(sighting(40.0, []))
+    off._deposited = ["neutral_south"]
+    off.goals = s.goals
+    assert off._raid_goal(here) is None
 
 
 def test_a_goal_beside_a_platform_is_backed_onto_from_where_the_robot_stays_off_it() -> None:
