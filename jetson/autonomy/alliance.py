@@ -1225,6 +1225,14 @@ class AllianceStrategy:
             cleared = self._clear_lane(pose, y)
             if cleared is not None:
                 return cleared
+        if big and not self._climbing and inputs.goal_clamped and self._clear_backing:
+            # The goal taken off the board: straight out toward the field first, far enough
+            # to turn with it (it swings behind the robot) without meeting the board.
+            field_heading = (plat.wall_heading_deg + 180.0) % 360.0
+            if plat.along(float(pose.xy[0])) < c.stage_along_m + 0.3:
+                self.intent = "pull_out"
+                return 0.5 * self.role.max_linear_mps, self._turn_to(pose, field_heading), True
+            self._clear_backing = False
         if not self._climbing:
             # Line up first: at the stage in its lane, facing the wall.
             stage = np.array([self._board_x(c.stage_along_m), y])
