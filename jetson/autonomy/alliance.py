@@ -27,9 +27,16 @@ goals, its own half of the field for rings, and its own time line.
   balance point.
 
 A goal it cannot find (the clamp does not close where the goal should be, or the robot stands
-where it was), one seen carried, one where a goal of the other alliance's colour is seen, or
-one the camera does not show where it is believed when the robot looks before backing onto it,
-is marked missing (or left for a while) and the next one on its list is tried. The endgame's
+where it was), one seen carried, one where a goal of the other alliance's colour is seen, one
+the camera does not show where it is believed when the robot looks before backing onto it, or
+one chased 15 s without the clamp closing, is marked missing (or left for a while) and the next
+one on its list is tried. A goal beside a platform is backed onto from where the robot's whole
+footprint stays off both platforms. A goal pushed up the board into the 24"'s lane (the ring
+race does that in isolation in about one match in six) is taken off it once the sentry unlocks
+the board: the 24" backs up its lane onto it, pulls it straight out and climbs with it.
+Options off by default (measured, docs/notes/2026-11-27-raid-and-lane.md): the deposit and the
+raid (the 24" leaves its goal in the home zone and fetches the free goals of either colour from
+outside it, the other alliance's zone first). The endgame's
 positions come from the see-saw's torque balance (the layout's board mass and hinge flats, both
 robots' masses, the carried goals'): the 24" holds the board tipped toward the field at
 `hold_along_m`, the 15" moves to `partner_along_m`, then the 24" moves to where the torques

@@ -406,6 +406,16 @@ def test_the_24_takes_a_goal_in_its_lane_on_the_board_before_it_climbs() -> None
     assert a.angular != 0.0  # turning its back to the board
     a = clear.step(at_stage((plat.wall_heading_deg + 180.0) % 360.0, []))
     assert clear.intent == "clear_lane" and a.clamp is True and a.linear < 0.0
+    # the clamp closes on it: straight out toward the field before turning with it
+    x, y = stage
+    took = AllianceInputs(
+        x - 0.4, y, (plat.wall_heading_deg + 180.0) % 360.0, "red", t, np.zeros((0, 2)), 0, True
+    )
+    a = clear.step(took)
+    assert clear.intent == "pull_out" and a.clamp is True and a.linear > 0.0
+    out = took._replace(x=plat.x_at(c.stage_along_m + 0.4))
+    clear.step(out)
+    assert clear.intent in ("to_stage", "line_up")
     locked = AllianceStrategy(ROLE_24, layout)
     locked.phase = "climb"
     t = layout.match_length_s - c.climb_24_s + 1.0  # still locked
