@@ -53,8 +53,9 @@ class Survey:
     beyond: int = 0  # at a goal of its colour that the twin's sighting leaves out (its middle
     # out of view, or hidden): right, but not counted as true
     false: Counter[str] = field(default_factory=Counter)  # by what stands there
-    false_off_platforms: int = 0  # false ones not on a platform's footprint: what the scripted
-    # decider, which drops those (jetson/autonomy/goal_sightings.py), still hands the strategy
+    false_off_platforms: int = 0  # false ones yellow or not on a platform's footprint: what
+    # the scripted decider, which drops the others (jetson/autonomy/goal_sightings.py), still
+    # hands the strategy
     rejected: Counter[str] = field(default_factory=Counter)  # blobs turned down, by reason
     errors_m: list[float] = field(default_factory=list)  # true sightings: distance
     range_errors_m: list[float] = field(default_factory=list)  # range: found minus truth
@@ -173,7 +174,7 @@ def run_survey(
                 out.count(sighting.colour, "beyond")
                 continue
             out.false[what_is_there(world, where, sighting.colour, index)] += 1
-            out.false_off_platforms += not any(
+            out.false_off_platforms += sighting.colour == "yellow" or not any(
                 bool(plat.contains(where)) for plat in world.field.platforms
             )
             out.count(sighting.colour, "false")

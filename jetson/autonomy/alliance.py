@@ -31,7 +31,7 @@ where it was), one seen carried, one where a goal of the other alliance's colour
 the camera does not show where it is believed when the robot looks before backing onto it, or
 one chased 15 s without the clamp closing, is marked missing (or left for a while) and the next
 one on its list is tried. A goal beside a platform is backed onto from where the robot's whole
-footprint stays off both platforms. A goal pushed up the board into the 24"'s lane (about one
+footprint stays off both platforms. A neutral goal pushed up the board into the 24"'s lane (about one
 match in five against the ring race, mostly in isolation) is taken off it once the sentry
 unlocks the board: the 24" backs up its lane onto it, pulls it straight out and climbs with it.
 Options off by default (measured, docs/notes/2026-11-27-raid-and-lane.md): the deposit and the
@@ -236,9 +236,9 @@ class AllianceConfig:
     # A goal on the board in the 24"'s lane (pushed up the ramp to the wall, it leaves the 24"
     # no room and tips the board): the 24" with no goal in its clamp, in front of the board,
     # backs up its lane onto it once the sentry unlocks the board, for at most `clear_lane_s`,
-    # and climbs with it (seen by the goal detector in the last second; the daemon's filter
-    # drops sightings on a platform, jetson/autonomy/goal_sightings.py, so on a robot this
-    # needs the detector trusted there).
+    # and climbs with it (seen by the goal detector in the last second; the daemon drops red
+    # and blue sightings on a platform, jetson/autonomy/goal_sightings.py, so only a neutral
+    # goal there is seen and taken).
     clear_lane_s: float = 6.0
 
 

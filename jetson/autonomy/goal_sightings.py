@@ -3,9 +3,11 @@
 The goal detector (jetson/perception/goals.py) runs on each frame without knowing where the robot
 is; what is of a goal's colour and passes its shape tests is a goal to it. A piece of a platform
 (red or blue, as the alliance goals are) cut by the image's edge can pass. The decision knows the
-pose and the field's layout: a sighting whose middle lands on either platform's footprint is such
-a piece, or a goal standing on a platform, which the strategy does not fetch (it knows the goal
-it carries there), so it is dropped before the strategy reads the sightings.
+pose and the field's layout: a red or blue sighting whose middle lands on either platform's
+footprint may be such a piece, so it is dropped before the strategy reads the sightings. A
+yellow one is kept: no platform is yellow (`python -m sim.goal_survey` found no false yellow
+sighting), and a neutral goal pushed up a board is one the strategy needs to know of (it blocks
+the 24"'s lane there, jetson/autonomy/alliance.py).
 
 The layout's platform is the alliance's own, in the alliance frame; the other alliance's is the
 same rotated by 180 degrees about the field's centre, so the two footprints are the same pair
@@ -19,6 +21,7 @@ from numpy.typing import NDArray
 
 from jetson.autonomy.field_layout import PlatformLayout
 from jetson.autonomy.geometry import robot_to_field
+from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES
 
 Vec = NDArray[np.float64]
 
@@ -30,9 +33,9 @@ def off_the_platforms(
     platform: PlatformLayout,
     margin_m: float = 0.0,
 ) -> Vec:
-    """The sightings (N, 3: x, y robot frame, colour code) whose field position is on neither
-    platform's footprint (grown by `margin_m`), robot at `robot_xy` (field frame) facing
-    `heading_deg`."""
+    """The sightings (N, 3: x, y robot frame, colour code) that are yellow or whose field
+    position is on neither platform's footprint (grown by `margin_m`), robot at `robot_xy`
+    (field frame) facing `heading_deg`."""
     seen = np.asarray(goals_robot, dtype=np.float64).reshape(-1, 3)
     if not len(seen):
         return seen
@@ -41,4 +44,5 @@ def off_the_platforms(
     on = [
         platform.contains((x, y), margin_m) or platform.contains((-x, -y), margin_m) for x, y in xy
     ]
-    return seen[~np.asarray(on, dtype=bool)]
+    yellow = seen[:, 2].astype(int) == GOAL_COLOUR_CODES["yellow"]
+    return seen[yellow | ~np.asarray(on, dtype=bool)]

@@ -28,7 +28,8 @@ from jetson.autonomy.alliance import (
     AllianceStrategy,
     RobotRole,
 )
-from jetson.autonomy.field_layout import FieldLayout, load_layout
+from jetson.autonomy.field_layout import FieldLayout, PlatformLayout, load_layout
+from jetson.autonomy.goal_sightings import off_the_platforms
 from sim.baselines.planner import Planner, PlannerConfig
 from sim.baselines.scripted import GreedyChaser
 from sim.config import ROBOTS, RobotConfig
@@ -59,11 +60,21 @@ def robot_role(world: World, index: int) -> RobotRole:
     )
 
 
-def inputs_from_view(core: MatchCore, index: int, goals: bool = True) -> AllianceInputs:
+def inputs_from_view(
+    core: MatchCore, index: int, goals: bool = True, platform: PlatformLayout | None = None
+) -> AllianceInputs:
     """What the daemon hands the strategy: the GPS pose, the camera's rings (robot frame), the
     intake's count, the clamp, the match clock, and with `goals` the goals the camera sees
-    (sim/goal_sight.py: what the robot's goal detector reports; None without one)."""
+    (sim/goal_sight.py: what the robot's goal detector reports; None without one), less those
+    the daemon's scripted decider drops (red and blue ones on a platform's footprint,
+    jetson/autonomy/goal_sightings.py; `platform`: the layout's, else the robot's file's)."""
     view = core.view(index)
+    seen = None
+    if goals:
+        plat = platform if platform is not None else load_layout().platform
+        seen = off_the_platforms(
+            visible_goals(core.world, index), (view.x, view.y), view.heading_deg, plat
+        )
     return AllianceInputs(
         x=view.x,
         y=view.y,
@@ -73,7 +84,7 @@ def inputs_from_view(core: MatchCore, index: int, goals: bool = True) -> Allianc
         rings_robot_xy=np.asarray(view.rings_robot_xy, dtype=np.float64).reshape(-1, 2),
         rings_held=view.rings_held,
         goal_clamped=view.goal_clamped,
-        goals_robot=visible_goals(core.world, index) if goals else None,
+        goals_robot=seen,
     )
 
 
@@ -115,7 +126,8 @@ class AlliancePlayer:
 
     def act(self, core: MatchCore, index: int, obs: np.ndarray | None = None) -> DriveCommand:
         assert self.strategy is not None, "act() before reset()"
-        self.last_action = self.strategy.step(inputs_from_view(core, index, self.goal_detector))
+        inputs = inputs_from_view(core, index, self.goal_detector, self.layout.platform)
+        self.last_action = self.strategy.step(inputs)
         return to_command(self.last_action)
 
 
