@@ -31,9 +31,10 @@ where it was), one seen carried, one where a goal of the other alliance's colour
 the camera does not show where it is believed when the robot looks before backing onto it, or
 one chased 15 s without the clamp closing, is marked missing (or left for a while) and the next
 one on its list is tried. A goal beside a platform is backed onto from where the robot's whole
-footprint stays off both platforms. A neutral goal pushed up the board into the 24"'s lane (about one
-match in five against the ring race, mostly in isolation) is taken off it once the sentry
-unlocks the board: the 24" backs up its lane onto it, pulls it straight out and climbs with it.
+footprint stays off both platforms. A neutral goal pushed up the board into the 24"'s lane
+(a goal blocks it in about one match in five against the ring race, mostly pushed there in
+isolation) is taken off it once the sentry unlocks the board: the 24" backs up its lane onto
+it, pulls it straight out and climbs with it.
 Options off by default (measured, docs/notes/2026-11-27-raid-and-lane.md): the deposit and the
 raid (the 24" leaves its goal in the home zone and fetches the free goals of either colour from
 outside it, the other alliance's zone first). The endgame's
