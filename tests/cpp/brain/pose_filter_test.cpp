@@ -59,6 +59,16 @@ class Sim {
                       heading, 0.013, now_ms_);
   }
 
+  /// The first GPS reading, then `steps` control steps driving (v, w) with a reading each: the
+  /// filter converged on the GPS.
+  void settle(int steps, double v = 0.0, double w_cw = 0.0) {
+    gps();
+    for (int step = 0; step < steps; ++step) {
+      drive(v, w_cw);
+      gps();
+    }
+  }
+
   double error_m() const { return std::hypot(f_.x() - t_.x, f_.y() - t_.y); }
   double heading_error_deg() const { return std::fabs(wrap_deg(f_.heading_deg() - t_.h * 180.0 / kPi)); }
   uint32_t now_ms() const { return now_ms_; }
@@ -73,6 +83,13 @@ class Sim {
   double imu_deg_ = 0.0;
   uint32_t now_ms_ = 1000;
 };
+
+/// A filter anchored by one GPS reading at the field's centre, heading 0 (at time 0).
+PoseFilter at_origin() {
+  PoseFilter f(kRobotConfig.pose);
+  f.correct(0.0, 0.0, 0.0, 0.013, 0);
+  return f;
+}
 
 TEST(PoseFilter, HasNoPoseUntilTheFirstGpsReading) {
   PoseFilter f(kRobotConfig.pose);
@@ -113,11 +130,7 @@ TEST(PoseFilter, ConvergesOnTheGpsWhileDriving) {
 TEST(PoseFilter, RidesThroughAThreeSecondDropoutWithinABound) {
   PoseFilter f(kRobotConfig.pose);
   Sim sim(f, 11);
-  sim.gps();
-  for (int step = 0; step < 200; ++step) {
-    sim.drive(0.8, 0.5);
-    sim.gps();
-  }
+  sim.settle(200, 0.8, 0.5);
   ASSERT_LT(sim.error_m(), 0.03);
   const double std_before = f.position_std_m();
   double worst = 0.0;
@@ -144,11 +157,7 @@ TEST(PoseFilter, RidesThroughAThreeSecondDropoutWithinABound) {
 TEST(PoseFilter, RejectsAGpsJumpAndReanchorsWhenItPersists) {
   PoseFilter f(kRobotConfig.pose);
   Sim sim(f, 3);
-  sim.gps();
-  for (int step = 0; step < 100; ++step) {
-    sim.drive(0.0, 0.0);
-    sim.gps();
-  }
+  sim.settle(100);
   const double x0 = f.x();
   const double y0 = f.y();
   for (int step = 0; step < 40; ++step) {  // 400 ms of readings 0.6 m off (a reflection, say)
@@ -180,11 +189,7 @@ TEST(PoseFilter, RejectsAGpsJumpAndReanchorsWhenItPersists) {
 TEST(PoseFilter, RejectionsWidenTheUncertaintyAndASidewaysPushIsFollowedQuickly) {
   PoseFilter f(kRobotConfig.pose);
   Sim sim(f, 5);
-  sim.gps();
-  for (int step = 0; step < 100; ++step) {
-    sim.drive(0.0, 0.0);
-    sim.gps();
-  }
+  sim.settle(100);
   const double std0 = f.position_std_m();
   sim.truth().y += 0.15;  // shoved 15 cm sideways by another robot, wheels still
   int steps = 0;
@@ -207,11 +212,7 @@ TEST(PoseFilter, AfterADropoutThePoseFollowsAGpsThatDisagreesWithinAFewReadings)
   // second of rejections a glitch would need, and never says lost meanwhile.
   PoseFilter f(kRobotConfig.pose);
   Sim sim(f, 9);
-  sim.gps();
-  for (int step = 0; step < 100; ++step) {
-    sim.drive(0.0, 0.0);
-    sim.gps();
-  }
+  sim.settle(100);
   for (int step = 0; step < 300; ++step) {
     sim.drive(0.0, 0.0);
     if (step >= 100 && step < 200) sim.truth().x += 0.005;  // 0.5 m in a second, unseen
@@ -262,10 +263,8 @@ TEST(PoseFilter, BadNumbersAreIgnoredNeverStored) {
 }
 
 TEST(PoseFilter, WithoutAnImuTheWheelsTurnItAndTrustGrowsFaster) {
-  PoseFilter with(kRobotConfig.pose);
-  PoseFilter without(kRobotConfig.pose);
-  with.correct(0.0, 0.0, 0.0, 0.013, 0);
-  without.correct(0.0, 0.0, 0.0, 0.013, 0);
+  PoseFilter with = at_origin();
+  PoseFilter without = at_origin();
   double imu = 0.0;
   for (int i = 0; i < 100; ++i) {  // a spin on the spot, clockwise, 1 rad/s for 1 s
     const double v = 0.5 * kTrack;
@@ -283,10 +282,8 @@ TEST(PoseFilter, SlipThroughADropoutWidensTheTrustToCoverTheError) {
   // wheels measure 0.3 m/s (spinning), and the robot is shoved 0.4 m sideways in 2 s, which its
   // wheels never see. Without the told speeds the filter is sure to centimetres; with them it
   // says it is not, and its error stays inside three of its standard deviations.
-  PoseFilter told(kRobotConfig.pose);
-  PoseFilter blind(kRobotConfig.pose);
-  told.correct(0.0, 0.0, 0.0, 0.013, 0);
-  blind.correct(0.0, 0.0, 0.0, 0.013, 0);
+  PoseFilter told = at_origin();
+  PoseFilter blind = at_origin();
   double tx = 0.0;
   double ty = 0.0;
   for (int step = 0; step < 200; ++step) {
@@ -311,10 +308,8 @@ TEST(PoseFilter, SlipThroughADropoutWidensTheTrustToCoverTheError) {
 TEST(PoseFilter, DrivingAsToldDoesNotWidenTheTrust) {
   // Normal driving: the measured speeds trail the told ones by the motors' lag (under the
   // deadband) and noise. The trust grows as it does without the told speeds.
-  PoseFilter told(kRobotConfig.pose);
-  PoseFilter plain(kRobotConfig.pose);
-  told.correct(0.0, 0.0, 0.0, 0.013, 0);
-  plain.correct(0.0, 0.0, 0.0, 0.013, 0);
+  PoseFilter told = at_origin();
+  PoseFilter plain = at_origin();
   std::mt19937 rng(1);
   std::normal_distribution<double> noise(0.0, 0.01);
   double imu = 0.0;
@@ -336,10 +331,8 @@ TEST(PoseFilter, DrivingAsToldDoesNotWidenTheTrust) {
 
 TEST(PoseFilter, WheelsTurningWhereTheImuDoesNotIsSlip) {
   // One side's wheels spin (0.9 m/s against 0.1 m/s) while the IMU says the robot goes straight.
-  PoseFilter f(kRobotConfig.pose);
-  PoseFilter g(kRobotConfig.pose);
-  f.correct(0.0, 0.0, 0.0, 0.013, 0);
-  g.correct(0.0, 0.0, 0.0, 0.013, 0);
+  PoseFilter f = at_origin();
+  PoseFilter g = at_origin();
   f.predict(kDt, 0.0, 0.0, true, 0.0, kTrack);  // the IMU's first reading: the reference
   g.predict(kDt, 0.0, 0.0, true, 0.0, kTrack);
   for (int step = 0; step < 100; ++step) {
