@@ -19,7 +19,7 @@ from sim.goal_sight import goal_colour, visible_goals
 from sim.match import EnvConfig, MatchCore
 from sim.players import IdlePlayer, Player
 from sim.world import rules
-from sim.world.state import DriveCommand
+from sim.world.state import DriveCommand, GoalState
 
 
 def test_the_robot_side_layout_agrees_with_the_field_file() -> None:
@@ -207,5 +207,44 @@ def test_the_camera_reports_the_goals_in_front_with_their_colours(fidelity: str)
         seen = visible_goals(w, 0)
         want = field_to_robot(np.array([[south.x, south.y]]), (w.robots[0].x, w.robots[0].y), 90.0)
         assert not any(np.hypot(*(row[:2] - want[0])) < 0.02 for row in seen)
+    finally:
+        core.close()
+
+
+def test_the_strategy_gets_the_sightings_the_daemon_passes_on() -> None:
+    """inputs_from_view hands the strategy what the daemon's scripted decider would: a red goal
+    base on the red platform is dropped (a piece of a platform can look like one), a neutral
+    goal pushed up the same board is kept (no platform is yellow), and a goal off the platforms
+    is kept whatever its colour."""
+    from sim.baselines.alliance import inputs_from_view
+
+    core = core_2v2(fidelity="training")
+    try:
+        core.reset(np.random.default_rng(0))
+        w = core.world
+        layout = load_layout()
+        plat = layout.platform  # red's, the field frame is red's alliance frame
+        north = next(g for g in w.goals if g.spec.name == "neutral_north")
+        red = next(g for g in w.goals if g.spec.name == "red_south")
+        blue = next(g for g in w.goals if g.spec.name == "blue_south")
+        w.place_goal(north.index, plat.x_at(-0.14), -0.25)
+        w.place_goal(red.index, plat.x_at(-0.14), 0.3)
+        w.place_goal(blue.index, plat.x_at(0.6), -0.5)  # off the board, in view
+        w.place_robot(0, plat.x_at(2.0), 0.0, plat.wall_heading_deg)
+        for _ in range(12):  # the GPS's reading catches up with the placed robot
+            w.step([DriveCommand(0.0, 0.0, False) for _ in w.robots])
+        r = w.robots[0]
+
+        def seen_at(rows: np.ndarray, g: GoalState) -> bool:
+            want = field_to_robot(np.array([[g.x, g.y]]), (r.x, r.y), r.heading)[0]
+            return any(np.hypot(*(row[:2] - want)) < 0.05 for row in rows)
+
+        raw = visible_goals(w, 0)
+        assert seen_at(raw, north) and seen_at(raw, red) and seen_at(raw, blue)
+        kept = inputs_from_view(core, 0, True, plat).goals_robot
+        assert kept is not None
+        assert seen_at(kept, north) and seen_at(kept, blue)
+        assert not seen_at(kept, red)
+        assert inputs_from_view(core, 0, False, plat).goals_robot is None
     finally:
         core.close()
