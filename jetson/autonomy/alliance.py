@@ -521,10 +521,10 @@ class AllianceStrategy:
         seen = np.asarray(goals_robot, dtype=np.float64).reshape(-1, 3)
         now = pose.t
         self._opponent_goals = [(t, p) for t, p in self._opponent_goals if t > now - c.conflict_s]
+        self._sightings = [(t, p) for t, p in self._sightings if t > now - 1.0]
         if not len(seen):
             return
         where = robot_to_field(seen[:, :2], pose.xy, pose.heading)  # the alliance frame
-        self._sightings = [(t, p) for t, p in self._sightings if t > now - 1.0]
         self._sightings.extend((now, p.copy()) for p in where)
         own = GOAL_COLOUR_CODES[alliance]
         for xy, code in zip(where, seen[:, 2].astype(int), strict=True):
