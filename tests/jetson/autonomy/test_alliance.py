@@ -426,3 +426,9 @@ def test_the_24_takes_a_goal_in_its_lane_on_the_board_before_it_climbs() -> None
     plain.phase = "climb"
     plain.step(at_stage(plat.wall_heading_deg, []))
     assert plain.intent in ("wait_unlock", "climb")
+    # a sighting is forgotten after a second of reports without it
+    old = AllianceStrategy(ROLE_24, layout)
+    old.step(at_stage(plat.wall_heading_deg, [on_board])._replace(time_s=40.0))
+    assert old._lane_goal(c.board_y_24_m) is not None
+    old.step(at_stage(plat.wall_heading_deg, [])._replace(time_s=41.5))
+    assert old._lane_goal(c.board_y_24_m) is None
