@@ -35,6 +35,11 @@ footprint stays off both platforms. A neutral goal pushed up the board into the 
 (a goal blocks it in about one match in five against the ring race, mostly pushed there in
 isolation) is taken off it once the sentry unlocks the board: the 24" backs up its lane onto
 it, pulls it straight out and climbs with it.
+The steal (`steal_s`, measured in docs/notes/2026-11-27-the-steal.md): the 24" gives up its
+climb, leaves its goal in the home zone and takes neutral goals from outside it instead, the
+one it last saw moving (another robot carries it: the other alliance's loaded goal, whose rings
+then count for this alliance) first; that one it drags home and holds there to the end, a free
+one it leaves there and takes the next. The 15" then stays at its lock spot, balanced alone.
 Options off by default (measured, docs/notes/2026-11-27-raid-and-lane.md): the deposit and the
 raid (the 24" leaves its goal in the home zone and fetches the free goals of either colour from
 outside it, the other alliance's zone first). The endgame's
@@ -241,6 +246,16 @@ class AllianceConfig:
     # and blue sightings on a platform, jetson/autonomy/goal_sightings.py, so only a neutral
     # goal there is seen and taken).
     clear_lane_s: float = 6.0
+    # The steal: `steal_s` before the end the 24" leaves the goal it holds in its home zone,
+    # takes a neutral goal from outside it (one seen carried first: the other alliance's loaded
+    # goal, its rings then count for this alliance), drags it home and holds it there to the
+    # end (a tug of war goes to the stronger pull: the 24" pulls harder than a 15"). It does not
+    # climb; the 15" stays at its lock spot, where the board balances under it and its goal.
+    # None: no steal, both robots climb.
+    steal_s: float | None = None
+    carried_s: float = 1.5  # a neutral goal seen in motion this long is carried (_track_yellow)
+    steal_haul_y_m: float = 1.15  # the haul spot: this far beside the platform's centre ...
+    steal_haul_along_m: float = 0.1  # ... and this far from the hinge toward the field
 
 
 class AllianceInputs(NamedTuple):
@@ -280,6 +295,17 @@ class _GoalBelief:
     goal: GoalLayout
     xy: Vec | None  # where it is believed to be (alliance frame); None: missing
     tries: float = 0.0  # seconds spent backing onto it
+
+
+@dataclass
+class _Track:
+    """A neutral goal followed through the goal detector's sightings (_track_yellow)."""
+
+    xy: Vec  # where it was seen last (alliance frame)
+    seen: float  # when
+    first_move: float  # when it was first seen in motion
+    last_move: float  # and last
+    moves: int = 1  # how many times (0.3 s apart at least)
 
 
 @dataclass(frozen=True)
@@ -404,6 +430,14 @@ class AllianceStrategy:
         self._lane_goal_xy: Vec | None = None  # a goal on the board in the 24"'s lane
         self._clear_since: float | None = None
         self._clear_backing = False
+        self._steal_dropped = False
+        self._yellow_hist: list[tuple[float, Vec]] = []  # neutral goals seen lately
+        self._track: _Track | None = None  # the neutral goal seen moving lately
+        self._hauled = False  # the goal hauled reached the haul spot
+        self._contested = False  # the goal hauled is another robot's too: held to the end
+        self._steal_carried = False  # the goal it backs onto was seen carried
+        self._stage_xy: Vec | None = None  # the stage it drives to now
+        self._bad_stages: list[Vec] = []  # stages it was blocked on, stealing this goal
         self.intent = "start"  # what the last step was doing, for logs and tests
 
     def step(self, inputs: AllianceInputs) -> AllianceAction:
@@ -432,9 +466,12 @@ class AllianceStrategy:
         self._trail.push(pose.t, float(pose.xy[0]), float(pose.xy[1]))
         v, w, clamp = self._decide(pose, inputs, dt)
         v, w, let_go = self._tug(pose, inputs, v, w)
+        self._check_dragging(pose, inputs)
         if let_go:
             clamp = False
-        intake = self.phase not in ("climb", "stage", "balance", "drop", "sentry", "park")
+        intake = self.phase not in (
+            "climb", "stage", "balance", "drop", "sentry", "park", "steal", "haul"
+        )  # fmt: skip
         lift = bool(self.role.reaches_high_branch and inputs.goal_clamped and intake)
         return AllianceAction(float(v), float(w), clamp, lift, intake)
 
@@ -446,7 +483,7 @@ class AllianceStrategy:
         while (a tug of war goes to the stronger pull); the `tug_release`-th time with one goal,
         let it go instead (the third value: release the clamp)."""
         c = self.config
-        endgame = self.phase in ("climb", "balance", "stage")
+        endgame = self.phase in ("climb", "balance", "stage", "steal", "haul")
         h = math.radians(pose.heading)
         self._moves.append((pose.t, float(pose.xy[0]), float(pose.xy[1]), v))
         while self._moves and self._moves[0][0] < pose.t - c.tug_window_s:
@@ -473,6 +510,27 @@ class AllianceStrategy:
                 self.intent = "tug"
                 return self.role.max_linear_mps, 0.0, False
         return v, w, False
+
+    def _check_dragging(self, pose: _Pose, inputs: AllianceInputs) -> None:
+        """The goal in the clamp comes slower than the robot drives (over the last
+        `tug_window_s` of driving forward at half speed or more, less than half the way): another
+        robot holds it too (`_contested`, until the clamp opens)."""
+        if not inputs.goal_clamped:
+            self._contested = False
+            return
+        c = self.config
+        m = self._moves
+        fast = 0.5 * self.role.max_linear_mps
+        if (
+            pose.t - self._clamped_at > 1.0
+            and len(m) >= 3
+            and m[-1][0] - m[0][0] >= c.tug_window_s * 0.9
+            and all(k[3] >= fast for k in m[:-1])
+        ):
+            h = math.radians(pose.heading)
+            moved = (m[-1][1] - m[0][1]) * math.sin(h) + (m[-1][2] - m[0][2]) * math.cos(h)
+            if moved < 0.5 * fast * (m[-1][0] - m[0][0]):
+                self._contested = True
 
     def _let_go(self, pose: _Pose) -> None:
         """Give up the goal held in a tug of war: it is not where this robot can score it (the
@@ -527,6 +585,12 @@ class AllianceStrategy:
         where = robot_to_field(seen[:, :2], pose.xy, pose.heading)  # the alliance frame
         self._sightings.extend((now, p.copy()) for p in where)
         own = GOAL_COLOUR_CODES[alliance]
+        yellow = [
+            p
+            for p, k in zip(where, seen[:, 2].astype(int), strict=True)
+            if k == GOAL_COLOUR_CODES["yellow"]
+        ]
+        self._track_yellow(now, yellow)
         for xy, code in zip(where, seen[:, 2].astype(int), strict=True):
             if code == GOAL_COLOUR_CODES["yellow"]:
                 owner: str | None = None
@@ -563,6 +627,49 @@ class AllianceStrategy:
                 self._goal_seen[name] = (now, xy.copy())
             best.xy = xy.copy()
 
+    def _track_yellow(self, now: float, yellow: list[Vec]) -> None:
+        """Follow a neutral goal seen moving, whatever its name (the goal detector reports
+        colours, not names). A sighting with no sighting near it 0.3-1.5 s before, and one that
+        far at a carried goal's speed (`carried_mps` to 1.5 m/s), is a goal in motion; a later
+        sighting within 0.35 m of where the followed goal was last seen is that goal, moving on
+        or stopped. A goal seen in motion again and again over `carried_s` is carried by a
+        robot (a goal pushed aside moves once); one carried stays followed while it is seen."""
+        c = self.config
+        hist = [(t, p) for t, p in self._yellow_hist if now - t <= 1.5]
+
+        def in_motion(p: Vec) -> bool:
+            before = [float(np.hypot(*(q - p))) / (now - t) for t, q in hist if now - t >= 0.3]
+            return bool(before) and min(before) * 0.3 > 0.06 and c.carried_mps <= min(before) <= 1.5
+
+        tr = self._track
+        near = None
+        if tr is not None and yellow:
+            near = min(range(len(yellow)), key=lambda k: float(np.hypot(*(yellow[k] - tr.xy))))
+            if float(np.hypot(*(yellow[near] - tr.xy))) >= 0.35:
+                near = None
+        if tr is not None and near is not None:
+            p = yellow[near]
+            if in_motion(p) and now - tr.last_move >= 0.3:
+                tr.last_move, tr.moves = now, tr.moves + 1
+            tr.xy, tr.seen = p.copy(), now
+        keep = tr is not None and self._carried(tr) and now - tr.seen < 20.0
+        if not keep:
+            for k, p in enumerate(yellow):
+                if k != near and in_motion(p):
+                    self._track = _Track(p.copy(), now, now, now)
+                    break
+        self._yellow_hist = hist + [(now, p.copy()) for p in yellow]
+
+    def _carried(self, tr: _Track | None) -> bool:
+        """The followed goal is carried: seen in motion 3 times or more over `carried_s`, and
+        seen in the last minute."""
+        return (
+            tr is not None
+            and tr.moves >= 3
+            and tr.last_move - tr.first_move >= self.config.carried_s
+            and self._now - tr.seen < 60.0
+        )
+
     def _forget_goals(self, pose: _Pose) -> None:
         """A goal whose spot the robot's body now covers is not there (pushed away)."""
         half = min(self.role.length_m, self.role.width_m) / 2
@@ -589,10 +696,23 @@ class AllianceStrategy:
         left = self._time_left(pose)
         big = self.role.role == "24in"
         # The endgame takes over from whatever the robot is doing.
-        if big and left <= c.climb_24_s and self.phase not in ("climb", "balance", "park"):
+        stealing = c.steal_s is not None
+        if big and stealing and left <= c.steal_s and self.phase not in ("steal", "haul"):
+            self._set_phase("steal", pose.t)
+            self._given_up.clear()  # a goal let go in a tug of war is what the steal is for
+            for b in self.goals.values():
+                b.tries = 0.0
+        elif (
+            big
+            and not stealing
+            and left <= c.climb_24_s
+            and self.phase not in ("climb", "balance", "park")
+        ):
             self._set_phase("climb", pose.t)
         if not big:
-            if self.phase == "sentry" and self._climbing and left <= c.climb_15_s:
+            if stealing and self.phase == "sentry":
+                pass  # the 24" steals: the sentry keeps the board balanced where it is
+            elif self.phase == "sentry" and self._climbing and left <= c.climb_15_s:
                 self._set_phase("climb", pose.t)
                 self._climbing = True  # already on the board, in its lane
                 self._climb_track = []
@@ -707,7 +827,9 @@ class AllianceStrategy:
         self.intent = "sentry"
         along = plat.along(float(pose.xy[0]))
         want = c.sentry_along_m
-        if c.lock_along_m is not None and self._time_left(pose) > c.unlock_s:
+        if c.lock_along_m is not None and (
+            self._time_left(pose) > c.unlock_s or c.steal_s is not None
+        ):
             want = c.lock_along_m
             self.intent = "lock"
         if abs(along - want) < 0.03:
@@ -889,7 +1011,8 @@ class AllianceStrategy:
         line (never toward the other alliance), else the free spot around it (inside the walls,
         off the platform) nearest the robot, far enough to turn there without sweeping it."""
         c = self.config
-        if abs(float(goal[0])) < 0.6:
+        stealing = self.phase == "steal"
+        if abs(float(goal[0])) < 0.6 and not stealing:
             return goal + np.array([-c.goal_stage_m, 0.0])
         half_diag = math.hypot(self.role.length_m, self.role.width_m) / 2
         limit = self.layout.half_m - half_diag - 0.03
@@ -909,6 +1032,8 @@ class AllianceStrategy:
             d = float(np.hypot(*(p - pose.xy)))
             if _segment_distance(goal, pose.xy, p) < need:
                 d += 5.0
+            if stealing and any(float(np.hypot(*(p - q))) < 0.35 for q in self._bad_stages):
+                d += 10.0  # blocked there before (the robot that holds the goal stands there)
             if d < best_d:
                 best, best_d = p, d
         return best
@@ -968,6 +1093,7 @@ class AllianceStrategy:
             self._stage_goal = None
             return 0.0, 0.0, False
         stage = self._stage_for(goal, pose)
+        self._stage_xy = stage
         local = field_to_robot(goal[None, :], pose.xy, pose.heading)[0]
         behind = abs(math.atan2(-float(local[0]), -float(local[1]))) < math.radians(30)
         waiting = wait_until is not None and pose.t < wait_until
@@ -1333,6 +1459,151 @@ class AllianceStrategy:
         v, w = self._back_onto(float(local[0]), float(local[1]), dist)
         return v, w, True
 
+    def _phase_steal(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        """The 24" (AllianceConfig.steal_s): leave the goal it holds in the home zone, then
+        back onto the neutral goal to steal (_steal_goal) and haul it home."""
+        c = self.config
+        if (
+            inputs.goal_clamped
+            and not self._steal_dropped
+            and (self._contested or not self._steal_worth(pose))
+        ):
+            # No other robot's goal to take: its own goal is the one to keep home.
+            self._steal_dropped = True
+            self._steal_carried = True  # held to the end: a goal let go may be taken
+            self._set_phase("haul", pose.t)
+            self._contested = True
+            self._hauled = False
+            return self._phase_haul(pose, inputs, dt)
+        if inputs.goal_clamped and not self._steal_dropped:
+            plat = self.layout.platform
+            y = c.steal_haul_y_m * (1.0 if float(pose.xy[1]) > plat.center[1] else -1.0)
+            spot = np.array([plat.x_at(c.steal_haul_along_m), plat.center[1] + y])
+            if self.layout.in_home_zone(tuple(self._clamp_point(pose, self.layout.goals[0]))):
+                spot = pose.xy  # its goal is home already: leave it here
+            near = float(np.hypot(*(spot - pose.xy))) < 0.25
+            if not near and pose.t - self.phase_since < 8.0:
+                self.intent = "steal_drop"
+                return (*self._drive_to(pose, spot, None, speed=0.8), True)
+            if self.holding is not None:
+                self._deposited.append(self.holding)
+            self._steal_dropped = True
+            self.phase_since = pose.t
+            self.intent = "steal_drop"
+            return 0.0, 0.0, False
+        if not self._steal_dropped:
+            self._steal_dropped = True  # nothing held when the steal began
+        if self._steal_dropped and pose.t - self.phase_since < 0.6:
+            return 0.4 * self.role.max_linear_mps, 0.0, False  # away from the goal left
+        if inputs.goal_clamped:
+            self._set_phase("haul", pose.t)
+            # A goal seen carried is another robot's: held to the end (the robot holding it
+            # may stand still, and then nothing pulls back to tell).
+            self._contested = self._contested or self._steal_carried
+            self._hauled = False
+            return self._phase_haul(pose, inputs, dt)
+        name = self._steal_goal(pose)
+        if name is None:
+            self.intent = "steal_search"
+            look = np.array([-0.3, 0.0])
+            if float(np.hypot(*(look - pose.xy))) > 0.2:
+                return (*self._drive_to(pose, look, None, speed=0.7), False)
+            return 0.0, 0.4 * self.role.max_angular_rad_s, False
+        if self.target_goal != name:
+            self._bad_stages = []
+        self.target_goal = name
+        self._steal_carried = self._seen_moving(self.goals[name].xy)
+        self.intent = f"steal:{name}"
+        return self._get_goal(name, pose, inputs, dt, wait_until=None)
+
+    def _steal_goal(self, pose: _Pose) -> str | None:
+        """The neutral goal to steal: one believed where a neutral goal was last seen moving
+        (carried by another robot: the other alliance's loaded goal, wherever it stands) in the
+        last minute first, else the nearest outside the home zone; never one on a platform or
+        one it left itself."""
+        line = self.layout.home_zone[2]
+        plat = self.layout.platform
+        tr = self._track
+        if tr is not None and self._carried(tr):
+            mv = (tr.seen, tr.xy)
+            # The goal seen moving is the neutral one believed nearest it (or a missing one).
+            names = [
+                n
+                for n, b in self.goals.items()
+                if b.goal.owner is None and n != self.holding and n not in self._deposited
+            ]
+            if names and not any(self._seen_moving(self.goals[n].xy) for n in names):
+                far = {
+                    n: math.inf
+                    if self.goals[n].xy is None
+                    else float(np.hypot(*(self.goals[n].xy - mv[1])))
+                    for n in names
+                }
+                self.goals[min(names, key=lambda n: far[n])].xy = mv[1].copy()
+        best, best_cost = None, math.inf
+        for name, b in self.goals.items():
+            if b.goal.owner is not None or b.xy is None or name in self._deposited:
+                continue
+            x, y = float(b.xy[0]), float(b.xy[1])
+            r = b.goal.base_radius_m
+            if plat.contains((x, y), r) or plat.contains((-x, -y), r + 0.45):
+                continue  # on a platform; or by the other's, protected in the endgame
+            carried = self._seen_moving(b.xy)
+            if x < line - r and not carried:
+                continue  # scoring in the home zone already
+            cost = float(np.hypot(*(b.xy - pose.xy))) - (3.0 if carried else 0.0)
+            if cost < best_cost:
+                best, best_cost = name, cost
+        return best
+
+    def _steal_worth(self, pose: _Pose) -> bool:
+        """A neutral goal another robot carries is followed, away from the clamp: the goal it
+        holds is worth leaving for it."""
+        tr = self._track
+        if not self._carried(tr):
+            return False
+        assert tr is not None
+        clamp = self._clamp_point(pose, self.layout.goals[0])
+        return float(np.hypot(*(tr.xy - clamp))) > 0.5
+
+    def _seen_moving(self, xy: Vec | None) -> bool:
+        """The neutral goal carried by another robot was last seen near `xy`."""
+        tr = self._track
+        return xy is not None and self._carried(tr) and float(np.hypot(*(tr.xy - xy))) < 0.3  # type: ignore[union-attr]
+
+    def _phase_haul(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        """Drag the stolen goal into the home zone, beside the platform. A goal another robot
+        still holds (it comes slower than the robot drives: a tug of war, which the stronger
+        pull wins) is held there to the end, pulling toward the wall; a free one is left there
+        and the next is stolen."""
+        c = self.config
+        if not inputs.goal_clamped:
+            self._set_phase("steal", pose.t)
+            return 0.0, 0.0, False
+        plat = self.layout.platform
+        side = 1.0 if float(pose.xy[1]) > plat.center[1] else -1.0
+        spot = np.array([plat.x_at(c.steal_haul_along_m), plat.center[1] + side * c.steal_haul_y_m])
+        if not self._hauled and float(np.hypot(*(spot - pose.xy))) > 0.15:
+            self.intent = "haul"
+            v, w = self._drive_to(pose, spot, None, speed=1.0)
+            self._backoff_until = -1.0  # never back off: that would hand the goal back
+            return max(v, 0.0), w, True
+        if not self._contested:
+            # A free goal: leave it here (20 points, its rings count here) and take the next.
+            if self.holding is not None:
+                self._deposited.append(self.holding)
+            self._hauled = False
+            self._set_phase("steal", pose.t)
+            self.intent = "steal_drop"
+            return 0.0, 0.0, False
+        self._hauled = True
+        self.intent = "hold"
+        return self.role.max_linear_mps, self._turn_to(pose, plat.wall_heading_deg), True
+
     def _phase_park(
         self, pose: _Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
@@ -1450,6 +1721,8 @@ class AllianceStrategy:
             v_max = min(v_max, max(0.15, 1.5 * dist))  # slow down to stop at a point
         v, w = arc_through(px, py, v_max, rc.max_angular_rad_s)
         if self._trail.stuck(pose.t, v):
+            if self.phase == "steal" and self._stage_xy is not None:
+                self._bad_stages.append(self._stage_xy.copy())
             self._trail.clear()
             self._backoff_until = pose.t + c.backoff_s
             self._backoff_turn = -1.0 if tx > 0 else 1.0

@@ -432,3 +432,114 @@ def test_the_24_takes_a_goal_in_its_lane_on_the_board_before_it_climbs() -> None
     assert old._lane_goal(c.board_y_24_m) is not None
     old.step(at_stage(plat.wall_heading_deg, [])._replace(time_s=41.5))
     assert old._lane_goal(c.board_y_24_m) is None
+
+
+def test_the_steal_targets_the_neutral_goal_seen_carried_before_a_nearer_free_one() -> None:
+    """A neutral goal seen in motion again and again (a robot carries it; one pushed aside
+    moves once) is followed whatever its name: with the steal on, the 24" goes for it (the
+    other alliance's loaded goal), not for the nearer one standing still; a free neutral goal in
+    its own home zone is no target (it scores there already), a carried one there is."""
+    from jetson.autonomy.alliance import AllianceConfig, _Pose
+
+    layout = load_layout()
+    s = AllianceStrategy(ROLE_24, layout, AllianceConfig(steal_s=50.0))
+    south = np.array(layout.goal("neutral_south").xy)
+    north = np.array(layout.goal("neutral_north").xy)
+    here = _Pose(np.array([-0.9, -0.9]), 90.0, 60.0)
+    t = 60.0
+    s.step(sighting(t, [(*south, "yellow"), (*north, "yellow")]))
+    assert s._track is None
+    pushed = north + np.array([0.25, 0.0])
+    s.step(sighting(t + 0.5, [(*south, "yellow"), (*pushed, "yellow")]))  # 0.5 m/s, once
+    assert s._track is not None and not s._carried(s._track)
+    s.step(sighting(t + 3.0, [(*south, "yellow"), (*pushed, "yellow")]))  # then still
+    assert s._steal_goal(here) == "neutral_south"  # the nearest: nothing is carried
+    p = pushed.copy()
+    for k in range(1, 6):  # in motion for 2.5 s: carried
+        p = p + np.array([0.0, -0.25])
+        s.step(sighting(t + 3.0 + 0.5 * k, [(*south, "yellow"), (*p, "yellow")]))
+    assert s._carried(s._track)
+    assert s._track.xy == pytest.approx(p, abs=1e-6)
+    assert s._steal_goal(here) == "neutral_north"  # farther, but carried
+    home = np.array([layout.home_zone[0] + 0.4, -1.2])
+    for b in s.goals.values():
+        b.xy = None
+    s._track = None
+    s.goals["neutral_south"].xy = home.copy()
+    assert s._steal_goal(here) is None
+    from jetson.autonomy.alliance import _Track
+
+    s._track = _Track(home.copy(), 60.0, 55.0, 58.0, 5)
+    assert s._steal_goal(here) == "neutral_south"
+
+
+def test_the_steal_leaves_its_own_goal_home_then_hauls_the_stolen_one_home() -> None:
+    """With `steal_s` left and a neutral goal seen carried elsewhere, the 24" drives the goal
+    it holds into its home zone, beside the platform, and lets it go there (with none seen
+    carried it keeps its own, home); a free goal it then steals is hauled to the home zone and
+    let go (the next is stolen); one seen carried is held there to the end, pulling toward the
+    wall."""
+    from jetson.autonomy.alliance import AllianceConfig, _Track
+
+    layout = load_layout()
+    config = AllianceConfig(steal_s=50.0, ring_x_max_m=-10.0)
+    t0 = layout.match_length_s - 49.0
+    # Nothing seen moving: no other robot's goal to take; it keeps its own, hauls it home and
+    # holds it there (a goal let go could be taken).
+    keep = AllianceStrategy(ROLE_24, layout, config)
+    keep.holding = "neutral_south"
+    keep._was_clamped = True
+    log, clamped = drive(keep, (0.0, -0.6, 0.0), t0, 12.0, None, True, stop_on_release=True)
+    assert clamped and log[-1][4] == "hold" and keep._deposited == []
+    # A neutral goal seen moving in the other half: it leaves its own goal home for it.
+    s = AllianceStrategy(ROLE_24, layout, config)
+    s.holding = "neutral_south"
+    s._was_clamped = True
+    s._track = _Track(np.array([0.9, 1.0]), t0 - 5.0, t0 - 9.0, t0 - 6.0, 4)
+    log, clamped = drive(s, (0.0, -0.6, 0.0), t0, 12.0, None, True, stop_on_release=True)
+    assert not clamped and s._deposited == ["neutral_south"]
+    x, y, h = log[-1][:3]
+    goal_at = (x - 0.47 * math.sin(math.radians(h)), y - 0.47 * math.cos(math.radians(h)))
+    assert layout.in_home_zone(goal_at)
+    assert not layout.platform.contains(goal_at, margin=0.1)
+    assert {k[4] for k in log} == {"steal_drop"}
+    t1 = t0 + 0.05 * len(log)
+    for carried, held in ((False, False), (True, True)):
+        s2 = AllianceStrategy(ROLE_24, layout, config)
+        s2._steal_dropped = True
+        s2._set_phase("steal", t1)
+        s2.phase_since = t1 - 1.0
+        s2._steal_carried = carried
+        s2.holding = s2.target_goal = "neutral_tall"
+        s2._was_clamped = True
+        log, clamped = drive(s2, (0.2, 0.4, 0.0), t1, 14.0, None, True, stop_on_release=True)
+        # where it let go, or where it began to hold (a kinematic robot has no wall)
+        x, y, h = next((k for k in log if k[4] == "hold"), log[-1])[:3]
+        goal_at = (x - 0.47 * math.sin(math.radians(h)), y - 0.47 * math.cos(math.radians(h)))
+        assert layout.in_home_zone(goal_at)
+        assert clamped == held
+        if held:
+            assert log[-1][4] == "hold" and log[-1][3].linear > 0 and log[-1][3].clamp
+        else:
+            assert s2._deposited == ["neutral_tall"]
+
+
+def test_with_the_steal_on_the_sentry_keeps_the_board_balanced_to_the_end() -> None:
+    """The 24" steals instead of climbing: the 15" never unlocks the board nor climbs, it
+    stays at the lock spot (the board level under it and its goal) through the endgame."""
+    from jetson.autonomy.alliance import AllianceConfig
+
+    layout = load_layout()
+    plat = layout.platform
+    for steal, phase in ((50.0, "sentry"), (None, "climb")):
+        s = AllianceStrategy(ROLE_15, layout, AllianceConfig(steal_s=steal))
+        s._set_phase("sentry", 20.0)
+        s._climbing = s._sentry_set = True
+        x = plat.x_at(s.config.lock_along_m)
+        wall = plat.wall_heading_deg
+        log, _ = drive(
+            s, (x, s.config.board_y_15_m, wall), layout.match_length_s - 25.0, 20.0, None, True
+        )
+        assert s.phase == phase
+        if steal is not None:
+            assert plat.along(log[-1][0]) == pytest.approx(s.config.lock_along_m, abs=0.03)
