@@ -433,6 +433,7 @@ class AllianceStrategy:
         self._steal_dropped = False
         self._yellow_hist: list[tuple[float, Vec]] = []  # neutral goals seen lately
         self._track: _Track | None = None  # the neutral goal seen moving lately
+        self._headings: list[tuple[float, float]] = []  # (time, heading) of the last 1.5 s
         self._hauled = False  # the goal hauled reached the haul spot
         self._contested = False  # the goal hauled is another robot's too: held to the end
         self._steal_carried = False  # the goal it backs onto was seen carried
@@ -590,7 +591,10 @@ class AllianceStrategy:
             for p, k in zip(where, seen[:, 2].astype(int), strict=True)
             if k == GOAL_COLOUR_CODES["yellow"]
         ]
-        self._track_yellow(now, yellow)
+        self._headings = [(t, h) for t, h in self._headings if now - t <= 1.5]
+        self._headings.append((now, pose.heading))
+        turned = max(abs(angle_diff_deg(h, pose.heading)) for _, h in self._headings)
+        self._track_yellow(now, yellow, steady=turned < 8.0)
         for xy, code in zip(where, seen[:, 2].astype(int), strict=True):
             if code == GOAL_COLOUR_CODES["yellow"]:
                 owner: str | None = None
@@ -627,17 +631,21 @@ class AllianceStrategy:
                 self._goal_seen[name] = (now, xy.copy())
             best.xy = xy.copy()
 
-    def _track_yellow(self, now: float, yellow: list[Vec]) -> None:
+    def _track_yellow(self, now: float, yellow: list[Vec], steady: bool = True) -> None:
         """Follow a neutral goal seen moving, whatever its name (the goal detector reports
         colours, not names). A sighting with no sighting near it 0.3-1.5 s before, and one that
         far at a carried goal's speed (`carried_mps` to 1.5 m/s), is a goal in motion; a later
         sighting within 0.35 m of where the followed goal was last seen is that goal, moving on
         or stopped. A goal seen in motion again and again over `carried_s` is carried by a
-        robot (a goal pushed aside moves once); one carried stays followed while it is seen."""
+        robot (a goal pushed aside moves once); one carried stays followed while it is seen.
+        Nothing counts as in motion while the robot turned more than 8 degrees in the last
+        1.5 s (`steady` False): the pose's lag then sweeps what it sees across the field."""
         c = self.config
         hist = [(t, p) for t, p in self._yellow_hist if now - t <= 1.5]
 
         def in_motion(p: Vec) -> bool:
+            if not steady:
+                return False  # the robot turned: its heading's lag moves what it sees
             before = [float(np.hypot(*(q - p))) / (now - t) for t, q in hist if now - t >= 0.3]
             return bool(before) and min(before) * 0.3 > 0.06 and c.carried_mps <= min(before) <= 1.5
 
@@ -1506,11 +1514,17 @@ class AllianceStrategy:
             return self._phase_haul(pose, inputs, dt)
         name = self._steal_goal(pose)
         if name is None:
+            # None known: sweep the field's middle (the camera sees goals up to about 2 m),
+            # and a neutral goal not found where it was tried may be found again.
             self.intent = "steal_search"
-            look = np.array([-0.3, 0.0])
+            for b in self.goals.values():
+                if b.goal.owner is None:
+                    b.tries = 0.0
+            points = ((0.0, -0.8), (-0.3, 0.0), (0.0, 0.8), (-0.3, 0.0))
+            look = np.array(points[int(pose.t // 5.0) % len(points)])
             if float(np.hypot(*(look - pose.xy))) > 0.2:
                 return (*self._drive_to(pose, look, None, speed=0.7), False)
-            return 0.0, 0.4 * self.role.max_angular_rad_s, False
+            return 0.0, 0.5 * self.role.max_angular_rad_s, False
         if self.target_goal != name:
             self._bad_stages = []
         self.target_goal = name
@@ -1548,7 +1562,7 @@ class AllianceStrategy:
                 continue
             x, y = float(b.xy[0]), float(b.xy[1])
             r = b.goal.base_radius_m
-            if plat.contains((x, y), r) or plat.contains((-x, -y), r + 0.45):
+            if plat.contains((x, y), r) or plat.contains((-x, -y), r + 0.15):
                 continue  # on a platform; or by the other's, protected in the endgame
             carried = self._seen_moving(b.xy)
             if x < line - r and not carried:
