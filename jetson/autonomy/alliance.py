@@ -1520,23 +1520,28 @@ class AllianceStrategy:
             for b in self.goals.values():
                 if b.goal.owner is None:
                     b.tries = 0.0
-            points = ((0.0, -0.8), (-0.3, 0.0), (0.0, 0.8), (-0.3, 0.0))
-            look = np.array(points[int(pose.t // 5.0) % len(points)])
+            points = ((0.0, -0.8), (0.25, -1.35), (0.3, 0.0), (0.0, 0.8), (0.25, 1.35), (0.3, 0.0))
+            look = np.array(points[int(pose.t // 4.0) % len(points)])
             if float(np.hypot(*(look - pose.xy))) > 0.2:
                 return (*self._drive_to(pose, look, None, speed=0.7), False)
             return 0.0, 0.5 * self.role.max_angular_rad_s, False
         if self.target_goal != name:
             self._bad_stages = []
         self.target_goal = name
-        self._steal_carried = self._seen_moving(self.goals[name].xy)
+        xy = self.goals[name].xy
+        home = (
+            xy is not None
+            and float(xy[0]) < self.layout.home_zone[2] - self.goals[name].goal.base_radius_m
+        )
+        self._steal_carried = self._seen_moving(xy) or home
         self.intent = f"steal:{name}"
         return self._get_goal(name, pose, inputs, dt, wait_until=None)
 
     def _steal_goal(self, pose: _Pose) -> str | None:
-        """The neutral goal to steal: one believed where a neutral goal was last seen moving
-        (carried by another robot: the other alliance's loaded goal, wherever it stands) in the
-        last minute first, else the nearest outside the home zone; never one on a platform or
-        one it left itself."""
+        """The neutral goal to steal: the one another robot carries (_track_yellow: the other
+        alliance's loaded goal, wherever it stands) first, else the nearest outside the home
+        zone, else one in the home zone (held there: it may be another robot's); never one on a
+        platform, one by the other alliance's platform, or one it left itself."""
         line = self.layout.home_zone[2]
         plat = self.layout.platform
         tr = self._track
@@ -1565,9 +1570,11 @@ class AllianceStrategy:
             if plat.contains((x, y), r) or plat.contains((-x, -y), r + 0.15):
                 continue  # on a platform; or by the other's, protected in the endgame
             carried = self._seen_moving(b.xy)
-            if x < line - r and not carried:
-                continue  # scoring in the home zone already
             cost = float(np.hypot(*(b.xy - pose.xy))) - (3.0 if carried else 0.0)
+            if x < line - r and not carried:
+                # Scoring in the home zone already: last (held there to the end, as another
+                # robot may hold it and take it home at the end).
+                cost += 5.0
             if cost < best_cost:
                 best, best_cost = name, cost
         return best
@@ -1603,8 +1610,17 @@ class AllianceStrategy:
         spot = np.array([plat.x_at(c.steal_haul_along_m), plat.center[1] + side * c.steal_haul_y_m])
         if not self._hauled and float(np.hypot(*(spot - pose.xy))) > 0.15:
             self.intent = "haul"
-            v, w = self._drive_to(pose, spot, None, speed=1.0)
             self._backoff_until = -1.0  # never back off: that would hand the goal back
+            if self._contested:
+                # Another robot holds it too: pull at full speed all the way (a tug goes to
+                # the stronger pull; slowing down or turning in place hands it the goal),
+                # steering toward the spot.
+                d = spot - pose.xy
+                face = float(np.degrees(np.arctan2(d[0], d[1])))
+                w = float(np.clip(self._turn_to(pose, face), -1.5, 1.5))
+                return self.role.max_linear_mps, w, True
+            v, w = self._drive_to(pose, spot, None, speed=1.0)
+            self._backoff_until = -1.0
             return max(v, 0.0), w, True
         if not self._contested:
             # A free goal: leave it here (20 points, its rings count here) and take the next.

@@ -437,8 +437,8 @@ def test_the_24_takes_a_goal_in_its_lane_on_the_board_before_it_climbs() -> None
 def test_the_steal_targets_the_neutral_goal_seen_carried_before_a_nearer_free_one() -> None:
     """A neutral goal seen in motion again and again (a robot carries it; one pushed aside
     moves once) is followed whatever its name: with the steal on, the 24" goes for it (the
-    other alliance's loaded goal), not for the nearer one standing still; a free neutral goal in
-    its own home zone is no target (it scores there already), a carried one there is."""
+    other alliance's loaded goal), not for the nearer one standing still; a neutral goal in its
+    own home zone comes after every one outside it, and one it left there is no target."""
     from jetson.autonomy.alliance import AllianceConfig, _Pose
 
     layout = load_layout()
@@ -466,7 +466,13 @@ def test_the_steal_targets_the_neutral_goal_seen_carried_before_a_nearer_free_on
         b.xy = None
     s._track = None
     s.goals["neutral_south"].xy = home.copy()
-    assert s._steal_goal(here) is None
+    s.goals["neutral_north"].xy = north.copy()
+    assert s._steal_goal(here) == "neutral_north"  # the one in the home zone comes last
+    s.goals["neutral_north"].xy = None
+    assert s._steal_goal(here) == "neutral_south"
+    s._deposited.append("neutral_south")
+    assert s._steal_goal(here) is None  # never one it left itself
+    s._deposited.clear()
     from jetson.autonomy.alliance import _Track
 
     s._track = _Track(home.copy(), 60.0, 55.0, 58.0, 5)
