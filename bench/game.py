@@ -10,7 +10,10 @@ alliance, 15 s isolation + 105 s interaction) with the robots' GPS noise on. The
 (a) the ring-race alliance (sim/baselines/alliance.py: the route planner without its endgame on
     the 24", the greedy chaser on the 15"), `--seeds` matches, the scripted alliance red on even
     seeds and blue on odd ones (sides swapped in half);
-(b) itself, `--seeds` matches.
+(b) itself, `--seeds` matches;
+(c) the ring-race alliance again with the steal on (`AllianceConfig.steal_s`, STEAL_S: the 24"
+    takes the other alliance's loaded neutral goal home instead of climbing; the 15" stays
+    balanced on the platform alone), `--seeds` matches (`--no-steal` skips them).
 
 Measured (vs: the ring-race alliance, self: itself; per match means):
 - win rate against (a) by match score (target >= 0.9; a draw counts half), and the same with the
@@ -24,6 +27,9 @@ Measured (vs: the ring-race alliance, self: itself; per match means):
   on the platform too (no target: the 15"'s sentry waits there by design);
 - the share of matches against (a) that end with its platform Balanced and both its robots
   Elevated (target >= 0.8);
+- with the steal (c), `vs_ring_race_steal_*`: the win rate, the mean scores, the share of
+  matches Balanced with both robots Elevated and the still share (no targets: the targets above
+  are the default alliance's, which climbs);
 - fouls per match of each alliance, by kind, and the share of matches in which one of its robots
   touches the opposing platform as the match ends (<SG3>: a Disqualification in the manual,
   reported and not scored); mean scores and the score by element (rings on a
@@ -46,6 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from bench.common import RESULTS_DIR, Result
+from jetson.autonomy.alliance import AllianceConfig
 from sim.baselines.alliance import AlliancePlayer, ring_race_player
 from sim.config import world_preset
 from sim.match import EnvConfig, MatchCore
@@ -58,6 +65,7 @@ STILL_TARGET = 0.1
 BALANCED_TARGET = 0.8
 STILL_SPEED_MPS = 0.03
 STILL_TURN_RAD_S = 0.1
+STEAL_S = 104.0  # the steal from the interaction period's first second (c)
 
 
 @dataclass
@@ -77,6 +85,7 @@ class GameRecord:
     # by alliance: one of its robots touched the opposing platform as the match ended (<SG3>
     # Note 2: a Disqualification in the manual; reported, not scored)
     platform_contact_at_end: dict[str, bool] = field(default_factory=dict)
+    steal: bool = False  # the scripted alliance played with the steal on (c)
 
 
 def elements(s: AllianceScore) -> dict[str, float]:
@@ -93,8 +102,9 @@ def elements(s: AllianceScore) -> dict[str, float]:
     }
 
 
-def play(seed: int, fidelity: str, opponent: str) -> GameRecord:
-    """One seeded 2v2 whole-game match (see the module docstring)."""
+def play(seed: int, fidelity: str, opponent: str, steal: bool = False) -> GameRecord:
+    """One seeded 2v2 whole-game match (see the module docstring); `steal`: the scripted
+    alliance with the steal on."""
     start = time.perf_counter()
     env = EnvConfig(
         world=world_preset("tipping_point_2v2", fidelity=fidelity),
@@ -109,7 +119,7 @@ def play(seed: int, fidelity: str, opponent: str) -> GameRecord:
         players: list[Player] = []
         for r in w.robots:
             if r.alliance == ours or opponent == "self":
-                players.append(AlliancePlayer())
+                players.append(AlliancePlayer(AllianceConfig(steal_s=STEAL_S if steal else None)))
             else:
                 players.append(ring_race_player(r.config.name))
         for i, p in enumerate(players):
@@ -154,17 +164,20 @@ def play(seed: int, fidelity: str, opponent: str) -> GameRecord:
             wall_s=time.perf_counter() - start,
             awp={a: bool(score[a].autonomous_win_point) for a in ("red", "blue")},
             platform_contact_at_end=rules.platform_contact_at_end(w),
+            steal=steal,
         )
     finally:
         core.close()
 
 
-def _play(job: tuple[int, str, str]) -> GameRecord:
+def _play(job: tuple[int, str, str, bool]) -> GameRecord:
     return play(*job)
 
 
-def run(seeds: list[int], fidelity: str, jobs: int) -> list[GameRecord]:
-    work = [(s, fidelity, opp) for opp in ("ring_race", "self") for s in seeds]
+def run(seeds: list[int], fidelity: str, jobs: int, steal: bool = True) -> list[GameRecord]:
+    work = [(s, fidelity, opp, False) for opp in ("ring_race", "self") for s in seeds]
+    if steal:
+        work += [(s, fidelity, "ring_race", True) for s in seeds]
     if jobs <= 1:
         return [_play(j) for j in work]
     with get_context("spawn").Pool(jobs) as pool:
@@ -175,19 +188,25 @@ def other(alliance: str) -> str:
     return "blue" if alliance == "red" else "red"
 
 
+def _win_rate(records: list[GameRecord]) -> float:
+    """Matches won by score, a draw counting half."""
+    wins = sum(
+        1.0 if g.score[g.ours] > g.score[other(g.ours)] else
+        0.5 if g.score[g.ours] == g.score[other(g.ours)] else 0.0
+        for g in records
+    )  # fmt: skip
+    return wins / len(records)
+
+
 def summarise(records: list[GameRecord], fidelity: str) -> Result:
     r = Result("game")
-    vs = [g for g in records if g.opponent == "ring_race"]
+    vs = [g for g in records if g.opponent == "ring_race" and not g.steal]
+    stealing = [g for g in records if g.opponent == "ring_race" and g.steal]
     selfplay = [g for g in records if g.opponent == "self"]
     r.add("seeds", len(vs))
     r.add("high_fidelity", 1 if fidelity == "high" else 0)
     if vs:
-        wins = sum(
-            1.0 if g.score[g.ours] > g.score[other(g.ours)] else
-            0.5 if g.score[g.ours] == g.score[other(g.ours)] else 0.0
-            for g in vs
-        )  # fmt: skip
-        r.add("vs_ring_race_win_rate", wins / len(vs))
+        r.add("vs_ring_race_win_rate", _win_rate(vs))
         # The same with the credit for the ring-race alliance's platform-protection fouls taken
         # out of the scripted alliance's score (the credit tops its Elevated robots up to two,
         # rules.platform_credit).
@@ -259,11 +278,32 @@ def summarise(records: list[GameRecord], fidelity: str) -> Result:
                 f"self_{key}",
                 statistics.fmean(v[key] for g in selfplay for v in g.elements.values()),
             )
-    counted = sum(g.counted_steps for g in records)
+    if stealing:
+        r.add("vs_ring_race_steal_win_rate", _win_rate(stealing))
+        r.add("vs_ring_race_steal_score_ours", statistics.fmean(g.score[g.ours] for g in stealing))
+        r.add(
+            "vs_ring_race_steal_score_theirs",
+            statistics.fmean(g.score[other(g.ours)] for g in stealing),
+        )
+        r.add(
+            "vs_ring_race_steal_balanced_both_elevated_rate",
+            statistics.fmean(float(g.balanced_both_up[g.ours]) for g in stealing),
+        )
+        r.add(
+            "vs_ring_race_steal_fouls_ours_per_match",
+            statistics.fmean(sum(g.fouls[g.ours].values()) for g in stealing),
+        )
+        n = sum(g.counted_steps for g in stealing)
+        r.add(
+            "vs_ring_race_steal_still_share_interaction",
+            sum(g.still_steps for g in stealing) / n if n else 0.0,
+        )
+    default = vs + selfplay
+    counted = sum(g.counted_steps for g in default)
     r.add(
-        "still_share_interaction", sum(g.still_steps for g in records) / counted if counted else 0.0
+        "still_share_interaction", sum(g.still_steps for g in default) / counted if counted else 0.0
     )
-    up = sum(g.still_steps + g.still_on_platform_steps for g in records)
+    up = sum(g.still_steps + g.still_on_platform_steps for g in default)
     r.add("still_share_interaction_counting_own_platform", up / counted if counted else 0.0)
     r.add("match_wall_s_median", statistics.median(g.wall_s for g in records))
     r.target("vs_ring_race_win_rate", WIN_TARGET, ">=")
@@ -283,16 +323,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--results", type=Path, default=RESULTS_DIR, help="where game.json goes")
     ap.add_argument("--matches", action="store_true", help="print one line per match")
     ap.add_argument("--strict", action="store_true", help="exit 1 when a target is missed")
+    ap.add_argument(
+        "--no-steal", action="store_true", help="skip (c), the matches with the steal on"
+    )
     args = ap.parse_args(argv)
     if args.seeds < 1 or args.jobs < 1:
         ap.error("--seeds and --jobs must be at least 1")
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
-    records = run(seeds, args.fidelity, args.jobs)
+    records = run(seeds, args.fidelity, args.jobs, steal=not args.no_steal)
     if args.matches:
         for g in records:
             them = other(g.ours)
             print(
-                f"seed {g.seed:3d} {g.opponent:9s} ours={g.ours:4s} "
+                f"seed {g.seed:3d} {g.opponent + ('+steal' if g.steal else ''):15s} "
+                f"ours={g.ours:4s} "
                 f"{g.score[g.ours]:4d}-{g.score[them]:<4d} up={int(g.balanced_both_up[g.ours])}"
                 f"{int(g.balanced_both_up[them])} still={g.still_steps}/{g.counted_steps} "
                 f"fouls={g.fouls[g.ours]} vs {g.fouls[them]} "
