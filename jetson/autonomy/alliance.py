@@ -1472,7 +1472,6 @@ class AllianceStrategy:
     ) -> tuple[float, float, bool | None]:
         """The 24" (AllianceConfig.steal_s): leave the goal it holds in the home zone, then
         back onto the neutral goal to steal (_steal_goal) and haul it home."""
-        c = self.config
         if (
             inputs.goal_clamped
             and not self._steal_dropped
@@ -1486,9 +1485,7 @@ class AllianceStrategy:
             self._hauled = False
             return self._phase_haul(pose, inputs, dt)
         if inputs.goal_clamped and not self._steal_dropped:
-            plat = self.layout.platform
-            y = c.steal_haul_y_m * (1.0 if float(pose.xy[1]) > plat.center[1] else -1.0)
-            spot = np.array([plat.x_at(c.steal_haul_along_m), plat.center[1] + y])
+            spot = self._haul_spot(pose)
             if self.layout.in_home_zone(tuple(self._clamp_point(pose, self.layout.goals[0]))):
                 spot = pose.xy  # its goal is home already: leave it here
             near = float(np.hypot(*(spot - pose.xy))) < 0.25
@@ -1504,7 +1501,8 @@ class AllianceStrategy:
         if not self._steal_dropped:
             self._steal_dropped = True  # nothing held when the steal began
         if self._steal_dropped and pose.t - self.phase_since < 0.6:
-            return 0.4 * self.role.max_linear_mps, 0.0, False  # away from the goal left
+            # The phase's first 0.6 s: away from a goal just left (and at the steal's start).
+            return 0.4 * self.role.max_linear_mps, 0.0, False
         if inputs.goal_clamped:
             self._set_phase("haul", pose.t)
             # A goal seen carried is another robot's: held to the end (the robot holding it
@@ -1537,6 +1535,14 @@ class AllianceStrategy:
         self.intent = f"steal:{name}"
         return self._get_goal(name, pose, inputs, dt, wait_until=None)
 
+    def _haul_spot(self, pose: _Pose) -> Vec:
+        """Where the 24" leaves or holds a goal it takes home: deep in the home zone beside the
+        platform, on the side of the platform it is on (the goal trails it toward the field)."""
+        c = self.config
+        plat = self.layout.platform
+        side = 1.0 if float(pose.xy[1]) > plat.center[1] else -1.0
+        return np.array([plat.x_at(c.steal_haul_along_m), plat.center[1] + side * c.steal_haul_y_m])
+
     def _steal_goal(self, pose: _Pose) -> str | None:
         """The neutral goal to steal: the one another robot carries (_track_yellow: the other
         alliance's loaded goal, wherever it stands) first, else the nearest outside the home
@@ -1546,21 +1552,19 @@ class AllianceStrategy:
         plat = self.layout.platform
         tr = self._track
         if tr is not None and self._carried(tr):
-            mv = (tr.seen, tr.xy)
-            # The goal seen moving is the neutral one believed nearest it (or a missing one).
+            # The goal followed is the neutral one believed nearest it (or a missing one).
             names = [
                 n
                 for n, b in self.goals.items()
                 if b.goal.owner is None and n != self.holding and n not in self._deposited
             ]
             if names and not any(self._seen_moving(self.goals[n].xy) for n in names):
-                far = {
-                    n: math.inf
-                    if self.goals[n].xy is None
-                    else float(np.hypot(*(self.goals[n].xy - mv[1])))
-                    for n in names
-                }
-                self.goals[min(names, key=lambda n: far[n])].xy = mv[1].copy()
+
+                def away(n: str) -> float:
+                    xy = self.goals[n].xy
+                    return math.inf if xy is None else float(np.hypot(*(xy - tr.xy)))
+
+                self.goals[min(names, key=away)].xy = tr.xy.copy()
         best, best_cost = None, math.inf
         for name, b in self.goals.items():
             if b.goal.owner is not None or b.xy is None or name in self._deposited:
@@ -1592,7 +1596,9 @@ class AllianceStrategy:
     def _seen_moving(self, xy: Vec | None) -> bool:
         """The neutral goal carried by another robot was last seen near `xy`."""
         tr = self._track
-        return xy is not None and self._carried(tr) and float(np.hypot(*(tr.xy - xy))) < 0.3  # type: ignore[union-attr]
+        if xy is None or tr is None or not self._carried(tr):
+            return False
+        return float(np.hypot(*(tr.xy - xy))) < 0.3
 
     def _phase_haul(
         self, pose: _Pose, inputs: AllianceInputs, dt: float
@@ -1601,13 +1607,11 @@ class AllianceStrategy:
         still holds (it comes slower than the robot drives: a tug of war, which the stronger
         pull wins) is held there to the end, pulling toward the wall; a free one is left there
         and the next is stolen."""
-        c = self.config
         if not inputs.goal_clamped:
             self._set_phase("steal", pose.t)
             return 0.0, 0.0, False
         plat = self.layout.platform
-        side = 1.0 if float(pose.xy[1]) > plat.center[1] else -1.0
-        spot = np.array([plat.x_at(c.steal_haul_along_m), plat.center[1] + side * c.steal_haul_y_m])
+        spot = self._haul_spot(pose)
         if not self._hauled and float(np.hypot(*(spot - pose.xy))) > 0.15:
             self.intent = "haul"
             self._backoff_until = -1.0  # never back off: that would hand the goal back
