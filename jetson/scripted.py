@@ -24,7 +24,13 @@ import math
 
 import numpy as np
 
-from jetson.autonomy.alliance import AllianceAction, AllianceInputs, AllianceStrategy, RobotRole
+from jetson.autonomy.alliance import (
+    AllianceAction,
+    AllianceConfig,
+    AllianceInputs,
+    AllianceStrategy,
+    RobotRole,
+)
 from jetson.autonomy.field_layout import FieldLayout, load_layout
 from jetson.autonomy.goal_memory import GoalMemory
 from jetson.autonomy.goal_sightings import off_the_platforms
@@ -86,7 +92,8 @@ class ScriptedDecider:
         self.config = config or DecisionConfig()
         self.role = role or ROBOTS[self.config.role]
         self.layout = layout or load_layout()
-        self.strategy = AllianceStrategy(self.role, self.layout)
+        steal = None if self.config.steal_s is None else float(self.config.steal_s)
+        self.strategy = AllianceStrategy(self.role, self.layout, AllianceConfig(steal_s=steal))
         self.spec = self.strategy.spec
         self.decision_hz = float(self.config.decision_hz or DEFAULT_DECISION_HZ)
         self.period_ms = 1000.0 / self.decision_hz

@@ -90,6 +90,11 @@ class DecisionConfig:
     # What decides: "policy" (the ONNX policy at [policy] path) or "alliance" (the scripted
     # alliance of jetson/autonomy/alliance.py, playing the whole game as `role`).
     player: str = "policy"
+    # The scripted alliance's steal (jetson/autonomy/alliance.py, AllianceConfig.steal_s): this
+    # many seconds before the match's end the 24" takes the other alliance's loaded neutral goal
+    # home instead of climbing, and the 15" stays balanced on the platform. Set it the same on
+    # both robots of the alliance. None: both climb.
+    steal_s: float | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "drive_phases", tuple(self.drive_phases))
@@ -129,6 +134,17 @@ class DecisionConfig:
         if self.player not in PLAYERS:
             raise SettingsError(
                 f"decision player must be one of {', '.join(PLAYERS)}, got {self.player!r}"
+            )
+        steal = self.steal_s
+        if steal is not None and not (
+            isinstance(steal, int | float)
+            and not isinstance(steal, bool)
+            and math.isfinite(steal)
+            and 0 < steal <= 120
+        ):
+            raise SettingsError(
+                "decision steal_s must be seconds before the match's end in (0, 120], "
+                f"or left out (no steal), got {steal!r}"
             )
 
     def to_dict(self) -> dict[str, Any]:

@@ -183,3 +183,14 @@ def test_pete_jetson_run_with_the_scripted_alliance_drives_and_replays(tmp_path:
     report = replay(path)
     assert report.ok, report.text(5)
     assert report.cycles >= 60 and "scripted alliance" in report.policy
+
+
+def test_the_steal_setting_reaches_the_strategy() -> None:
+    """`[decision] steal_s` is the strategy's AllianceConfig.steal_s (the same on both robots of
+    an alliance); left out, the scripted alliance climbs."""
+    from jetson.scripted import ScriptedDecider
+    from jetson.settings import DecisionConfig
+
+    assert ScriptedDecider(DecisionConfig(player="alliance")).strategy.config.steal_s is None
+    d = ScriptedDecider(DecisionConfig(player="alliance", role="15in", steal_s=104))
+    assert d.strategy.config.steal_s == 104.0
