@@ -374,6 +374,8 @@ class AllianceStrategy:
             match_length_s=layout.match_length_s,
         )
         self.memory = RingMemory(self.spec)
+        # The goal with the widest base: the clamp's reach for a goal not known by name.
+        self._widest = max(layout.goals, key=lambda g: g.base_radius_m)
         self._trail = Trail(self.config.stuck_window_s, self.config.stuck_distance_m)
         self.reset()
 
@@ -923,7 +925,7 @@ class AllianceStrategy:
         # The other alliance's platform is this one's half-turn mirror; the raid takes goals
         # beside it too (not on it): its stage keeps the robot off the board (_stage_for).
         far = b.goal.base_radius_m + 0.05 if raid else half_diag
-        return not (plat.contains((x, y), half_diag) or plat.contains((-x, -y), far))
+        return not (plat.contains((x, y), half_diag) or plat.other_contains((x, y), far))
 
     def _raiding(self, pose: _Pose) -> bool:
         """The raid is on (see AllianceConfig.raid): the 24", a goal detector, its first goal
@@ -1050,7 +1052,7 @@ class AllianceStrategy:
         """A point within `margin` of either platform (the other is this one's mirror)."""
         plat = self.layout.platform
         x, y = float(p[0]), float(p[1])
-        return plat.contains((x, y), margin) or plat.contains((-x, -y), margin)
+        return plat.contains((x, y), margin) or plat.other_contains((x, y), margin)
 
     def _clamped_touches_platform(self, goal: Vec, stage: Vec, margin: float = 0.05) -> bool:
         """Backing from `stage` onto `goal` would end with the robot's body on (or within
@@ -1062,7 +1064,7 @@ class AllianceStrategy:
             return False
         u = d / n  # from the goal toward the robot's centre (its back faces the goal)
         side = np.array([-u[1], u[0]])
-        centre = goal + (self.role.length_m / 2 + 0.17) * u
+        centre = goal + self.role.clamp_offset(self._widest) * u
         hl, hw = self.role.length_m / 2, self.role.width_m / 2
         for a in np.linspace(-1.0, 1.0, 5):
             for b in np.linspace(-1.0, 1.0, 5):
@@ -1422,7 +1424,7 @@ class AllianceStrategy:
         """Where a goal seen in the last second stands on the board's wall half in the lane at
         `y` (the sentry's own goal trails it on the field half)."""
         plat = self.layout.platform
-        r = self.layout.goals[0].base_radius_m
+        r = self._widest.base_radius_m
         for _, xy in self._sightings:
             on_board = plat.contains((float(xy[0]), float(xy[1])), margin=0.05)
             wall_half = plat.along(float(xy[0])) < 0.05
@@ -1486,7 +1488,7 @@ class AllianceStrategy:
             return self._phase_haul(pose, inputs, dt)
         if inputs.goal_clamped and not self._steal_dropped:
             spot = self._haul_spot(pose)
-            if self.layout.in_home_zone(tuple(self._clamp_point(pose, self.layout.goals[0]))):
+            if self.layout.in_home_zone(tuple(self._clamp_point(pose, self._widest))):
                 spot = pose.xy  # its goal is home already: leave it here
             near = float(np.hypot(*(spot - pose.xy))) < 0.25
             if not near and pose.t - self.phase_since < 8.0:
@@ -1571,7 +1573,7 @@ class AllianceStrategy:
                 continue
             x, y = float(b.xy[0]), float(b.xy[1])
             r = b.goal.base_radius_m
-            if plat.contains((x, y), r) or plat.contains((-x, -y), r + 0.15):
+            if plat.contains((x, y), r) or plat.other_contains((x, y), r + 0.15):
                 continue  # on a platform; or by the other's, protected in the endgame
             carried = self._seen_moving(b.xy)
             cost = float(np.hypot(*(b.xy - pose.xy))) - (3.0 if carried else 0.0)
@@ -1590,7 +1592,7 @@ class AllianceStrategy:
         if not self._carried(tr):
             return False
         assert tr is not None
-        clamp = self._clamp_point(pose, self.layout.goals[0])
+        clamp = self._clamp_point(pose, self._widest)
         return float(np.hypot(*(tr.xy - clamp))) > 0.5
 
     def _seen_moving(self, xy: Vec | None) -> bool:

@@ -69,10 +69,16 @@ class PlatformLayout:
         return 270.0 if self.field_side > 0 else 90.0
 
     def contains(self, xy: Point, margin: float = 0.0) -> bool:
+        """A point (the alliance frame) on this board, or within `margin` of it."""
         return (
             abs(xy[0] - self.center[0]) <= self.size[0] / 2 + margin
             and abs(xy[1] - self.center[1]) <= self.size[1] / 2 + margin
         )
+
+    def other_contains(self, xy: Point, margin: float = 0.0) -> bool:
+        """A point on the other alliance's board (this one's half-turn mirror about the field's
+        centre), or within `margin` of it."""
+        return self.contains((-xy[0], -xy[1]), margin)
 
 
 @dataclass(frozen=True)
