@@ -60,6 +60,10 @@ def test_the_layout_file_loads_and_names_its_goals() -> None:
     plat = layout.platform
     assert plat.field_side == 1.0 and plat.wall_heading_deg == 270.0
     assert plat.x_at(plat.along(-1.3)) == pytest.approx(-1.3)
+    # the other alliance's board is this one turned half a turn about the field's centre
+    cx, cy = plat.center
+    assert plat.other_contains((-cx, -cy)) and not plat.other_contains((cx, cy))
+    assert not plat.contains((-cx, -cy))
 
 
 def test_a_bad_layout_names_what_is_wrong() -> None:
@@ -549,3 +553,22 @@ def test_with_the_steal_on_the_sentry_keeps_the_board_balanced_to_the_end() -> N
         assert s.phase == phase
         if steal is not None:
             assert plat.along(log[-1][0]) == pytest.approx(s.config.lock_along_m, abs=0.03)
+
+
+def test_a_goal_that_comes_slower_than_the_robot_drives_is_held_by_another_robot() -> None:
+    """Driving forward at half speed or more with a goal clamped, yet moving less than half
+    the way (a tug of war, or a wall): the goal is contested (`_contested`) until the clamp
+    opens; a goal that comes along is not."""
+    layout = load_layout()
+    for gain, contested in ((1.0, False), (0.2, True)):
+        s = AllianceStrategy(ROLE_24, layout)
+        x, t = -0.5, 30.0
+        s.step(AllianceInputs(x, 0.0, 270.0, "red", t, np.zeros((0, 2)), 0, True))
+        for _ in range(60):
+            t += 0.05
+            s.step(AllianceInputs(x, 0.0, 270.0, "red", t, np.zeros((0, 2)), 0, True))
+            s._moves[-1] = (t, x, 0.0, ROLE_24.max_linear_mps)  # as if it asked for full speed
+            x -= gain * ROLE_24.max_linear_mps * 0.05  # facing -x: forward is -x
+        assert s._contested == contested
+        s.step(AllianceInputs(x, 0.0, 270.0, "red", t + 0.05, np.zeros((0, 2)), 0, False))
+        assert not s._contested
