@@ -67,6 +67,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from jetson.autonomy.carried_goal import CarriedGoalTracker
 from jetson.autonomy.field_layout import FieldLayout, GoalLayout
 from jetson.autonomy.geometry import (
     angle_diff_deg,
@@ -253,7 +254,9 @@ class AllianceConfig:
     # climb; the 15" stays at its lock spot, where the board balances under it and its goal.
     # None: no steal, both robots climb.
     steal_s: float | None = None
-    carried_s: float = 1.5  # a neutral goal seen in motion this long is carried (_track_yellow)
+    carried_s: float = (
+        1.5  # a neutral goal seen in motion this long is carried (jetson/autonomy/carried_goal.py)
+    )
     steal_haul_y_m: float = 1.15  # the haul spot: this far beside the platform's centre ...
     steal_haul_along_m: float = 0.1  # ... and this far from the hinge toward the field
 
@@ -295,17 +298,6 @@ class _GoalBelief:
     goal: GoalLayout
     xy: Vec | None  # where it is believed to be (alliance frame); None: missing
     tries: float = 0.0  # seconds spent backing onto it
-
-
-@dataclass
-class _Track:
-    """A neutral goal followed through the goal detector's sightings (_track_yellow)."""
-
-    xy: Vec  # where it was seen last (alliance frame)
-    seen: float  # when
-    first_move: float  # when it was first seen in motion
-    last_move: float  # and last
-    moves: int = 1  # how many times (0.3 s apart at least)
 
 
 @dataclass(frozen=True)
@@ -433,9 +425,8 @@ class AllianceStrategy:
         self._clear_since: float | None = None
         self._clear_backing = False
         self._steal_dropped = False
-        self._yellow_hist: list[tuple[float, Vec]] = []  # neutral goals seen lately
-        self._track: _Track | None = None  # the neutral goal seen moving lately
-        self._headings: list[tuple[float, float]] = []  # (time, heading) of the last 1.5 s
+        # The neutral goal another robot carries (the steal's first target).
+        self._tracker = CarriedGoalTracker(self.config.carried_mps, self.config.carried_s)
         self._hauled = False  # the goal hauled reached the haul spot
         self._contested = False  # the goal hauled is another robot's too: held to the end
         self._steal_carried = False  # the goal it backs onto was seen carried
@@ -593,10 +584,7 @@ class AllianceStrategy:
             for p, k in zip(where, seen[:, 2].astype(int), strict=True)
             if k == GOAL_COLOUR_CODES["yellow"]
         ]
-        self._headings = [(t, h) for t, h in self._headings if now - t <= 1.5]
-        self._headings.append((now, pose.heading))
-        turned = max(abs(angle_diff_deg(h, pose.heading)) for _, h in self._headings)
-        self._track_yellow(now, yellow, steady=turned < 8.0)
+        self._tracker.observe(now, pose.heading, yellow)
         for xy, code in zip(where, seen[:, 2].astype(int), strict=True):
             if code == GOAL_COLOUR_CODES["yellow"]:
                 owner: str | None = None
@@ -632,53 +620,6 @@ class AllianceStrategy:
             if last is None or now - last[0] >= 0.3:
                 self._goal_seen[name] = (now, xy.copy())
             best.xy = xy.copy()
-
-    def _track_yellow(self, now: float, yellow: list[Vec], steady: bool = True) -> None:
-        """Follow a neutral goal seen moving, whatever its name (the goal detector reports
-        colours, not names). A sighting with no sighting near it 0.3-1.5 s before, and one that
-        far at a carried goal's speed (`carried_mps` to 1.5 m/s), is a goal in motion; a later
-        sighting within 0.35 m of where the followed goal was last seen is that goal, moving on
-        or stopped. A goal seen in motion again and again over `carried_s` is carried by a
-        robot (a goal pushed aside moves once); one carried stays followed while it is seen.
-        Nothing counts as in motion while the robot turned more than 8 degrees in the last
-        1.5 s (`steady` False): the pose's lag then sweeps what it sees across the field."""
-        c = self.config
-        hist = [(t, p) for t, p in self._yellow_hist if now - t <= 1.5]
-
-        def in_motion(p: Vec) -> bool:
-            if not steady:
-                return False  # the robot turned: its heading's lag moves what it sees
-            before = [float(np.hypot(*(q - p))) / (now - t) for t, q in hist if now - t >= 0.3]
-            return bool(before) and min(before) * 0.3 > 0.06 and c.carried_mps <= min(before) <= 1.5
-
-        tr = self._track
-        near = None
-        if tr is not None and yellow:
-            near = min(range(len(yellow)), key=lambda k: float(np.hypot(*(yellow[k] - tr.xy))))
-            if float(np.hypot(*(yellow[near] - tr.xy))) >= 0.35:
-                near = None
-        if tr is not None and near is not None:
-            p = yellow[near]
-            if in_motion(p) and now - tr.last_move >= 0.3:
-                tr.last_move, tr.moves = now, tr.moves + 1
-            tr.xy, tr.seen = p.copy(), now
-        keep = tr is not None and self._carried(tr) and now - tr.seen < 20.0
-        if not keep:
-            for k, p in enumerate(yellow):
-                if k != near and in_motion(p):
-                    self._track = _Track(p.copy(), now, now, now)
-                    break
-        self._yellow_hist = hist + [(now, p.copy()) for p in yellow]
-
-    def _carried(self, tr: _Track | None) -> bool:
-        """The followed goal is carried: seen in motion 3 times or more over `carried_s`, and
-        seen in the last minute."""
-        return (
-            tr is not None
-            and tr.moves >= 3
-            and tr.last_move - tr.first_move >= self.config.carried_s
-            and self._now - tr.seen < 60.0
-        )
 
     def _forget_goals(self, pose: _Pose) -> None:
         """A goal whose spot the robot's body now covers is not there (pushed away)."""
@@ -1546,14 +1487,15 @@ class AllianceStrategy:
         return np.array([plat.x_at(c.steal_haul_along_m), plat.center[1] + side * c.steal_haul_y_m])
 
     def _steal_goal(self, pose: _Pose) -> str | None:
-        """The neutral goal to steal: the one another robot carries (_track_yellow: the other
-        alliance's loaded goal, wherever it stands) first, else the nearest outside the home
-        zone, else one in the home zone (held there: it may be another robot's); never one on a
+        """The neutral goal to steal: the one another robot carries (the other alliance's
+        loaded goal, wherever it stands; jetson/autonomy/carried_goal.py) first, else the
+        nearest outside the home zone, else one in the home zone (held there: it may be another
+        robot's); never one on a
         platform, one by the other alliance's platform, or one it left itself."""
         line = self.layout.home_zone[2]
         plat = self.layout.platform
-        tr = self._track
-        if tr is not None and self._carried(tr):
+        tr = self._tracker.carried(self._now)
+        if tr is not None:
             # The goal followed is the neutral one believed nearest it (or a missing one).
             names = [
                 n
@@ -1588,17 +1530,16 @@ class AllianceStrategy:
     def _steal_worth(self, pose: _Pose) -> bool:
         """A neutral goal another robot carries is followed, away from the clamp: the goal it
         holds is worth leaving for it."""
-        tr = self._track
-        if not self._carried(tr):
+        tr = self._tracker.carried(self._now)
+        if tr is None:
             return False
-        assert tr is not None
         clamp = self._clamp_point(pose, self._widest)
         return float(np.hypot(*(tr.xy - clamp))) > 0.5
 
     def _seen_moving(self, xy: Vec | None) -> bool:
         """The neutral goal carried by another robot was last seen near `xy`."""
-        tr = self._track
-        if xy is None or tr is None or not self._carried(tr):
+        tr = self._tracker.carried(self._now)
+        if xy is None or tr is None:
             return False
         return float(np.hypot(*(tr.xy - xy))) < 0.3
 

@@ -452,23 +452,23 @@ def test_the_steal_targets_the_neutral_goal_seen_carried_before_a_nearer_free_on
     here = _Pose(np.array([-0.9, -0.9]), 90.0, 60.0)
     t = 60.0
     s.step(sighting(t, [(*south, "yellow"), (*north, "yellow")]))
-    assert s._track is None
+    assert s._tracker.track is None
     pushed = north + np.array([0.25, 0.0])
     s.step(sighting(t + 0.5, [(*south, "yellow"), (*pushed, "yellow")]))  # 0.5 m/s, once
-    assert s._track is not None and not s._carried(s._track)
+    assert s._tracker.track is not None and s._tracker.carried(t + 0.5) is None
     s.step(sighting(t + 3.0, [(*south, "yellow"), (*pushed, "yellow")]))  # then still
     assert s._steal_goal(here) == "neutral_south"  # the nearest: nothing is carried
     p = pushed.copy()
     for k in range(1, 6):  # in motion for 2.5 s: carried
         p = p + np.array([0.0, -0.25])
         s.step(sighting(t + 3.0 + 0.5 * k, [(*south, "yellow"), (*p, "yellow")]))
-    assert s._carried(s._track)
-    assert s._track.xy == pytest.approx(p, abs=1e-6)
+    assert s._tracker.carried(t + 5.5) is not None
+    assert s._tracker.track.xy == pytest.approx(p, abs=1e-6)
     assert s._steal_goal(here) == "neutral_north"  # farther, but carried
     home = np.array([layout.home_zone[0] + 0.4, -1.2])
     for b in s.goals.values():
         b.xy = None
-    s._track = None
+    s._tracker.track = None
     s.goals["neutral_south"].xy = home.copy()
     s.goals["neutral_north"].xy = north.copy()
     assert s._steal_goal(here) == "neutral_north"  # the one in the home zone comes last
@@ -477,9 +477,9 @@ def test_the_steal_targets_the_neutral_goal_seen_carried_before_a_nearer_free_on
     s._deposited.append("neutral_south")
     assert s._steal_goal(here) is None  # never one it left itself
     s._deposited.clear()
-    from jetson.autonomy.alliance import _Track
+    from jetson.autonomy.carried_goal import Track
 
-    s._track = _Track(home.copy(), 60.0, 55.0, 58.0, 5)
+    s._tracker.track = Track(home.copy(), 60.0, 55.0, 58.0, 5)
     assert s._steal_goal(here) == "neutral_south"
 
 
@@ -489,7 +489,8 @@ def test_the_steal_leaves_its_own_goal_home_then_hauls_the_stolen_one_home() -> 
     carried it keeps its own, home); a free goal it then steals is hauled to the home zone and
     let go (the next is stolen); one seen carried is held there to the end, pulling toward the
     wall."""
-    from jetson.autonomy.alliance import AllianceConfig, _Track
+    from jetson.autonomy.alliance import AllianceConfig
+    from jetson.autonomy.carried_goal import Track
 
     layout = load_layout()
     config = AllianceConfig(steal_s=50.0, ring_x_max_m=-10.0)
@@ -505,7 +506,7 @@ def test_the_steal_leaves_its_own_goal_home_then_hauls_the_stolen_one_home() -> 
     s = AllianceStrategy(ROLE_24, layout, config)
     s.holding = "neutral_south"
     s._was_clamped = True
-    s._track = _Track(np.array([0.9, 1.0]), t0 - 5.0, t0 - 9.0, t0 - 6.0, 4)
+    s._tracker.track = Track(np.array([0.9, 1.0]), t0 - 5.0, t0 - 9.0, t0 - 6.0, 4)
     log, clamped = drive(s, (0.0, -0.6, 0.0), t0, 12.0, None, True, stop_on_release=True)
     assert not clamped and s._deposited == ["neutral_south"]
     x, y, h = log[-1][:3]
