@@ -113,10 +113,13 @@ def test_report_writes_plots_and_figures(recording: Path, tmp_path: Path) -> Non
 
 
 def test_dashboard_command_serves_a_recording(recording: Path) -> None:
+    # Ctrl-C as a user's terminal delivers it: the child must not inherit an ignored SIGINT
+    # (a shell's background job ignores it, and so would the dashboard the test starts).
     proc = subprocess.Popen(
         [sys.executable, "-m", "jetson.cli", "dashboard", "--recording", str(recording),
          "--address", "127.0.0.1:0"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )  # fmt: skip
     try:
         line = proc.stdout.readline()
