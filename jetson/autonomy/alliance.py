@@ -254,9 +254,8 @@ class AllianceConfig:
     # climb; the 15" stays at its lock spot, where the board balances under it and its goal.
     # None: no steal, both robots climb.
     steal_s: float | None = None
-    carried_s: float = (
-        1.5  # a neutral goal seen in motion this long is carried (jetson/autonomy/carried_goal.py)
-    )
+    # A neutral goal seen in motion this long is carried (jetson/autonomy/carried_goal.py).
+    carried_s: float = 1.5
     steal_haul_y_m: float = 1.15  # the haul spot: this far beside the platform's centre ...
     steal_haul_along_m: float = 0.1  # ... and this far from the hinge toward the field
 
@@ -478,7 +477,6 @@ class AllianceStrategy:
         let it go instead (the third value: release the clamp)."""
         c = self.config
         endgame = self.phase in ("climb", "balance", "stage", "steal", "haul")
-        h = math.radians(pose.heading)
         self._moves.append((pose.t, float(pose.xy[0]), float(pose.xy[1]), v))
         while self._moves and self._moves[0][0] < pose.t - c.tug_window_s:
             self._moves.pop(0)
@@ -490,19 +488,16 @@ class AllianceStrategy:
         if pose.t < self._tug_until:
             self.intent = "tug"
             return self.role.max_linear_mps, 0.0, False
-        m = self._moves
-        if len(m) >= 3 and m[-1][0] - m[0][0] >= c.tug_window_s * 0.9:
-            moved = (m[-1][1] - m[0][1]) * math.sin(h) + (m[-1][2] - m[0][2]) * math.cos(h)
-            forward = all(k[3] >= 0.1 for k in m[:-1])
-            if forward and moved < -c.tug_distance_m:
-                self._moves.clear()
-                self._tugs += 1
-                if c.tug_release and self._tugs >= c.tug_release:
-                    self._let_go(pose)
-                    return 0.0, 0.0, True
-                self._tug_until = pose.t + c.tug_s
-                self.intent = "tug"
-                return self.role.max_linear_mps, 0.0, False
+        window = self._moved_ahead(pose, least_v=0.1)
+        if window is not None and window[0] < -c.tug_distance_m:
+            self._moves.clear()
+            self._tugs += 1
+            if c.tug_release and self._tugs >= c.tug_release:
+                self._let_go(pose)
+                return 0.0, 0.0, True
+            self._tug_until = pose.t + c.tug_s
+            self.intent = "tug"
+            return self.role.max_linear_mps, 0.0, False
         return v, w, False
 
     def _check_dragging(self, pose: _Pose, inputs: AllianceInputs) -> None:
@@ -512,19 +507,23 @@ class AllianceStrategy:
         if not inputs.goal_clamped:
             self._contested = False
             return
-        c = self.config
-        m = self._moves
         fast = 0.5 * self.role.max_linear_mps
-        if (
-            pose.t - self._clamped_at > 1.0
-            and len(m) >= 3
-            and m[-1][0] - m[0][0] >= c.tug_window_s * 0.9
-            and all(k[3] >= fast for k in m[:-1])
-        ):
-            h = math.radians(pose.heading)
-            moved = (m[-1][1] - m[0][1]) * math.sin(h) + (m[-1][2] - m[0][2]) * math.cos(h)
-            if moved < 0.5 * fast * (m[-1][0] - m[0][0]):
-                self._contested = True
+        window = self._moved_ahead(pose, least_v=fast) if pose.t - self._clamped_at > 1.0 else None
+        if window is not None and window[0] < 0.5 * fast * window[1]:
+            self._contested = True
+
+    def _moved_ahead(self, pose: _Pose, least_v: float) -> tuple[float, float] | None:
+        """Over the last `tug_window_s` of commands (at least 90 % of it recorded), all of them
+        forward at `least_v` or more: how far the robot moved along its heading, and in how
+        long. None: no such window."""
+        m = self._moves
+        if len(m) < 3 or m[-1][0] - m[0][0] < self.config.tug_window_s * 0.9:
+            return None
+        if not all(k[3] >= least_v for k in m[:-1]):
+            return None
+        h = math.radians(pose.heading)
+        moved = (m[-1][1] - m[0][1]) * math.sin(h) + (m[-1][2] - m[0][2]) * math.cos(h)
+        return moved, m[-1][0] - m[0][0]
 
     def _let_go(self, pose: _Pose) -> None:
         """Give up the goal held in a tug of war: it is not where this robot can score it (the
@@ -1443,7 +1442,7 @@ class AllianceStrategy:
             return 0.0, 0.0, False
         if not self._steal_dropped:
             self._steal_dropped = True  # nothing held when the steal began
-        if self._steal_dropped and pose.t - self.phase_since < 0.6:
+        if pose.t - self.phase_since < 0.6:
             # The phase's first 0.6 s: away from a goal just left (and at the steal's start).
             return 0.4 * self.role.max_linear_mps, 0.0, False
         if inputs.goal_clamped:
@@ -1490,8 +1489,8 @@ class AllianceStrategy:
         """The neutral goal to steal: the one another robot carries (the other alliance's
         loaded goal, wherever it stands; jetson/autonomy/carried_goal.py) first, else the
         nearest outside the home zone, else one in the home zone (held there: it may be another
-        robot's); never one on a
-        platform, one by the other alliance's platform, or one it left itself."""
+        robot's); never one on a platform, one by the other alliance's platform, or one it left
+        itself."""
         line = self.layout.home_zone[2]
         plat = self.layout.platform
         tr = self._tracker.carried(self._now)
@@ -1557,7 +1556,6 @@ class AllianceStrategy:
         spot = self._haul_spot(pose)
         if not self._hauled and float(np.hypot(*(spot - pose.xy))) > 0.15:
             self.intent = "haul"
-            self._backoff_until = -1.0  # never back off: that would hand the goal back
             if self._contested:
                 # Another robot holds it too: pull at full speed all the way (a tug goes to
                 # the stronger pull; slowing down or turning in place hands it the goal),
@@ -1567,7 +1565,7 @@ class AllianceStrategy:
                 w = float(np.clip(self._turn_to(pose, face), -1.5, 1.5))
                 return self.role.max_linear_mps, w, True
             v, w = self._drive_to(pose, spot, None, speed=1.0)
-            self._backoff_until = -1.0
+            self._backoff_until = -1.0  # never back off: that would hand the goal back
             return max(v, 0.0), w, True
         if not self._contested:
             # A free goal: leave it here (20 points, its rings count here) and take the next.

@@ -11,8 +11,8 @@ A sighting with no sighting near it 0.3-1.5 s before, and one that far at a carr
 followed goal was last seen is that goal, moving on or stopped. A goal seen in motion three times
 or more over `carried_s` is carried (a goal pushed aside moves once), and stays followed while
 it is seen. Nothing counts as in motion while the robot turned more than `steady_deg` in the last
-1.5 s: the pose's lag then sweeps what it sees across the field (the first version followed
-standing goals so).
+1.5 s: the pose's lag then sweeps what it sees across the field, so standing goals would look
+carried.
 """
 
 from __future__ import annotations
