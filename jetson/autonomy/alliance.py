@@ -411,6 +411,7 @@ class AllianceStrategy:
         self._now = 0.0
         self._goal_seen: dict[str, tuple[float, Vec]] = {}  # name -> (time, where) last seen
         self._busy: dict[str, float] = {}  # name -> carried by another robot until
+        self._chased: dict[str, float] = {}  # name -> chased too long: not stolen until
         self._opponent_goals: list[tuple[float, Vec]] = []  # (time, where) of the other colour
         self._given_up: set[str] = set()  # goals let go in a tug of war
         self._detector = False  # a goal detector reports (AllianceInputs.goals_robot)
@@ -1040,6 +1041,7 @@ class AllianceStrategy:
             # This long after one goal in the interaction period (a corner, a crowd): leave it
             # for a while and take the next.
             self._busy[name] = pose.t + c.busy_s
+            self._chased[name] = pose.t + c.busy_s
             self._stage_goal = None
             return 0.0, 0.0, False
         stage = self._stage_for(goal, pose)
@@ -1107,6 +1109,7 @@ class AllianceStrategy:
             self._look_since = pose.t
             self._staged = True  # look from here, no new stage
         if pose.t - self._look_since > c.look_s:
+            self._tracker.lost(goal)  # a carried goal followed there has gone too
             belief.xy = None  # not seen where it should stand
             self._staged = False
             self._look_since = None
@@ -1512,6 +1515,8 @@ class AllianceStrategy:
         for name, b in self.goals.items():
             if b.goal.owner is not None or b.xy is None or name in self._deposited:
                 continue
+            if self._chased.get(name, -math.inf) > self._now:
+                continue  # chased goal_chase_s without taking it: another one for a while
             x, y = float(b.xy[0]), float(b.xy[1])
             r = b.goal.base_radius_m
             if plat.contains((x, y), r) or plat.other_contains((x, y), r + 0.15):

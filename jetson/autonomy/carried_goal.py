@@ -70,6 +70,13 @@ class CarriedGoalTracker:
             return tr
         return None
 
+    def lost(self, xy: Vec) -> None:
+        """The robot looked where a goal was believed, near `xy`, and saw none: a followed goal
+        last seen there has gone (it is no longer followed)."""
+        tr = self.track
+        if tr is not None and float(np.hypot(*(tr.xy - xy))) < SAME_GOAL_M:
+            self.track = None
+
     def observe(self, now: float, heading_deg: float, seen: list[Vec]) -> None:
         """The goals of the colour followed seen at `now` (alliance frame), the robot heading
         `heading_deg`."""

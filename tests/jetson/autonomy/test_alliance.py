@@ -481,6 +481,11 @@ def test_the_steal_targets_the_neutral_goal_seen_carried_before_a_nearer_free_on
 
     s._tracker.track = Track(home.copy(), 60.0, 55.0, 58.0, 5)
     assert s._steal_goal(here) == "neutral_south"
+    # One chased goal_chase_s without the clamp closing is no target for busy_s.
+    s._chased["neutral_south"] = s._now + 25.0
+    assert s._steal_goal(here) is None
+    s._now += 25.5
+    assert s._steal_goal(here) == "neutral_south"
 
 
 def test_the_steal_leaves_its_own_goal_home_then_hauls_the_stolen_one_home() -> None:
@@ -573,3 +578,26 @@ def test_a_goal_that_comes_slower_than_the_robot_drives_is_held_by_another_robot
         assert s._contested == contested
         s.step(AllianceInputs(x, 0.0, 270.0, "red", t + 0.05, np.zeros((0, 2)), 0, False))
         assert not s._contested
+
+
+def test_a_carried_goal_not_seen_where_the_robot_looks_for_it_is_no_longer_followed() -> None:
+    """The 24" looks before backing onto a goal; a goal followed as carried (the steal's first
+    target) that is not seen where it was last seen in `look_s` is gone from there: the tracker
+    drops it (it would send the robot back to that spot until the track is a minute old)."""
+    from jetson.autonomy.alliance import AllianceConfig, _Pose
+    from jetson.autonomy.carried_goal import Track
+
+    layout = load_layout()
+    c = AllianceConfig(steal_s=104.0)
+    s = AllianceStrategy(ROLE_24, layout, c)
+    spot = np.array([0.1, -1.4])
+    s._tracker.track = Track(spot.copy(), 15.0, 12.0, 14.0, 5)
+    s._detector = True
+    s.goals["neutral_tall"].xy = spot.copy()
+    t = 20.0
+    here = _Pose(np.array([-0.7, -1.1]), 110.0, t)
+    assert s._look("neutral_tall", here, spot) is not None  # turns to look
+    assert s._tracker.carried(t) is not None
+    later = _Pose(here.xy, here.heading, t + c.look_s + 0.1)
+    assert s._look("neutral_tall", later, spot) == (0.0, 0.0, False)
+    assert s.goals["neutral_tall"].xy is None and s._tracker.track is None

@@ -43,3 +43,17 @@ def test_nothing_moves_while_the_robot_turns() -> None:
     tr = CarriedGoalTracker(carried_mps=0.25, carried_s=1.5)
     t = run(tr, 8, 10.0)  # 10 degrees a sighting: never steady
     assert tr.track is None and tr.carried(t) is None
+
+
+def test_a_followed_goal_looked_for_and_not_seen_is_dropped() -> None:
+    """The robot looked where the followed goal was last seen and saw none: it is no longer
+    followed (else the steal would go back to that spot until the track is a minute old); a
+    look elsewhere leaves it alone."""
+    tr = CarriedGoalTracker(carried_mps=0.25, carried_s=1.5)
+    t = run(tr, 8, 0.0)
+    last = tr.carried(t)
+    assert last is not None
+    tr.lost(last.xy + np.array([1.0, 0.0]))
+    assert tr.carried(t) is not None
+    tr.lost(last.xy + np.array([0.1, 0.0]))
+    assert tr.track is None and tr.carried(t) is None
