@@ -11,9 +11,9 @@ alliance, 15 s isolation + 105 s interaction) with the robots' GPS noise on. The
     the 24", the greedy chaser on the 15"), `--seeds` matches, the scripted alliance red on even
     seeds and blue on odd ones (sides swapped in half);
 (b) itself, `--seeds` matches;
-(c) the ring-race alliance again with the steal on (`AllianceConfig.steal_s`, STEAL_S: the 24"
-    takes the other alliance's loaded neutral goal home instead of climbing; the 15" stays
-    balanced on the platform alone), `--seeds` matches (`--no-steal` skips them).
+(c) the ring-race alliance again with the steal on (`AllianceConfig.steal_s`, STEAL_S, and
+    `steal_climb`: the 24" takes the other alliance's loaded neutral goal and climbs with it at
+    the end, the 15" climbs as in (a)), `--seeds` matches (`--no-steal` skips them).
 
 Measured (vs: the ring-race alliance, self: itself; per match means):
 - win rate against (a) by match score (target >= 0.9; a draw counts half), and the same with the
@@ -29,7 +29,7 @@ Measured (vs: the ring-race alliance, self: itself; per match means):
   Elevated (target >= 0.8);
 - with the steal (c), `vs_ring_race_steal_*`: the win rate, the mean scores, the share of
   matches Balanced with both robots Elevated and the still share (no targets: the targets above
-  are the default alliance's, which climbs);
+  are the default alliance's);
 - fouls per match of each alliance, by kind, and the share of matches in which one of its robots
   touches the opposing platform as the match ends (<SG3>: a Disqualification in the manual,
   reported and not scored); mean scores and the score by element (rings on a
@@ -119,7 +119,8 @@ def play(seed: int, fidelity: str, opponent: str, steal: bool = False) -> GameRe
         players: list[Player] = []
         for r in w.robots:
             if r.alliance == ours or opponent == "self":
-                players.append(AlliancePlayer(AllianceConfig(steal_s=STEAL_S if steal else None)))
+                config = AllianceConfig(steal_s=STEAL_S, steal_climb=True) if steal else None
+                players.append(AlliancePlayer(config))
             else:
                 players.append(ring_race_player(r.config.name))
         for i, p in enumerate(players):

@@ -93,7 +93,11 @@ class ScriptedDecider:
         self.role = role or ROBOTS[self.config.role]
         self.layout = layout or load_layout()
         steal = None if self.config.steal_s is None else float(self.config.steal_s)
-        self.strategy = AllianceStrategy(self.role, self.layout, AllianceConfig(steal_s=steal))
+        self.strategy = AllianceStrategy(
+            self.role,
+            self.layout,
+            AllianceConfig(steal_s=steal, steal_climb=bool(self.config.steal_climb)),
+        )
         self.spec = self.strategy.spec
         self.decision_hz = float(self.config.decision_hz or DEFAULT_DECISION_HZ)
         self.period_ms = 1000.0 / self.decision_hz

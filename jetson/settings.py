@@ -95,6 +95,10 @@ class DecisionConfig:
     # home instead of climbing, and the 15" stays balanced on the platform. Set it the same on
     # both robots of the alliance. None: both climb.
     steal_s: float | None = None
+    # With the steal: from 32 s before the end the 24" climbs after all, with the goal it holds
+    # (another robot's loaded goal dragged up the board at full pull), and the 15" climbs too
+    # (AllianceConfig.steal_climb). The same on both robots.
+    steal_climb: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "drive_phases", tuple(self.drive_phases))

@@ -254,6 +254,11 @@ class AllianceConfig:
     # climb; the 15" stays at its lock spot, where the board balances under it and its goal.
     # None: no steal, both robots climb.
     steal_s: float | None = None
+    # With the steal: `climb_24_s` before the end the 24" climbs after all, with the goal it
+    # holds; one another robot holds too it drags into its lane and up the board at full pull,
+    # to the wall, and presses there to the end (pulling, it keeps the goal); the 15" plays the
+    # climbing endgame. False: the steal holds its goal home to the end.
+    steal_climb: bool = False
     # A neutral goal seen in motion this long is carried (jetson/autonomy/carried_goal.py).
     carried_s: float = 1.5
     steal_haul_y_m: float = 1.15  # the haul spot: this far beside the platform's centre ...
@@ -428,6 +433,8 @@ class AllianceStrategy:
         # The neutral goal another robot carries (the steal's first target).
         self._tracker = CarriedGoalTracker(self.config.carried_mps, self.config.carried_s)
         self._hauled = False  # the goal hauled reached the haul spot
+        self._lined = False  # climbing with a held goal: in its lane, heading for the wall
+        self._pull_until = -1.0  # climbing with a held goal: at full pull until
         self._contested = False  # the goal hauled is another robot's too: held to the end
         self._steal_carried = False  # the goal it backs onto was seen carried
         self._stage_xy: Vec | None = None  # the stage it drives to now
@@ -464,7 +471,7 @@ class AllianceStrategy:
         if let_go:
             clamp = False
         intake = self.phase not in (
-            "climb", "stage", "balance", "drop", "sentry", "park", "steal", "haul"
+            "climb", "stage", "balance", "drop", "sentry", "park", "steal", "haul", "haul_climb"
         )  # fmt: skip
         lift = bool(self.role.reaches_high_branch and inputs.goal_clamped and intake)
         return AllianceAction(float(v), float(w), clamp, lift, intake)
@@ -477,7 +484,7 @@ class AllianceStrategy:
         while (a tug of war goes to the stronger pull); the `tug_release`-th time with one goal,
         let it go instead (the third value: release the clamp)."""
         c = self.config
-        endgame = self.phase in ("climb", "balance", "stage", "steal", "haul")
+        endgame = self.phase in ("climb", "balance", "stage", "steal", "haul", "haul_climb")
         self._moves.append((pose.t, float(pose.xy[0]), float(pose.xy[1]), v))
         while self._moves and self._moves[0][0] < pose.t - c.tug_window_s:
             self._moves.pop(0)
@@ -648,20 +655,33 @@ class AllianceStrategy:
         big = self.role.role == "24in"
         # The endgame takes over from whatever the robot is doing.
         stealing = c.steal_s is not None
-        if big and stealing and left <= c.steal_s and self.phase not in ("steal", "haul"):
+        climbing = not stealing or c.steal_climb
+        if (
+            big
+            and stealing
+            and c.steal_climb
+            and left <= c.climb_24_s
+            and self.phase in ("steal", "haul")
+        ):
+            held = inputs.goal_clamped and self._contested
+            self._set_phase("haul_climb" if held else "climb", pose.t)
+            self._lined = False
+        elif big and stealing and left <= c.steal_s and self.phase not in (
+            "steal", "haul", "haul_climb", "climb", "balance", "park"
+        ):  # fmt: skip
             self._set_phase("steal", pose.t)
             self._given_up.clear()  # a goal let go in a tug of war is what the steal is for
             for b in self.goals.values():
                 b.tries = 0.0
         elif (
             big
-            and not stealing
+            and climbing
             and left <= c.climb_24_s
-            and self.phase not in ("climb", "balance", "park")
+            and self.phase not in ("climb", "balance", "park", "haul_climb")
         ):
             self._set_phase("climb", pose.t)
         if not big:
-            if stealing and self.phase == "sentry":
+            if not climbing and self.phase == "sentry":
                 pass  # the 24" steals: the sentry keeps the board balanced where it is
             elif self.phase == "sentry" and self._climbing and left <= c.climb_15_s:
                 self._set_phase("climb", pose.t)
@@ -779,7 +799,7 @@ class AllianceStrategy:
         along = plat.along(float(pose.xy[0]))
         want = c.sentry_along_m
         if c.lock_along_m is not None and (
-            self._time_left(pose) > c.unlock_s or c.steal_s is not None
+            self._time_left(pose) > c.unlock_s or (c.steal_s is not None and not c.steal_climb)
         ):
             want = c.lock_along_m
             self.intent = "lock"
@@ -1557,6 +1577,11 @@ class AllianceStrategy:
         if not inputs.goal_clamped:
             self._set_phase("steal", pose.t)
             return 0.0, 0.0, False
+        if self._contested and self.config.steal_climb:
+            # Held by another robot too, and climbed with: to the stage in its lane and up.
+            self._set_phase("haul_climb", pose.t)
+            self._lined = False
+            return self._phase_haul_climb(pose, inputs, dt)
         plat = self.layout.platform
         spot = self._haul_spot(pose)
         if not self._hauled and float(np.hypot(*(spot - pose.xy))) > 0.15:
@@ -1583,6 +1608,60 @@ class AllianceStrategy:
         self._hauled = True
         self.intent = "hold"
         return self.role.max_linear_mps, self._turn_to(pose, plat.wall_heading_deg), True
+
+    def _phase_haul_climb(
+        self, pose: _Pose, inputs: AllianceInputs, dt: float
+    ) -> tuple[float, float, bool | None]:
+        """The 24" (AllianceConfig.steal_climb) with a goal another robot holds too: never slow
+        down (standing or turning in place hands the goal back): to the stage in its lane, then
+        straight at the wall, against the board's edge until the sentry tips it down, up the
+        board and against the wall to the end."""
+        c = self.config
+        if not inputs.goal_clamped:
+            if self._time_left(pose) > c.climb_24_s:
+                self._set_phase("steal", pose.t)  # it let go: steal on
+                return 0.0, 0.0, False
+            self._set_phase("climb", pose.t)
+            return self._phase_climb(pose, inputs, dt)
+        plat = self.layout.platform
+        y = c.board_y_24_m
+        along = plat.along(float(pose.xy[0]))
+        stage = np.array([self._board_x(c.stage_along_m), y])
+        if self._dragged_back(pose):
+            self._pull_until = pose.t + c.tug_s
+            self._moves.clear()
+        if pose.t < self._pull_until:
+            # Dragged backward by the other robot: pull straight ahead at full speed.
+            self.intent = "pull"
+            return self.role.max_linear_mps, 0.0, True
+        if not self._lined:
+            near = float(np.hypot(*(stage - pose.xy))) < 0.1
+            facing = abs(angle_diff_deg(plat.wall_heading_deg, pose.heading)) < 8.0
+            if not (near and facing):
+                self.intent = "haul_stage"
+                return (*self._arrive(pose, stage, plat.wall_heading_deg), True)
+            self._lined = True
+        # Straight at the wall at the board's speed, leaning toward the lane (as on the board,
+        # _on_board).
+        self.intent = "haul_climb"
+        v = c.board_speed_mps
+        off_lane = (float(pose.xy[1]) - y) * plat.field_side
+        want = plat.wall_heading_deg - float(np.clip(60.0 * off_lane, -15.0, 15.0))
+        heading_err = angle_diff_deg(want, pose.heading)
+        w = float(np.clip(3.0 * math.radians(heading_err), -1.5, 1.5))
+        return v, w, True
+
+    def _dragged_back(self, pose: _Pose) -> bool:
+        """Over the last `tug_window_s` of commands (none of them backward), the robot moved
+        backward more than `tug_distance_m`: another robot drags the goal in its clamp."""
+        m = self._moves
+        if len(m) < 3 or m[-1][0] - m[0][0] < self.config.tug_window_s * 0.9:
+            return False
+        if any(k[3] < 0.0 for k in m):
+            return False
+        h = math.radians(pose.heading)
+        moved = (m[-1][1] - m[0][1]) * math.sin(h) + (m[-1][2] - m[0][2]) * math.cos(h)
+        return moved < -self.config.tug_distance_m
 
     def _phase_park(
         self, pose: _Pose, inputs: AllianceInputs, dt: float

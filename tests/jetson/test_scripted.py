@@ -193,4 +193,6 @@ def test_the_steal_setting_reaches_the_strategy() -> None:
 
     assert ScriptedDecider(DecisionConfig(player="alliance")).strategy.config.steal_s is None
     d = ScriptedDecider(DecisionConfig(player="alliance", role="15in", steal_s=104))
-    assert d.strategy.config.steal_s == 104.0
+    assert d.strategy.config.steal_s == 104.0 and not d.strategy.config.steal_climb
+    d = ScriptedDecider(DecisionConfig(player="alliance", steal_s=104, steal_climb=True))
+    assert d.strategy.config.steal_climb

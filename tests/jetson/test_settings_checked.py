@@ -34,6 +34,7 @@ BAD = [
     ("[decision]\nvalid_ms = 5000\n", ["[decision] valid_ms", "1..1000", "5000"]),
     ("[decision]\nsteal_s = 500.0\n", ["[decision] steal_s", "(0, 120]", "500.0"]),
     ('[decision]\nsteal_s = "late"\n', ["[decision] steal_s", "number", "'late'"]),
+    ('[decision]\nsteal_climb = "yes"\n', ["[decision] steal_climb", "boolean", "string 'yes'"]),
     ("[link]\nbaud = 1.5\n", ["[link] baud", "integer", "float 1.5"]),
     ('[decision]\ndrive_phases = "driver"\n', ["[decision] drive_phases", "array", "'driver'"]),
     ("[decision]\ndrive_phases = [1]\n", ["[decision] drive_phases", "string", "[1]"]),

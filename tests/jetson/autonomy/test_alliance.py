@@ -19,6 +19,7 @@ from jetson.autonomy.alliance import (
     default_plan,
 )
 from jetson.autonomy.field_layout import DEFAULT_LAYOUT, load_layout, parse_layout
+from jetson.autonomy.geometry import angle_diff_deg
 
 ROLE_15 = RobotRole(
     role="15in",
@@ -542,13 +543,18 @@ def test_the_steal_leaves_its_own_goal_home_then_hauls_the_stolen_one_home() -> 
 
 def test_with_the_steal_on_the_sentry_keeps_the_board_balanced_to_the_end() -> None:
     """The 24" steals instead of climbing: the 15" never unlocks the board nor climbs, it
-    stays at the lock spot (the board level under it and its goal) through the endgame."""
+    stays at the lock spot (the board level under it and its goal) through the endgame; with
+    `steal_climb` the 24" climbs after all, and the 15" plays the climbing endgame."""
     from jetson.autonomy.alliance import AllianceConfig
 
     layout = load_layout()
     plat = layout.platform
-    for steal, phase in ((50.0, "sentry"), (None, "climb")):
-        s = AllianceStrategy(ROLE_15, layout, AllianceConfig(steal_s=steal))
+    for steal, climb, phase in (
+        (50.0, False, "sentry"),
+        (None, False, "climb"),
+        (50.0, True, "climb"),
+    ):
+        s = AllianceStrategy(ROLE_15, layout, AllianceConfig(steal_s=steal, steal_climb=climb))
         s._set_phase("sentry", 20.0)
         s._climbing = s._sentry_set = True
         x = plat.x_at(s.config.lock_along_m)
@@ -601,3 +607,42 @@ def test_a_carried_goal_not_seen_where_the_robot_looks_for_it_is_no_longer_follo
     later = _Pose(here.xy, here.heading, t + c.look_s + 0.1)
     assert s._look("neutral_tall", later, spot) == (0.0, 0.0, False)
     assert s.goals["neutral_tall"].xy is None and s._tracker.track is None
+
+
+def test_with_steal_climb_the_24in_climbs_with_a_goal_another_robot_holds() -> None:
+    """`steal_climb`: the 24" hauling a goal another robot holds too drives to the stage in
+    its lane, turns to the wall and drives straight at it (up the board once its edge is down,
+    against the wall to the end), the clamp closed throughout; dragged backward meanwhile (the
+    other robot pulls harder), it pulls straight ahead at full speed."""
+    from jetson.autonomy.alliance import AllianceConfig
+
+    layout = load_layout()
+    plat = layout.platform
+    c = AllianceConfig(steal_s=104.0, steal_climb=True)
+    s = AllianceStrategy(ROLE_24, layout, c)
+    s._set_phase("haul", 60.0)
+    s._steal_dropped = True
+    s._contested = True
+    s.holding = s.target_goal = "neutral_tall"
+    s._was_clamped = True
+    log, clamped = drive(s, (-0.3, -1.0, 90.0), 60.0, 14.0, None, True)
+    assert clamped and all(k[3].clamp for k in log)
+    assert s.phase == "haul_climb"
+    lined = [k for k in log if k[4] == "haul_climb"]
+    assert lined, "never lined up in its lane"
+    x, y, h = lined[0][:3]
+    assert y == pytest.approx(c.board_y_24_m, abs=0.1)
+    assert plat.along(x) == pytest.approx(c.stage_along_m, abs=0.1)
+    assert abs(angle_diff_deg(plat.wall_heading_deg, h)) < 8.0
+    assert all(k[3].linear > 0 for k in lined)
+    assert plat.along(log[-1][0]) < plat.along(x) - 0.5  # on toward the wall
+    # Dragged backward 0.3 m/s while driving ahead: full pull, straight.
+    t = 80.0
+    x, y, h = lined[-1][:3]
+    a = None
+    for _ in range(30):
+        a = s.step(AllianceInputs(x, y, h, "red", t, np.zeros((0, 2)), 0, True))
+        x += 0.3 * 0.05  # back toward the field (the wall heading is 270 degrees: -x)
+        t += 0.05
+    assert a is not None and s.intent == "pull"
+    assert a.linear == pytest.approx(ROLE_24.max_linear_mps) and a.angular == 0.0 and a.clamp
