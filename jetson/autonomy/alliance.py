@@ -40,6 +40,9 @@ climb, leaves its goal in the home zone and takes neutral goals from outside it 
 one it last saw moving (another robot carries it: the other alliance's loaded goal, whose rings
 then count for this alliance) first; that one it drags home and holds there to the end, a free
 one it leaves there and takes the next. The 15" then stays at its lock spot, balanced alone.
+With `steal_climb` (docs/notes/2026-11-27-steal-then-climb.md) both climb after all: the 24"
+drags the goal another robot holds to its stage and up the board, pulling whenever it is
+dragged back, and the 15" plays the climbing endgame.
 Options off by default (measured, docs/notes/2026-11-27-raid-and-lane.md): the deposit and the
 raid (the 24" leaves its goal in the home zone and fetches the free goals of either colour from
 outside it, the other alliance's zone first). The endgame's
@@ -1612,10 +1615,11 @@ class AllianceStrategy:
     def _phase_haul_climb(
         self, pose: _Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
-        """The 24" (AllianceConfig.steal_climb) with a goal another robot holds too: never slow
-        down (standing or turning in place hands the goal back): to the stage in its lane, then
-        straight at the wall, against the board's edge until the sentry tips it down, up the
-        board and against the wall to the end."""
+        """The 24" (AllianceConfig.steal_climb) with a goal another robot holds too: to the stage
+        in its lane, facing the wall, then straight at the wall at the board's speed: against
+        the board's edge until the sentry tips it down, up the board and against the wall to
+        the end. Dragged backward on the way (the other robot pulls harder: a tug of war goes to
+        the stronger pull), it pulls straight ahead at full speed for `tug_s`."""
         c = self.config
         if not inputs.goal_clamped:
             if self._time_left(pose) > c.climb_24_s:
@@ -1625,7 +1629,6 @@ class AllianceStrategy:
             return self._phase_climb(pose, inputs, dt)
         plat = self.layout.platform
         y = c.board_y_24_m
-        along = plat.along(float(pose.xy[0]))
         stage = np.array([self._board_x(c.stage_along_m), y])
         if self._dragged_back(pose):
             self._pull_until = pose.t + c.tug_s
