@@ -96,8 +96,8 @@ class DecisionConfig:
     # both robots of the alliance. None: both climb.
     steal_s: float | None = None
     # With the steal: from 32 s before the end the 24" climbs after all, with the goal it holds
-    # (another robot's loaded goal dragged up the board at full pull), and the 15" climbs too
-    # (AllianceConfig.steal_climb). The same on both robots.
+    # (another robot's loaded goal dragged up the board, pulling whenever it is dragged back),
+    # and the 15" climbs too (AllianceConfig.steal_climb). The same on both robots.
     steal_climb: bool = False
 
     def __post_init__(self) -> None:
@@ -149,6 +149,11 @@ class DecisionConfig:
             raise SettingsError(
                 "decision steal_s must be seconds before the match's end in (0, 120], "
                 f"or left out (no steal), got {steal!r}"
+            )
+        if self.steal_climb and steal is None:
+            raise SettingsError(
+                "decision steal_climb climbs after the steal: set steal_s too (e.g. 104), "
+                "or leave steal_climb out"
             )
 
     def to_dict(self) -> dict[str, Any]:

@@ -258,9 +258,9 @@ class AllianceConfig:
     # None: no steal, both robots climb.
     steal_s: float | None = None
     # With the steal: `climb_24_s` before the end the 24" climbs after all, with the goal it
-    # holds; one another robot holds too it drags into its lane and up the board at full pull,
-    # to the wall, and presses there to the end (pulling, it keeps the goal); the 15" plays the
-    # climbing endgame. False: the steal holds its goal home to the end.
+    # holds; one another robot holds too it takes to its stage at once and up the board to the
+    # wall, pulling at full speed whenever it is dragged back; the 15" plays the climbing
+    # endgame. False: the steal holds its goal home to the end.
     steal_climb: bool = False
     # A neutral goal seen in motion this long is carried (jetson/autonomy/carried_goal.py).
     carried_s: float = 1.5
@@ -1575,8 +1575,8 @@ class AllianceStrategy:
     ) -> tuple[float, float, bool | None]:
         """Drag the stolen goal into the home zone, beside the platform. A goal another robot
         still holds (it comes slower than the robot drives: a tug of war, which the stronger
-        pull wins) is held there to the end, pulling toward the wall; a free one is left there
-        and the next is stolen."""
+        pull wins) is held there to the end, pulling toward the wall (with `steal_climb`, it is
+        climbed with: _phase_haul_climb); a free one is left there and the next is stolen."""
         if not inputs.goal_clamped:
             self._set_phase("steal", pose.t)
             return 0.0, 0.0, False
@@ -1644,27 +1644,20 @@ class AllianceStrategy:
                 self.intent = "haul_stage"
                 return (*self._arrive(pose, stage, plat.wall_heading_deg), True)
             self._lined = True
-        # Straight at the wall at the board's speed, leaning toward the lane (as on the board,
-        # _on_board).
+        # Straight at the wall at the board's speed, in its lane: a point past the wall is never
+        # reached.
         self.intent = "haul_climb"
-        v = c.board_speed_mps
-        off_lane = (float(pose.xy[1]) - y) * plat.field_side
-        want = plat.wall_heading_deg - float(np.clip(60.0 * off_lane, -15.0, 15.0))
-        heading_err = angle_diff_deg(want, pose.heading)
-        w = float(np.clip(3.0 * math.radians(heading_err), -1.5, 1.5))
-        return v, w, True
+        return (*self._on_board(pose, y, -math.inf), True)
 
     def _dragged_back(self, pose: _Pose) -> bool:
         """Over the last `tug_window_s` of commands (none of them backward), the robot moved
         backward more than `tug_distance_m`: another robot drags the goal in its clamp."""
-        m = self._moves
-        if len(m) < 3 or m[-1][0] - m[0][0] < self.config.tug_window_s * 0.9:
-            return False
-        if any(k[3] < 0.0 for k in m):
-            return False
-        h = math.radians(pose.heading)
-        moved = (m[-1][1] - m[0][1]) * math.sin(h) + (m[-1][2] - m[0][2]) * math.cos(h)
-        return moved < -self.config.tug_distance_m
+        window = self._moved_ahead(pose, least_v=0.0)
+        return (
+            window is not None
+            and self._moves[-1][3] >= 0.0
+            and window[0] < -self.config.tug_distance_m
+        )
 
     def _phase_park(
         self, pose: _Pose, inputs: AllianceInputs, dt: float

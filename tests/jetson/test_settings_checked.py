@@ -35,6 +35,7 @@ BAD = [
     ("[decision]\nsteal_s = 500.0\n", ["[decision] steal_s", "(0, 120]", "500.0"]),
     ('[decision]\nsteal_s = "late"\n', ["[decision] steal_s", "number", "'late'"]),
     ('[decision]\nsteal_climb = "yes"\n', ["[decision] steal_climb", "boolean", "string 'yes'"]),
+    ("[decision]\nsteal_climb = true\n", ["decision steal_climb", "set steal_s too"]),
     ("[link]\nbaud = 1.5\n", ["[link] baud", "integer", "float 1.5"]),
     ('[decision]\ndrive_phases = "driver"\n', ["[decision] drive_phases", "array", "'driver'"]),
     ("[decision]\ndrive_phases = [1]\n", ["[decision] drive_phases", "string", "[1]"]),
