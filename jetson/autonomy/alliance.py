@@ -41,8 +41,8 @@ one it last saw moving (another robot carries it: the other alliance's loaded go
 then count for this alliance) first; that one it drags home and holds there to the end, a free
 one it leaves there and takes the next. The 15" then stays at its lock spot, balanced alone.
 With `steal_climb` (docs/notes/2026-11-27-steal-then-climb.md) both climb after all: the 24"
-drags the goal another robot holds to its stage and up the board, pulling whenever it is
-dragged back, and the 15" plays the climbing endgame.
+tows the goal another robot holds to its stage (always pulling ahead: a tug of war goes to the
+harder pull), waits there and climbs with it, and the 15" plays the climbing endgame.
 Options off by default (measured, docs/notes/2026-11-27-raid-and-lane.md): the deposit and the
 raid (the 24" leaves its goal in the home zone and fetches the free goals of either colour from
 outside it, the other alliance's zone first). The endgame's
@@ -266,6 +266,19 @@ class AllianceConfig:
     carried_s: float = 1.5
     steal_haul_y_m: float = 1.15  # the haul spot: this far beside the platform's centre ...
     steal_haul_along_m: float = 0.1  # ... and this far from the hinge toward the field
+    # The tow (steal_climb, a goal another robot holds too): the 24" drags it to its stage
+    # always driving ahead at `tow_speed` of its top speed or more (a tug of war goes to the
+    # harder pull: a 24" at this share outpulls a 15" at full speed; turning in place hands the
+    # goal over), steering at a point `tow_lookahead_m` along its lane toward the stage; beside
+    # the platform it first tows out to the lane `tow_approach_m` beyond the stage. Within
+    # `tow_near_m` of the stage it lines up there and waits; in the last `tow_press_s` it tows
+    # and climbs at full speed.
+    tow_speed: float = 0.7
+    tow_lookahead_m: float = 0.4
+    tow_approach_m: float = 0.5
+    tow_lane_m: float = 0.08
+    tow_near_m: float = 0.25
+    tow_press_s: float = 10.0
 
 
 class AllianceInputs(NamedTuple):
@@ -437,6 +450,8 @@ class AllianceStrategy:
         self._tracker = CarriedGoalTracker(self.config.carried_mps, self.config.carried_s)
         self._hauled = False  # the goal hauled reached the haul spot
         self._lined = False  # climbing with a held goal: in its lane, heading for the wall
+        self._tow_out = False  # towing out to the lane beyond the stage first (_tow)
+        self._towing = True  # towing a held goal to its stage (else lining up there)
         self._pull_until = -1.0  # climbing with a held goal: at full pull until
         self._contested = False  # the goal hauled is another robot's too: held to the end
         self._steal_carried = False  # the goal it backs onto was seen carried
@@ -649,6 +664,9 @@ class AllianceStrategy:
             self.phase_since = t
             self._trail.clear()
             self._climbing = False
+            if phase == "haul_climb":  # a held goal to its stage, then lined up there
+                self._lined = False
+                self._towing = True
 
     def _decide(
         self, pose: _Pose, inputs: AllianceInputs, dt: float
@@ -668,7 +686,6 @@ class AllianceStrategy:
         ):
             held = inputs.goal_clamped and self._contested
             self._set_phase("haul_climb" if held else "climb", pose.t)
-            self._lined = False
         elif big and stealing and left <= c.steal_s and self.phase not in (
             "steal", "haul", "haul_climb", "climb", "balance", "park"
         ):  # fmt: skip
@@ -1583,7 +1600,6 @@ class AllianceStrategy:
         if self._contested and self.config.steal_climb:
             # Held by another robot too, and climbed with: to the stage in its lane and up.
             self._set_phase("haul_climb", pose.t)
-            self._lined = False
             return self._phase_haul_climb(pose, inputs, dt)
         plat = self.layout.platform
         spot = self._haul_spot(pose)
@@ -1615,11 +1631,13 @@ class AllianceStrategy:
     def _phase_haul_climb(
         self, pose: _Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
-        """The 24" (AllianceConfig.steal_climb) with a goal another robot holds too: to the stage
-        in its lane, facing the wall, then straight at the wall at the board's speed: against
-        the board's edge until the sentry tips it down, up the board and against the wall to
-        the end. Dragged backward on the way (the other robot pulls harder: a tug of war goes to
-        the stronger pull), it pulls straight ahead at full speed for `tug_s`."""
+        """The 24" (AllianceConfig.steal_climb) with a goal another robot holds too: towed to the
+        stage in its lane (_tow), lined up there facing the wall, and held there (towed back
+        when dragged away) until `climb_after_s` before the end; then straight at the wall at
+        the board's speed, up the board once the sentry tips it down, and against the wall to
+        the end, at full speed in the last `tow_press_s`. Dragged backward while climbing (the
+        other robot pulls harder: a tug of war goes to the stronger pull), it pulls straight
+        ahead at full speed for `tug_s`."""
         c = self.config
         if not inputs.goal_clamped:
             if self._time_left(pose) > c.climb_24_s:
@@ -1627,9 +1645,33 @@ class AllianceStrategy:
                 return 0.0, 0.0, False
             self._set_phase("climb", pose.t)
             return self._phase_climb(pose, inputs, dt)
-        plat = self.layout.platform
         y = c.board_y_24_m
+        wall = self.layout.platform.wall_heading_deg
+        waiting = self._time_left(pose) > c.climb_after_s
         stage = np.array([self._board_x(c.stage_along_m), y])
+        far = float(np.hypot(*(stage - pose.xy)))
+        if far > c.tow_near_m + 0.2 and (waiting or not self._lined):
+            self._towing, self._lined = True, False  # dragged away from the stage: back to it
+        elif far < c.tow_near_m:
+            self._towing = False
+        last = self._time_left(pose) < c.tow_press_s
+        if self._towing or (last and not self._lined):
+            # In the last seconds the other robot heads home: tow at full speed, never line up.
+            self.intent = "tow"
+            return (*self._tow(pose, y, least=1.0 if last else c.tow_speed), True)
+        if not self._lined:
+            if not (far < 0.1 and abs(angle_diff_deg(wall, pose.heading)) < 8.0):
+                self.intent = "haul_stage"
+                return (*self._arrive(pose, stage, wall), True)
+            self._lined = True
+        if waiting:
+            # Not yet: wait at the stage facing the wall (pressed against the board's edge, the
+            # robot and its chain slide along it). Only ever forward: backing up hands the goal
+            # to the other robot's pull.
+            self.intent = "haul_wait"
+            self._moves.clear()
+            v, w = self._on_board(pose, y, c.stage_along_m)
+            return max(v, 0.0), w, True
         if self._dragged_back(pose):
             self._pull_until = pose.t + c.tug_s
             self._moves.clear()
@@ -1637,17 +1679,43 @@ class AllianceStrategy:
             # Dragged backward by the other robot: pull straight ahead at full speed.
             self.intent = "pull"
             return self.role.max_linear_mps, 0.0, True
-        if not self._lined:
-            near = float(np.hypot(*(stage - pose.xy))) < 0.1
-            facing = abs(angle_diff_deg(plat.wall_heading_deg, pose.heading)) < 8.0
-            if not (near and facing):
-                self.intent = "haul_stage"
-                return (*self._arrive(pose, stage, plat.wall_heading_deg), True)
-            self._lined = True
         # Straight at the wall at the board's speed, in its lane: a point past the wall is never
-        # reached.
+        # reached. On the board in the last `tow_press_s`, at full speed: the other robot heads
+        # home then, and its pull never wins against this one's.
         self.intent = "haul_climb"
-        return (*self._on_board(pose, y, -math.inf), True)
+        plat = self.layout.platform
+        along = plat.along(float(pose.xy[0]))
+        press = last and along < plat.size[0] / 2
+        speed = self.role.max_linear_mps if press else None
+        v, w = self._on_board(pose, y, -math.inf, speed=speed)
+        if along < self.role.length_m / 2 - plat.size[0] / 2 + 0.03:
+            w = 0.0  # against the wall: turning there walks the robot sideways along it
+        return v, w, True
+
+    def _tow(self, pose: _Pose, y: float, least: float) -> tuple[float, float]:
+        """Drag a goal another robot holds too into the lane at `y`: ahead at `least` of the
+        top speed or more whatever the heading (turning in place, or slowing down, hands the goal
+        to the other robot's pull), steering at the lane; beside the platform (short of the
+        stage and out of the lane) out to the lane beyond the stage first."""
+        c = self.config
+        plat = self.layout.platform
+        along = plat.along(float(pose.xy[0]))
+        off = abs(float(pose.xy[1]) - y)
+        approach = c.stage_along_m + c.tow_approach_m
+        out = np.array([plat.x_at(approach), y])
+        if along < c.stage_along_m and off > 2 * c.tow_lane_m:
+            self._tow_out = True
+        if self._tow_out and float(np.hypot(*(out - pose.xy))) < 0.25:
+            self._tow_out = False
+        if self._tow_out:
+            target = out
+        else:
+            target = np.array([plat.x_at(max(along - c.tow_lookahead_m, c.stage_along_m)), y])
+        d = target - pose.xy
+        err = math.radians(angle_diff_deg(float(np.degrees(np.arctan2(d[0], d[1]))), pose.heading))
+        v = self.role.max_linear_mps * max(least, math.cos(err))
+        w = float(np.clip(c.turn_gain * err, -self.role.max_angular_rad_s, self.role.max_angular_rad_s))
+        return v, w
 
     def _dragged_back(self, pose: _Pose) -> bool:
         """Over the last `tug_window_s` of commands (none of them backward), the robot moved
@@ -1711,13 +1779,17 @@ class AllianceStrategy:
         reach = max(0.0, half + plat.overhang_m - self.role.length_m / 2 - c.footprint_margin_m)
         return float(np.clip(-torque / self.role.mass_kg, -reach, reach))
 
-    def _on_board(self, pose: _Pose, y: float, along: float) -> tuple[float, float]:
-        """Drive straight toward the wall (or back) to `along` from the hinge, heading held."""
+    def _on_board(
+        self, pose: _Pose, y: float, along: float, speed: float | None = None
+    ) -> tuple[float, float]:
+        """Drive straight toward the wall (or back) to `along` from the hinge, heading held, at
+        `speed` at most (None: the board's speed)."""
         c = self.config
         plat = self.layout.platform
         off_lane = (float(pose.xy[1]) - y) * plat.field_side
         err = plat.along(float(pose.xy[0])) - along  # > 0: still toward the field: forward
-        v = float(np.clip(2.0 * err, -c.board_speed_mps, c.board_speed_mps))
+        top = c.board_speed_mps if speed is None else speed
+        v = float(np.clip(2.0 * err, -top, top))
         if abs(err) < 0.015:
             v = 0.0
         # Hold the heading toward the wall, leaning a little toward the lane's y while moving

@@ -118,6 +118,7 @@ class World:
         self.foul_contacts: set[tuple[int, int, str]] = set()
         self._boards: dict[str, int] = {}  # alliance -> the hinged platform body
         self._tug: dict[int, float] = {}  # robot -> its speed's share in a tug of war
+        self._dragged: set[int] = set()  # robots losing a tug of war (they neither drive nor turn)
         self._barrier: int | None = None
         self._ready = False
         # score() is asked for by every robot's info each step; it only changes when the world
@@ -172,6 +173,7 @@ class World:
         self.autonomous = None
         self.foul_contacts = set()
         self._tug = {}
+        self._dragged = set()
         self.platforms = (
             {
                 p.alliance: PlatformState(p.alliance, seesaw.start_tilt(p, self.field.seesaw))
@@ -583,7 +585,7 @@ class World:
             events.phase_changed = True
         for r, cmd in zip(self.robots, commands, strict=True):
             self._clamp(r, cmd, events)
-        self._carry_goals()
+        self._carry_goals([h0 for _, _, h0 in before])
         self._intake(events)
         if self.training and self.config.push_rings:
             self._push_rings()
@@ -634,8 +636,11 @@ class World:
         """A goal clamped by robots of both alliances (training and high fidelity alike, a model):
         each pulls with its drive's force (RobotConfig.pull_n) times how hard it drives away from
         the goal; the stronger pull moves, slowed by the weaker, and drags the other robot with
-        the goal (_carry_goals); equal pulls hold both still."""
+        the goal (_carry_goals). The three hold together as one rigid body: the dragged robot
+        neither drives nor turns by itself, and swings with the winner when it turns. Equal
+        pulls hold both still; when neither pulls, the one that turns harder turns the three."""
         self._tug = {}
+        self._dragged = set()
         for g in self.goals:
             if g.carried_by is None or g.contested_by is None:
                 continue
@@ -643,10 +648,20 @@ class World:
             pa, pb = self._pull(a), self._pull(b)
             if pa == pb:
                 self._tug[a.index] = self._tug[b.index] = 0.0
+                if pa > 0.0:  # both pull: held still, turning included
+                    self._dragged.update((a.index, b.index))
+                    continue
+                # Neither pulls: the one that turns harder swings the goal and the other robot
+                # with it (_carry_goals).
+                if abs(b.w) > abs(a.w):
+                    g.carried_by, g.contested_by = b.index, a.index
+                    a, b = b, a
+                self._dragged.add(b.index)
                 continue
             win, lose, pw, pl = (a, b, pa, pb) if pa > pb else (b, a, pb, pa)
             self._tug[win.index] = (pw - pl) / (pw + pl)
             self._tug[lose.index] = 0.0
+            self._dragged.add(lose.index)
             if win is b:  # the goal now goes where the winner drags it
                 g.carried_by, g.contested_by = b.index, a.index
 
@@ -674,10 +689,11 @@ class World:
         for r in self.robots:
             h = math.radians(r.heading)
             v = r.v * self._tug[r.index] if r.index in self._tug else r.v
+            w = 0.0 if r.index in self._dragged else r.w
             p.resetBaseVelocity(
                 r.body,
                 (v * math.sin(h), v * math.cos(h), 0.0),
-                (0.0, 0.0, -r.w),
+                (0.0, 0.0, -w),
                 physicsClientId=cid,
             )
 
@@ -813,7 +829,10 @@ class World:
         p.setCollisionFilterPair(r.body, g.body, -1, -1, 1, physicsClientId=self.client)
         events.released.append((r.index, g.index))
 
-    def _carry_goals(self) -> None:
+    def _carry_goals(self, headings_before: list[float] | None = None) -> None:
+        """Carried goals follow their holders' clamps. A contested goal's other robot is dragged
+        with it (_tug_of_war): it keeps its place relative to the holder, turning by as much as
+        the holder turned since `headings_before` (the robots' headings before this step)."""
         cid = self.client
         for r in self.robots:
             if r.carried_goal is None:
@@ -823,7 +842,11 @@ class World:
                 continue  # the tug's loser: dragged below, with the goal
             xy = self.clamp_point(r, g)
             if g.contested_by is not None:
-                self._drag(self.robots[g.contested_by], g, xy)
+                other = self.robots[g.contested_by]
+                if headings_before is not None:
+                    turned = r.heading - headings_before[r.index]
+                    other.heading = (headings_before[other.index] + turned) % 360.0
+                self._drag(other, g, xy)
             g.x, g.y = xy
             pos, _ = p.getBasePositionAndOrientation(g.body, physicsClientId=cid)
             p.resetBasePositionAndOrientation(
@@ -842,7 +865,7 @@ class World:
             )
 
     def _drag(self, r: RobotState, g: GoalState, goal_xy: tuple[float, float]) -> None:
-        """Move a robot (heading kept) so its clamp holds a goal that will sit at goal_xy."""
+        """Move a robot (at its heading) so its clamp holds a goal that will sit at goal_xy."""
         gx, gy = self.clamp_point(r, g)
         r.x += goal_xy[0] - gx
         r.y += goal_xy[1] - gy

@@ -610,10 +610,12 @@ def test_a_carried_goal_not_seen_where_the_robot_looks_for_it_is_no_longer_follo
 
 
 def test_with_steal_climb_the_24in_climbs_with_a_goal_another_robot_holds() -> None:
-    """`steal_climb`: the 24" hauling a goal another robot holds too drives to the stage in
-    its lane, turns to the wall and drives straight at it (up the board once its edge is down,
-    against the wall to the end), the clamp closed throughout; dragged backward meanwhile (the
-    other robot pulls harder), it pulls straight ahead at full speed."""
+    """`steal_climb`: the 24" hauling a goal another robot holds too tows it to the stage in its
+    lane, never slower than `tow_speed` (a tug of war goes to the harder pull), lines up there
+    facing the wall and waits, only ever forward, until `climb_after_s` before the end; then it
+    drives straight at the wall (up the board once its edge is down), the clamp closed
+    throughout; dragged backward meanwhile (the other robot pulls harder), it pulls straight
+    ahead at full speed, and in the last `tow_press_s` it drives at full speed."""
     from jetson.autonomy.alliance import AllianceConfig
 
     layout = load_layout()
@@ -625,20 +627,27 @@ def test_with_steal_climb_the_24in_climbs_with_a_goal_another_robot_holds() -> N
     s._contested = True
     s.holding = s.target_goal = "neutral_tall"
     s._was_clamped = True
-    log, clamped = drive(s, (-0.3, -1.0, 90.0), 60.0, 14.0, None, True)
+    log, clamped = drive(s, (-0.3, -1.0, 90.0), 60.0, 20.0, None, True)
     assert clamped and all(k[3].clamp for k in log)
     assert s.phase == "haul_climb"
-    lined = [k for k in log if k[4] == "haul_climb"]
-    assert lined, "never lined up in its lane"
-    x, y, h = lined[0][:3]
+    towed = [k for k in log if k[4] == "tow"]
+    assert towed and all(k[3].linear >= c.tow_speed * ROLE_24.max_linear_mps - 1e-9 for k in towed)
+    waiting = [k for k in log if k[4] == "haul_wait"]
+    assert waiting, "never lined up at its stage"
+    x, y, h = waiting[-1][:3]
     assert y == pytest.approx(c.board_y_24_m, abs=0.1)
     assert plat.along(x) == pytest.approx(c.stage_along_m, abs=0.1)
     assert abs(angle_diff_deg(plat.wall_heading_deg, h)) < 8.0
-    assert all(k[3].linear > 0 for k in lined)
-    assert plat.along(log[-1][0]) < plat.along(x) - 0.5  # on toward the wall
+    assert all(k[3].linear >= 0 for k in waiting)
+    # The climb: from climb_after_s before the end, straight on toward the wall.
+    t0 = layout.match_length_s - c.climb_after_s
+    log, clamped = drive(s, (x, y, h), t0, 6.0, None, True)
+    climbing = [k for k in log if k[4] == "haul_climb"]
+    assert climbing and all(k[3].linear > 0 for k in climbing)
+    assert plat.along(log[-1][0]) < plat.along(x) - 0.5
     # Dragged backward 0.3 m/s while driving ahead: full pull, straight.
-    t = 80.0
-    x, y, h = lined[-1][:3]
+    t = t0 + 6.0
+    x, y, h = log[-1][:3]
     a = None
     for _ in range(30):
         a = s.step(AllianceInputs(x, y, h, "red", t, np.zeros((0, 2)), 0, True))
@@ -646,3 +655,33 @@ def test_with_steal_climb_the_24in_climbs_with_a_goal_another_robot_holds() -> N
         t += 0.05
     assert a is not None and s.intent == "pull"
     assert a.linear == pytest.approx(ROLE_24.max_linear_mps) and a.angular == 0.0 and a.clamp
+    # The last seconds, at the wall: full speed, no turning.
+    wall_x = plat.x_at(ROLE_24.length_m / 2 - plat.size[0] / 2)
+    t = layout.match_length_s - c.tow_press_s + 1.0
+    a = s.step(AllianceInputs(wall_x, c.board_y_24_m + 0.05, 268.0, "red", t, np.zeros((0, 2)), 0, True))
+    assert s.intent in ("haul_climb", "pull")
+    assert a.linear == pytest.approx(ROLE_24.max_linear_mps) and a.angular == 0.0 and a.clamp
+
+
+def test_with_steal_climb_a_24in_dragged_off_its_stage_tows_back_at_full_speed_late() -> None:
+    """Waiting at its stage with a goal another robot holds, the 24" dragged away from it tows
+    it back (never turning in place); in the last `tow_press_s`, not yet lined up, it tows at
+    full speed (the other robot heads home then)."""
+    from jetson.autonomy.alliance import AllianceConfig
+
+    layout = load_layout()
+    plat = layout.platform
+    c = AllianceConfig(steal_s=104.0, steal_climb=True)
+    s = AllianceStrategy(ROLE_24, layout, c)
+    s._set_phase("haul_climb", 70.0)
+    s._contested = True
+    s.holding = s.target_goal = "neutral_tall"
+    s._was_clamped = True
+    s._lined, s._towing = True, False
+    far = (plat.x_at(c.stage_along_m + 0.7), c.board_y_24_m + 0.3)
+    a = s.step(AllianceInputs(*far, 90.0, "red", 80.0, np.zeros((0, 2)), 0, True))
+    assert s.intent == "tow" and not s._lined
+    assert a.linear >= c.tow_speed * ROLE_24.max_linear_mps - 1e-9 and a.clamp
+    late = layout.match_length_s - c.tow_press_s + 0.5
+    a = s.step(AllianceInputs(*far, 90.0, "red", late, np.zeros((0, 2)), 0, True))
+    assert s.intent == "tow" and a.linear == pytest.approx(ROLE_24.max_linear_mps)

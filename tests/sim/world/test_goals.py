@@ -3,6 +3,7 @@ by robots of both alliances (the tug-of-war model), and rings placed by each rob
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from dataclasses import replace
 
@@ -207,3 +208,52 @@ def test_front_clamp_holds_the_goal_ahead() -> None:
         for _ in range(12):
             w.step([DriveCommand(0.3, 0.0, intake=False)])
         assert w.goals[4].y - r.y == pytest.approx(w.clamp_offset(r, w.goals[4]), abs=0.01)
+
+
+def test_tug_of_war_the_loser_is_dragged_without_turning(duel: World) -> None:
+    """Red pulls at full power; blue pulls at half and tries to turn in place: dragged by the goal
+    it holds, it keeps its heading (its wheels slide; swinging about the goal would pass through
+    red)."""
+    gi = contested(duel)
+    blue = duel.robots[1]
+    h0 = blue.heading
+    for _ in range(24):
+        duel.step([DriveCommand(0.9, 0.0, intake=False), DriveCommand(0.45, 3.0, intake=False)])
+    assert duel.goals[gi].carried_by == 0
+    assert abs((blue.heading - h0 + 180.0) % 360.0 - 180.0) < 3.0
+    # Let go, it turns again.
+    for _ in range(6):
+        duel.step([DriveCommand(0.9, 0.0, intake=False), DriveCommand(0.0, 3.0, clamp=False)])
+    assert abs((blue.heading - h0 + 180.0) % 360.0 - 180.0) > 20.0
+
+
+def test_tug_of_war_the_winner_turning_swings_the_loser_with_it(duel: World) -> None:
+    """Red wins the pull and turns: blue, dragged, keeps its place relative to red (the two robots
+    and the goal hold together), so it swings round with red instead of passing through it."""
+    gi = contested(duel)
+    red, blue = duel.robots[0], duel.robots[1]
+    gap = math.hypot(blue.x - red.x, blue.y - red.y)
+    r0, b0 = red.heading, blue.heading
+    for _ in range(12):
+        duel.step([DriveCommand(0.9, 1.5, intake=False), IDLE])
+    assert duel.goals[gi].carried_by == 0
+    turned = (red.heading - r0 + 180.0) % 360.0 - 180.0
+    assert abs(turned) > 30.0
+    assert abs((blue.heading - b0 - turned + 180.0) % 360.0 - 180.0) < 3.0
+    assert math.hypot(blue.x - red.x, blue.y - red.y) == pytest.approx(gap, abs=0.05)
+
+
+def test_tug_of_war_neither_pulling_the_one_that_turns_turns_all_three(duel: World) -> None:
+    """Neither robot pulls and blue, which clamped second, turns in place: it turns, and red and
+    the goal swing round with it."""
+    gi = contested(duel)
+    red, blue = duel.robots[0], duel.robots[1]
+    gap = math.hypot(blue.x - red.x, blue.y - red.y)
+    r0, b0 = red.heading, blue.heading
+    for _ in range(8):
+        duel.step([IDLE, DriveCommand(0.0, 1.5, intake=False)])
+    turned = (blue.heading - b0 + 180.0) % 360.0 - 180.0
+    assert abs(turned) > 20.0
+    assert abs((red.heading - r0 - turned + 180.0) % 360.0 - 180.0) < 3.0
+    assert math.hypot(blue.x - red.x, blue.y - red.y) == pytest.approx(gap, abs=0.05)
+    assert duel.goals[gi].holders == (1, 0)
