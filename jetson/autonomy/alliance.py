@@ -906,7 +906,7 @@ class AllianceStrategy:
         # The other alliance's platform is this one's half-turn mirror; the raid takes goals
         # beside it too (not on it): its stage keeps the robot off the board (_stage_for).
         far = b.goal.base_radius_m + 0.05 if raid else half_diag
-        return not (plat.contains((x, y), half_diag) or plat.other_contains((x, y), far))
+        return not plat.either_contains((x, y), half_diag, far)
 
     def _raiding(self, pose: _Pose) -> bool:
         """The raid is on (see AllianceConfig.raid): the 24", a goal detector, its first goal
@@ -1031,9 +1031,7 @@ class AllianceStrategy:
 
     def _near_a_platform(self, p: Vec, margin: float) -> bool:
         """A point within `margin` of either platform (the other is this one's mirror)."""
-        plat = self.layout.platform
-        x, y = float(p[0]), float(p[1])
-        return plat.contains((x, y), margin) or plat.other_contains((x, y), margin)
+        return self.layout.platform.either_contains((float(p[0]), float(p[1])), margin)
 
     def _clamped_touches_platform(self, goal: Vec, stage: Vec, margin: float = 0.05) -> bool:
         """Backing from `stage` onto `goal` would end with the robot's body on (or within
@@ -1559,7 +1557,7 @@ class AllianceStrategy:
                 continue  # chased goal_chase_s without taking it: another one for a while
             x, y = float(b.xy[0]), float(b.xy[1])
             r = b.goal.base_radius_m
-            if plat.contains((x, y), r) or plat.other_contains((x, y), r + 0.15):
+            if plat.either_contains((x, y), r, r + 0.15):
                 continue  # on a platform; or by the other's, protected in the endgame
             carried = self._seen_moving(b.xy)
             cost = float(np.hypot(*(b.xy - pose.xy))) - (3.0 if carried else 0.0)
@@ -1714,7 +1712,9 @@ class AllianceStrategy:
         d = target - pose.xy
         err = math.radians(angle_diff_deg(float(np.degrees(np.arctan2(d[0], d[1]))), pose.heading))
         v = self.role.max_linear_mps * max(least, math.cos(err))
-        w = float(np.clip(c.turn_gain * err, -self.role.max_angular_rad_s, self.role.max_angular_rad_s))
+        w = float(
+            np.clip(c.turn_gain * err, -self.role.max_angular_rad_s, self.role.max_angular_rad_s)
+        )
         return v, w
 
     def _dragged_back(self, pose: _Pose) -> bool:

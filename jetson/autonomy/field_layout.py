@@ -80,6 +80,13 @@ class PlatformLayout:
         centre), or within `margin` of it."""
         return self.contains((-xy[0], -xy[1]), margin)
 
+    def either_contains(self, xy: Point, margin: float = 0.0, other: float | None = None) -> bool:
+        """A point on either alliance's board, or within `margin` of this one and `other`
+        (None: `margin`) of the other's."""
+        return self.contains(xy, margin) or self.other_contains(
+            xy, margin if other is None else other
+        )
+
 
 @dataclass(frozen=True)
 class StartLayout:

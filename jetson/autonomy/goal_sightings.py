@@ -40,10 +40,6 @@ def off_the_platforms(
     if not len(seen):
         return seen
     xy = robot_to_field(seen[:, :2], robot_xy, heading_deg).tolist()
-    # the other alliance's platform is this one turned half a turn about the field's centre
-    on = [
-        platform.contains((x, y), margin_m) or platform.other_contains((x, y), margin_m)
-        for x, y in xy
-    ]
+    on = [platform.either_contains((x, y), margin_m) for x, y in xy]
     yellow = seen[:, 2].astype(int) == GOAL_COLOUR_CODES["yellow"]
     return seen[yellow | ~np.asarray(on, dtype=bool)]

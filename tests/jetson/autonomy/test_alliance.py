@@ -65,6 +65,15 @@ def test_the_layout_file_loads_and_names_its_goals() -> None:
     cx, cy = plat.center
     assert plat.other_contains((-cx, -cy)) and not plat.other_contains((cx, cy))
     assert not plat.contains((-cx, -cy))
+    assert plat.either_contains((cx, cy)) and plat.either_contains((-cx, -cy))
+    # a point 0.2 m off each board's field edge: within a 0.25 m margin, not within 0.1 m
+    edge = plat.x_at(plat.size[0] / 2 + 0.2)
+    assert plat.either_contains((edge, cy), 0.25, 0.1) and not plat.either_contains(
+        (-edge, -cy), 0.25, 0.1
+    )
+    assert plat.either_contains((-edge, -cy), 0.1, 0.25) and not plat.either_contains(
+        (edge, cy), 0.1, 0.25
+    )
 
 
 def test_a_bad_layout_names_what_is_wrong() -> None:
@@ -658,7 +667,9 @@ def test_with_steal_climb_the_24in_climbs_with_a_goal_another_robot_holds() -> N
     # The last seconds, at the wall: full speed, no turning.
     wall_x = plat.x_at(ROLE_24.length_m / 2 - plat.size[0] / 2)
     t = layout.match_length_s - c.tow_press_s + 1.0
-    a = s.step(AllianceInputs(wall_x, c.board_y_24_m + 0.05, 268.0, "red", t, np.zeros((0, 2)), 0, True))
+    a = s.step(
+        AllianceInputs(wall_x, c.board_y_24_m + 0.05, 268.0, "red", t, np.zeros((0, 2)), 0, True)
+    )
     assert s.intent in ("haul_climb", "pull")
     assert a.linear == pytest.approx(ROLE_24.max_linear_mps) and a.angular == 0.0 and a.clamp
 
