@@ -13,6 +13,7 @@ import pytest
 from jetson.autonomy.alliance import (
     GOAL_COLOUR_CODES,
     AllianceAction,
+    AllianceConfig,
     AllianceInputs,
     AllianceStrategy,
     RobotRole,
@@ -618,6 +619,18 @@ def test_a_carried_goal_not_seen_where_the_robot_looks_for_it_is_no_longer_follo
     assert s.goals["neutral_tall"].xy is None and s._tracker.track is None
 
 
+def holding_a_contested_goal(phase: str, t: float) -> tuple[AllianceStrategy, AllianceConfig]:
+    """A red 24" with steal-then-climb on, in `phase` at `t`, its clamp holding the tall goal
+    another robot holds too."""
+    c = AllianceConfig(steal_s=104.0, steal_climb=True)
+    s = AllianceStrategy(ROLE_24, load_layout(), c)
+    s._set_phase(phase, t)
+    s._contested = True
+    s.holding = s.target_goal = "neutral_tall"
+    s._was_clamped = True
+    return s, c
+
+
 def test_with_steal_climb_the_24in_climbs_with_a_goal_another_robot_holds() -> None:
     """`steal_climb`: the 24" hauling a goal another robot holds too tows it to the stage in its
     lane, never slower than `tow_speed` (a tug of war goes to the harder pull), lines up there
@@ -625,17 +638,10 @@ def test_with_steal_climb_the_24in_climbs_with_a_goal_another_robot_holds() -> N
     drives straight at the wall (up the board once its edge is down), the clamp closed
     throughout; dragged backward meanwhile (the other robot pulls harder), it pulls straight
     ahead at full speed, and in the last `tow_press_s` it drives at full speed."""
-    from jetson.autonomy.alliance import AllianceConfig
-
     layout = load_layout()
     plat = layout.platform
-    c = AllianceConfig(steal_s=104.0, steal_climb=True)
-    s = AllianceStrategy(ROLE_24, layout, c)
-    s._set_phase("haul", 60.0)
+    s, c = holding_a_contested_goal("haul", 60.0)
     s._steal_dropped = True
-    s._contested = True
-    s.holding = s.target_goal = "neutral_tall"
-    s._was_clamped = True
     log, clamped = drive(s, (-0.3, -1.0, 90.0), 60.0, 20.0, None, True)
     assert clamped and all(k[3].clamp for k in log)
     assert s.phase == "haul_climb"
@@ -678,16 +684,9 @@ def test_with_steal_climb_a_24in_dragged_off_its_stage_tows_back_at_full_speed_l
     """Waiting at its stage with a goal another robot holds, the 24" dragged away from it tows
     it back (never turning in place); in the last `tow_press_s`, not yet lined up, it tows at
     full speed (the other robot heads home then)."""
-    from jetson.autonomy.alliance import AllianceConfig
-
     layout = load_layout()
     plat = layout.platform
-    c = AllianceConfig(steal_s=104.0, steal_climb=True)
-    s = AllianceStrategy(ROLE_24, layout, c)
-    s._set_phase("haul_climb", 70.0)
-    s._contested = True
-    s.holding = s.target_goal = "neutral_tall"
-    s._was_clamped = True
+    s, c = holding_a_contested_goal("haul_climb", 70.0)
     s._lined, s._towing = True, False
     far = (plat.x_at(c.stage_along_m + 0.7), c.board_y_24_m + 0.3)
     a = s.step(AllianceInputs(*far, 90.0, "red", 80.0, np.zeros((0, 2)), 0, True))
