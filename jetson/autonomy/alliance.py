@@ -425,7 +425,8 @@ class AllianceStrategy:
         self._sentry_set = False
         self._tug_until = -1.0
         self._tugs = 0
-        self._moves: list[tuple[float, float, float, float]] = []  # t, x, y, commanded v
+        # t, x, y, heading, commanded v
+        self._moves: list[tuple[float, float, float, float, float]] = []
         self._stage_goal: str | None = None
         self._stage_since = 0.0
         self._last_t = 0.0
@@ -503,7 +504,7 @@ class AllianceStrategy:
         let it go instead (the third value: release the clamp)."""
         c = self.config
         endgame = self.phase in ("climb", "balance", "stage", "steal", "haul", "haul_climb")
-        self._moves.append((pose.t, float(pose.xy[0]), float(pose.xy[1]), v))
+        self._moves.append((pose.t, float(pose.xy[0]), float(pose.xy[1]), pose.heading, v))
         while self._moves and self._moves[0][0] < pose.t - c.tug_window_s:
             self._moves.pop(0)
         if not inputs.goal_clamped:
@@ -540,15 +541,18 @@ class AllianceStrategy:
 
     def _moved_ahead(self, pose: _Pose, least_v: float) -> tuple[float, float] | None:
         """Over the last `tug_window_s` of commands (at least 90 % of it recorded), all of them
-        forward at `least_v` or more: how far the robot moved along its heading, and in how
-        long. None: no such window."""
+        forward at `least_v` or more: how far the robot moved along its heading (each step along
+        the heading it had then: a robot that turned on the way moved ahead, not sideways), and
+        in how long. None: no such window."""
         m = self._moves
         if len(m) < 3 or m[-1][0] - m[0][0] < self.config.tug_window_s * 0.9:
             return None
-        if not all(k[3] >= least_v for k in m[:-1]):
+        if not all(k[4] >= least_v for k in m[:-1]):
             return None
-        h = math.radians(pose.heading)
-        moved = (m[-1][1] - m[0][1]) * math.sin(h) + (m[-1][2] - m[0][2]) * math.cos(h)
+        moved = 0.0
+        for (_, x0, y0, h0, _), (_, x1, y1, _, _) in zip(m[:-1], m[1:], strict=True):
+            h = math.radians(h0)
+            moved += (x1 - x0) * math.sin(h) + (y1 - y0) * math.cos(h)
         return moved, m[-1][0] - m[0][0]
 
     def _let_go(self, pose: _Pose) -> None:
@@ -1723,7 +1727,7 @@ class AllianceStrategy:
         window = self._moved_ahead(pose, least_v=0.0)
         return (
             window is not None
-            and self._moves[-1][3] >= 0.0
+            and self._moves[-1][4] >= 0.0
             and window[0] < -self.config.tug_distance_m
         )
 

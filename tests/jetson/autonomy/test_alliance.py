@@ -589,7 +589,7 @@ def test_a_goal_that_comes_slower_than_the_robot_drives_is_held_by_another_robot
         for _ in range(60):
             t += 0.05
             s.step(AllianceInputs(x, 0.0, 270.0, "red", t, np.zeros((0, 2)), 0, True))
-            s._moves[-1] = (t, x, 0.0, ROLE_24.max_linear_mps)  # as if it asked for full speed
+            s._moves[-1] = (t, x, 0.0, 270.0, ROLE_24.max_linear_mps)  # as if at full speed
             x -= gain * ROLE_24.max_linear_mps * 0.05  # facing -x: forward is -x
         assert s._contested == contested
         s.step(AllianceInputs(x, 0.0, 270.0, "red", t + 0.05, np.zeros((0, 2)), 0, False))
@@ -695,3 +695,27 @@ def test_with_steal_climb_a_24in_dragged_off_its_stage_tows_back_at_full_speed_l
     late = layout.match_length_s - c.tow_press_s + 0.5
     a = s.step(AllianceInputs(*far, 90.0, "red", late, np.zeros((0, 2)), 0, True))
     assert s.intent == "tow" and a.linear == pytest.approx(ROLE_24.max_linear_mps)
+
+
+def test_a_robot_turning_as_it_drives_is_not_taken_for_dragged_back() -> None:
+    """Driving forward while it turns through half a turn in the drag window (the 15" lining up
+    on its board in the isolation period): it moved ahead all the way, though it ends further
+    back along its last heading than it began, so no tug of war is seen and it keeps its goal;
+    driven backward by as much, it is dragged (the goal let go, `tug_release`)."""
+    layout = load_layout()
+    for back, let_go in ((False, False), (True, True)):
+        s = AllianceStrategy(ROLE_15, layout)
+        s._set_phase("sentry", 5.0)
+        x, y, h, t = -1.1, 0.15, 70.0, 5.0
+        released = False
+        for _ in range(20):
+            a = s.step(AllianceInputs(x, y, h, "red", t, np.zeros((0, 2)), 0, True))
+            released = released or a.clamp is False
+            step = -0.03 if back else 0.03  # metres along its heading
+            x += step * math.sin(math.radians(h))
+            y += step * math.cos(math.radians(h))
+            h += 14.0  # 280 degrees a second
+            t += 0.05
+            if s._moves:  # what it commanded: ahead, slowly
+                s._moves[-1] = (*s._moves[-1][:4], 0.4)
+        assert released == let_go
