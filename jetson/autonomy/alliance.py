@@ -63,6 +63,7 @@ None leave, lift True up / False down, intake on or off.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
@@ -550,7 +551,7 @@ class AllianceStrategy:
         if not all(k[4] >= least_v for k in m[:-1]):
             return None
         moved = 0.0
-        for (_, x0, y0, h0, _), (_, x1, y1, _, _) in zip(m[:-1], m[1:], strict=True):
+        for (_, x0, y0, h0, _), (_, x1, y1, _, _) in itertools.pairwise(m):
             h = math.radians(h0)
             moved += (x1 - x0) * math.sin(h) + (y1 - y0) * math.cos(h)
         return moved, m[-1][0] - m[0][0]
