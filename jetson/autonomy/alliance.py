@@ -543,8 +543,8 @@ class AllianceStrategy:
     def _moved_ahead(self, pose: _Pose, least_v: float) -> tuple[float, float] | None:
         """Over the last `tug_window_s` of commands (at least 90 % of it recorded), all of them
         forward at `least_v` or more: how far the robot moved along its heading (each step along
-        the heading it had then: a robot that turned on the way moved ahead, not sideways), and
-        in how long. None: no such window."""
+        the heading it had then: a robot that turned on the way ends behind where it began along
+        its newest heading, yet moved ahead), and in how long. None: no such window."""
         m = self._moves
         if len(m) < 3 or m[-1][0] - m[0][0] < self.config.tug_window_s * 0.9:
             return None
@@ -1668,9 +1668,9 @@ class AllianceStrategy:
                 return (*self._arrive(pose, stage, wall), True)
             self._lined = True
         if waiting:
-            # Not yet: wait at the stage facing the wall (pressed against the board's edge, the
-            # robot and its chain slide along it). Only ever forward: backing up hands the goal
-            # to the other robot's pull.
+            # Not yet: wait at the stage facing the wall, off the board's edge (pressed against
+            # it while the board is level, the robot and its chain slide along it). Only ever
+            # forward: backing up hands the goal to the other robot's pull.
             self.intent = "haul_wait"
             self._moves.clear()
             v, w = self._on_board(pose, y, c.stage_along_m)
