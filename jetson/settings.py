@@ -96,7 +96,7 @@ class DecisionConfig:
     # both robots of the alliance. None: both climb.
     steal_s: float | None = None
     # With the steal: from 32 s before the end the 24" climbs after all, with the goal it holds
-    # (another robot's loaded goal dragged up the board, pulling whenever it is dragged back),
+    # (another robot's loaded goal towed to its stage, always pulling, and up the board),
     # and the 15" climbs too (AllianceConfig.steal_climb). The same on both robots.
     steal_climb: bool = False
 

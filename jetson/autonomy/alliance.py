@@ -259,9 +259,9 @@ class AllianceConfig:
     # None: no steal, both robots climb.
     steal_s: float | None = None
     # With the steal: `climb_24_s` before the end the 24" climbs after all, with the goal it
-    # holds; one another robot holds too it takes to its stage at once and up the board to the
-    # wall, pulling at full speed whenever it is dragged back; the 15" plays the climbing
-    # endgame. False: the steal holds its goal home to the end.
+    # holds; one another robot holds too it tows to its stage at once and climbs with it (the
+    # tow, below); the 15" plays the climbing endgame. False: the steal holds its goal home to
+    # the end.
     steal_climb: bool = False
     # A neutral goal seen in motion this long is carried (jetson/autonomy/carried_goal.py).
     carried_s: float = 1.5
@@ -1642,22 +1642,23 @@ class AllianceStrategy:
         other robot pulls harder: a tug of war goes to the stronger pull), it pulls straight
         ahead at full speed for `tug_s`."""
         c = self.config
+        left = self._time_left(pose)
         if not inputs.goal_clamped:
-            if self._time_left(pose) > c.climb_24_s:
+            if left > c.climb_24_s:
                 self._set_phase("steal", pose.t)  # it let go: steal on
                 return 0.0, 0.0, False
             self._set_phase("climb", pose.t)
             return self._phase_climb(pose, inputs, dt)
         y = c.board_y_24_m
         wall = self.layout.platform.wall_heading_deg
-        waiting = self._time_left(pose) > c.climb_after_s
+        waiting = left > c.climb_after_s
         stage = np.array([self._board_x(c.stage_along_m), y])
         far = float(np.hypot(*(stage - pose.xy)))
         if far > c.tow_near_m + 0.2 and (waiting or not self._lined):
             self._towing, self._lined = True, False  # dragged away from the stage: back to it
         elif far < c.tow_near_m:
             self._towing = False
-        last = self._time_left(pose) < c.tow_press_s
+        last = left < c.tow_press_s
         if self._towing or (last and not self._lined):
             # In the last seconds the other robot heads home: tow at full speed, never line up.
             self.intent = "tow"
@@ -1708,7 +1709,7 @@ class AllianceStrategy:
         out = np.array([plat.x_at(approach), y])
         if along < c.stage_along_m and off > 2 * c.tow_lane_m:
             self._tow_out = True
-        if self._tow_out and float(np.hypot(*(out - pose.xy))) < 0.25:
+        if self._tow_out and float(np.hypot(*(out - pose.xy))) < c.tow_near_m:
             self._tow_out = False
         if self._tow_out:
             target = out
