@@ -11,9 +11,13 @@ alliance, 15 s isolation + 105 s interaction) with the robots' GPS noise on. The
     the 24", the greedy chaser on the 15"), `--seeds` matches, the scripted alliance red on even
     seeds and blue on odd ones (sides swapped in half);
 (b) itself, `--seeds` matches;
-(c) the ring-race alliance again with the steal on (`AllianceConfig.steal_s`, STEAL_S, and
-    `steal_climb`: the 24" takes the other alliance's loaded neutral goal and climbs with it at
-    the end, the 15" climbs as in (a)), `--seeds` matches (`--no-steal` skips them).
+(c) the ring-race alliance again with the steal off (`AllianceConfig.steal_s` None: the 24"
+    scores rings and neutral goals through the interaction period instead of taking neutral goals
+    home, the other alliance's loaded one first; both robots climb), `--seeds` matches
+    (`--no-climb-only` skips them).
+
+The scripted alliance plays its defaults in (a) and (b): the steal from the interaction period's
+start, then the climb (jetson/autonomy/alliance.py, `steal_s`, `steal_climb`).
 
 Measured (vs: the ring-race alliance, self: itself; per match means):
 - win rate against (a) by match score (target >= 0.9; a draw counts half), and the same with the
@@ -27,9 +31,9 @@ Measured (vs: the ring-race alliance, self: itself; per match means):
   on the platform too (no target: the 15"'s sentry waits there by design);
 - the share of matches against (a) that end with its platform Balanced and both its robots
   Elevated (target >= 0.8);
-- with the steal (c), `vs_ring_race_steal_*`: the win rate, the mean scores, the share of
-  matches Balanced with both robots Elevated and the still share (no targets: the targets above
-  are the default alliance's);
+- with the steal off (c), `vs_ring_race_climb_only_*`: the win rate, the mean scores, the share
+  of matches Balanced with both robots Elevated and the still share (no targets: the targets
+  above are the default alliance's);
 - fouls per match of each alliance, by kind, and the share of matches in which one of its robots
   touches the opposing platform as the match ends (<SG3>: a Disqualification in the manual,
   reported and not scored); mean scores and the score by element (rings on a
@@ -65,7 +69,6 @@ STILL_TARGET = 0.1
 BALANCED_TARGET = 0.8
 STILL_SPEED_MPS = 0.03
 STILL_TURN_RAD_S = 0.1
-STEAL_S = 104.0  # the steal from the interaction period's first second (c)
 
 
 @dataclass
@@ -85,7 +88,7 @@ class GameRecord:
     # by alliance: one of its robots touched the opposing platform as the match ended (<SG3>
     # Note 2: a Disqualification in the manual; reported, not scored)
     platform_contact_at_end: dict[str, bool] = field(default_factory=dict)
-    steal: bool = False  # the scripted alliance played with the steal on (c)
+    climb_only: bool = False  # the scripted alliance played with the steal off (c)
 
 
 def elements(s: AllianceScore) -> dict[str, float]:
@@ -102,9 +105,9 @@ def elements(s: AllianceScore) -> dict[str, float]:
     }
 
 
-def play(seed: int, fidelity: str, opponent: str, steal: bool = False) -> GameRecord:
-    """One seeded 2v2 whole-game match (see the module docstring); `steal`: the scripted
-    alliance with the steal on."""
+def play(seed: int, fidelity: str, opponent: str, climb_only: bool = False) -> GameRecord:
+    """One seeded 2v2 whole-game match (see the module docstring); `climb_only`: the scripted
+    alliance with the steal off."""
     start = time.perf_counter()
     env = EnvConfig(
         world=world_preset("tipping_point_2v2", fidelity=fidelity),
@@ -119,7 +122,7 @@ def play(seed: int, fidelity: str, opponent: str, steal: bool = False) -> GameRe
         players: list[Player] = []
         for r in w.robots:
             if r.alliance == ours or opponent == "self":
-                config = AllianceConfig(steal_s=STEAL_S, steal_climb=True) if steal else None
+                config = AllianceConfig(steal_s=None) if climb_only else None
                 players.append(AlliancePlayer(config))
             else:
                 players.append(ring_race_player(r.config.name))
@@ -165,7 +168,7 @@ def play(seed: int, fidelity: str, opponent: str, steal: bool = False) -> GameRe
             wall_s=time.perf_counter() - start,
             awp={a: bool(score[a].autonomous_win_point) for a in ("red", "blue")},
             platform_contact_at_end=rules.platform_contact_at_end(w),
-            steal=steal,
+            climb_only=climb_only,
         )
     finally:
         core.close()
@@ -175,9 +178,9 @@ def _play(job: tuple[int, str, str, bool]) -> GameRecord:
     return play(*job)
 
 
-def run(seeds: list[int], fidelity: str, jobs: int, steal: bool = True) -> list[GameRecord]:
+def run(seeds: list[int], fidelity: str, jobs: int, climb_only: bool = True) -> list[GameRecord]:
     work = [(s, fidelity, opp, False) for opp in ("ring_race", "self") for s in seeds]
-    if steal:
+    if climb_only:
         work += [(s, fidelity, "ring_race", True) for s in seeds]
     if jobs <= 1:
         return [_play(j) for j in work]
@@ -201,8 +204,8 @@ def _win_rate(records: list[GameRecord]) -> float:
 
 def summarise(records: list[GameRecord], fidelity: str) -> Result:
     r = Result("game")
-    vs = [g for g in records if g.opponent == "ring_race" and not g.steal]
-    stealing = [g for g in records if g.opponent == "ring_race" and g.steal]
+    vs = [g for g in records if g.opponent == "ring_race" and not g.climb_only]
+    climbing = [g for g in records if g.opponent == "ring_race" and g.climb_only]
     selfplay = [g for g in records if g.opponent == "self"]
     r.add("seeds", len(vs))
     r.add("high_fidelity", 1 if fidelity == "high" else 0)
@@ -279,25 +282,28 @@ def summarise(records: list[GameRecord], fidelity: str) -> Result:
                 f"self_{key}",
                 statistics.fmean(v[key] for g in selfplay for v in g.elements.values()),
             )
-    if stealing:
-        r.add("vs_ring_race_steal_win_rate", _win_rate(stealing))
-        r.add("vs_ring_race_steal_score_ours", statistics.fmean(g.score[g.ours] for g in stealing))
+    if climbing:
+        r.add("vs_ring_race_climb_only_win_rate", _win_rate(climbing))
         r.add(
-            "vs_ring_race_steal_score_theirs",
-            statistics.fmean(g.score[other(g.ours)] for g in stealing),
+            "vs_ring_race_climb_only_score_ours",
+            statistics.fmean(g.score[g.ours] for g in climbing),
         )
         r.add(
-            "vs_ring_race_steal_balanced_both_elevated_rate",
-            statistics.fmean(float(g.balanced_both_up[g.ours]) for g in stealing),
+            "vs_ring_race_climb_only_score_theirs",
+            statistics.fmean(g.score[other(g.ours)] for g in climbing),
         )
         r.add(
-            "vs_ring_race_steal_fouls_ours_per_match",
-            statistics.fmean(sum(g.fouls[g.ours].values()) for g in stealing),
+            "vs_ring_race_climb_only_balanced_both_elevated_rate",
+            statistics.fmean(float(g.balanced_both_up[g.ours]) for g in climbing),
         )
-        n = sum(g.counted_steps for g in stealing)
         r.add(
-            "vs_ring_race_steal_still_share_interaction",
-            sum(g.still_steps for g in stealing) / n if n else 0.0,
+            "vs_ring_race_climb_only_fouls_ours_per_match",
+            statistics.fmean(sum(g.fouls[g.ours].values()) for g in climbing),
+        )
+        n = sum(g.counted_steps for g in climbing)
+        r.add(
+            "vs_ring_race_climb_only_still_share_interaction",
+            sum(g.still_steps for g in climbing) / n if n else 0.0,
         )
     default = vs + selfplay
     counted = sum(g.counted_steps for g in default)
@@ -325,18 +331,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--matches", action="store_true", help="print one line per match")
     ap.add_argument("--strict", action="store_true", help="exit 1 when a target is missed")
     ap.add_argument(
-        "--no-steal", action="store_true", help="skip (c), the matches with the steal on"
+        "--no-climb-only", action="store_true", help="skip (c), the matches with the steal off"
     )
     args = ap.parse_args(argv)
     if args.seeds < 1 or args.jobs < 1:
         ap.error("--seeds and --jobs must be at least 1")
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
-    records = run(seeds, args.fidelity, args.jobs, steal=not args.no_steal)
+    records = run(seeds, args.fidelity, args.jobs, climb_only=not args.no_climb_only)
     if args.matches:
         for g in records:
             them = other(g.ours)
             print(
-                f"seed {g.seed:3d} {g.opponent + ('+steal' if g.steal else ''):15s} "
+                f"seed {g.seed:3d} {g.opponent + ('+climb-only' if g.climb_only else ''):20s} "
                 f"ours={g.ours:4s} "
                 f"{g.score[g.ours]:4d}-{g.score[them]:<4d} up={int(g.balanced_both_up[g.ours])}"
                 f"{int(g.balanced_both_up[them])} still={g.still_steps}/{g.counted_steps} "

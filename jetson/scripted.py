@@ -92,7 +92,7 @@ class ScriptedDecider:
         self.config = config or DecisionConfig()
         self.role = role or ROBOTS[self.config.role]
         self.layout = layout or load_layout()
-        steal = None if self.config.steal_s is None else float(self.config.steal_s)
+        steal = float(self.config.steal_s) or None  # 0: no steal
         self.strategy = AllianceStrategy(
             self.role,
             self.layout,

@@ -91,14 +91,16 @@ class DecisionConfig:
     # alliance of jetson/autonomy/alliance.py, playing the whole game as `role`).
     player: str = "policy"
     # The scripted alliance's steal (jetson/autonomy/alliance.py, AllianceConfig.steal_s): this
-    # many seconds before the match's end the 24" takes the other alliance's loaded neutral goal
-    # home instead of climbing, and the 15" stays balanced on the platform. Set it the same on
-    # both robots of the alliance. None: both climb.
-    steal_s: float | None = None
+    # many seconds before the match's end (104: from the interaction period's first second) the
+    # 24" stops scoring rings and takes neutral goals home, the other alliance's loaded one
+    # first. 0: no steal (the 24" scores rings, both robots climb). Set it the same on both
+    # robots of the alliance.
+    steal_s: float = 104.0
     # With the steal: from 32 s before the end the 24" climbs after all, with the goal it holds
-    # (another robot's loaded goal towed to its stage, always pulling, and up the board),
-    # and the 15" climbs too (AllianceConfig.steal_climb). The same on both robots.
-    steal_climb: bool = False
+    # (another robot's loaded goal towed to its stage, always pulling, and up the board), and
+    # the 15" climbs too (AllianceConfig.steal_climb). False: the 24" holds the goal home to
+    # the end and the 15" stays balanced on the platform. The same on both robots.
+    steal_climb: bool = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "drive_phases", tuple(self.drive_phases))
@@ -140,21 +142,18 @@ class DecisionConfig:
                 f"decision player must be one of {', '.join(PLAYERS)}, got {self.player!r}"
             )
         steal = self.steal_s
-        if steal is not None and not (
+        if not (
             isinstance(steal, int | float)
             and not isinstance(steal, bool)
             and math.isfinite(steal)
-            and 0 < steal <= 120
+            and 0 <= steal <= 120
         ):
             raise SettingsError(
-                "decision steal_s must be seconds before the match's end in (0, 120], "
-                f"or left out (no steal), got {steal!r}"
+                "decision steal_s must be seconds before the match's end in [0, 120] "
+                f"(0: no steal), got {steal!r}"
             )
-        if self.steal_climb and steal is None:
-            raise SettingsError(
-                "decision steal_climb climbs after the steal: set steal_s too (e.g. 104), "
-                "or leave steal_climb out"
-            )
+        if not isinstance(self.steal_climb, bool):
+            raise SettingsError("decision steal_climb must be true or false")
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)

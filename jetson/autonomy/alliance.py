@@ -76,6 +76,7 @@ from jetson.autonomy.field_layout import FieldLayout, GoalLayout
 from jetson.autonomy.geometry import (
     angle_diff_deg,
     field_to_robot,
+    heading_of,
     robot_to_field,
     to_alliance_frame,
 )
@@ -251,18 +252,21 @@ class AllianceConfig:
     # and blue sightings on a platform, jetson/autonomy/goal_sightings.py, so only a neutral
     # goal there is seen and taken).
     clear_lane_s: float = 6.0
-    # The steal: `steal_s` before the end the 24" leaves the goal it holds in its home zone,
-    # takes a neutral goal from outside it (one seen carried first: the other alliance's loaded
-    # goal, its rings then count for this alliance), drags it home and holds it there to the
-    # end (a tug of war goes to the stronger pull: the 24" pulls harder than a 15"). It does not
-    # climb; the 15" stays at its lock spot, where the board balances under it and its goal.
-    # None: no steal, both robots climb.
-    steal_s: float | None = None
+    # The steal: `steal_s` before the end (the default: from the interaction period's first
+    # second) the 24" leaves the goal it holds in its home zone and takes neutral goals home:
+    # one seen carried first (the other alliance's loaded goal: its rings then count for this
+    # alliance), then one standing in its own home zone that it did not leave there itself (the
+    # ring race's chaser parks its loaded goal there), then the nearest; it searches its own
+    # home zone before the middle. A goal another robot holds too (it comes slower than the
+    # robot drives) it keeps; a free one it leaves in the home zone and takes the next. The 15"
+    # plays as without the steal. None: no steal, the 24" scores rings and both robots climb.
+    steal_s: float | None = 104.0
     # With the steal: `climb_24_s` before the end the 24" climbs after all, with the goal it
     # holds; one another robot holds too it tows to its stage at once and climbs with it (the
-    # tow, below); the 15" plays the climbing endgame. False: the steal holds its goal home to
-    # the end.
-    steal_climb: bool = False
+    # tow, below); the 15" plays the climbing endgame. False: the 24" holds its goal home to
+    # the end, and the 15" stays at its lock spot, where the board balances under it and its
+    # goal.
+    steal_climb: bool = True
     # A neutral goal seen in motion this long is carried (jetson/autonomy/carried_goal.py).
     carried_s: float = 1.5
     steal_haul_y_m: float = 1.15  # the haul spot: this far beside the platform's centre ...
@@ -307,6 +311,16 @@ class AllianceAction(NamedTuple):
     intake: bool
 
 
+class _Move(NamedTuple):
+    """One control step's command and where it left the robot (the tug-of-war windows)."""
+
+    t: float
+    x: float
+    y: float
+    heading: float
+    v: float  # the commanded speed, m/s (forward positive)
+
+
 @dataclass
 class _Pose:
     xy: Vec  # alliance frame
@@ -340,6 +354,25 @@ class _Plan:
     iso: list[_IsoTask] = field(default_factory=list)
     neutral: list[str] = field(default_factory=list)  # interaction goals, in order
     sentry: bool = False  # after its isolation jobs, wait on the platform (see _phase_sentry)
+
+
+# Where the steal looks when it knows of no neutral goal to take (alliance frame, m), 4 s each:
+# its own home zone's two sides and middle (the ring race's chaser parks its loaded goal there),
+# then the field's middle.
+_STEAL_SEARCH: tuple[tuple[float, float], ...] = (
+    (-0.9, -1.0),
+    (-1.0, -0.9),
+    (-0.9, 0.0),
+    (-0.9, 1.0),
+    (-1.0, 0.9),
+    (-0.9, 0.0),
+    (0.0, -0.8),
+    (0.25, -1.35),
+    (0.3, 0.0),
+    (0.0, 0.8),
+    (0.25, 1.35),
+    (0.3, 0.0),
+)
 
 
 def default_plan(role: str, layout: FieldLayout) -> _Plan:
@@ -427,7 +460,7 @@ class AllianceStrategy:
         self._tug_until = -1.0
         self._tugs = 0
         # t, x, y, heading, commanded v
-        self._moves: list[tuple[float, float, float, float, float]] = []
+        self._moves: list[_Move] = []
         self._stage_goal: str | None = None
         self._stage_since = 0.0
         self._last_t = 0.0
@@ -505,8 +538,8 @@ class AllianceStrategy:
         let it go instead (the third value: release the clamp)."""
         c = self.config
         endgame = self.phase in ("climb", "balance", "stage", "steal", "haul", "haul_climb")
-        self._moves.append((pose.t, float(pose.xy[0]), float(pose.xy[1]), pose.heading, v))
-        while self._moves and self._moves[0][0] < pose.t - c.tug_window_s:
+        self._moves.append(_Move(pose.t, float(pose.xy[0]), float(pose.xy[1]), pose.heading, v))
+        while self._moves and self._moves[0].t < pose.t - c.tug_window_s:
             self._moves.pop(0)
         if not inputs.goal_clamped:
             self._tugs = 0
@@ -546,15 +579,15 @@ class AllianceStrategy:
         the heading it had then: a robot that turned on the way ends behind where it began along
         its newest heading, yet moved ahead), and in how long. None: no such window."""
         m = self._moves
-        if len(m) < 3 or m[-1][0] - m[0][0] < self.config.tug_window_s * 0.9:
+        if len(m) < 3 or m[-1].t - m[0].t < self.config.tug_window_s * 0.9:
             return None
-        if not all(k[4] >= least_v for k in m[:-1]):
+        if not all(k.v >= least_v for k in m[:-1]):
             return None
         moved = 0.0
-        for (_, x0, y0, h0, _), (_, x1, y1, _, _) in itertools.pairwise(m):
-            h = math.radians(h0)
-            moved += (x1 - x0) * math.sin(h) + (y1 - y0) * math.cos(h)
-        return moved, m[-1][0] - m[0][0]
+        for a, b in itertools.pairwise(m):
+            h = math.radians(a.heading)
+            moved += (b.x - a.x) * math.sin(h) + (b.y - a.y) * math.cos(h)
+        return moved, m[-1].t - m[0].t
 
     def _let_go(self, pose: _Pose) -> None:
         """Give up the goal held in a tug of war: it is not where this robot can score it (the
@@ -1159,7 +1192,7 @@ class AllianceStrategy:
             return 0.0, 0.0, False
         self.intent = f"look:{name}"
         d = goal - pose.xy
-        face = float(np.degrees(np.arctan2(d[0], d[1])))
+        face = float(heading_of(d))
         v = 0.0
         if float(np.hypot(*d)) < c.look_from_m and abs(angle_diff_deg(face, pose.heading)) < 30:
             v = -0.3 * self.role.max_linear_mps  # too near to see it: back away, facing it
@@ -1500,14 +1533,14 @@ class AllianceStrategy:
             return self._phase_haul(pose, inputs, dt)
         name = self._steal_goal(pose)
         if name is None:
-            # None known: sweep the field's middle (the camera sees goals up to about 2 m),
-            # and a neutral goal not found where it was tried may be found again.
+            # None known: sweep the home zone, then the field's middle (the camera sees goals
+            # up to about 2 m), and a neutral goal not found where it was tried may be found
+            # again.
             self.intent = "steal_search"
             for b in self.goals.values():
                 if b.goal.owner is None:
                     b.tries = 0.0
-            points = ((0.0, -0.8), (0.25, -1.35), (0.3, 0.0), (0.0, 0.8), (0.25, 1.35), (0.3, 0.0))
-            look = np.array(points[int(pose.t // 4.0) % len(points)])
+            look = np.array(_STEAL_SEARCH[int(pose.t // 4.0) % len(_STEAL_SEARCH)])
             if float(np.hypot(*(look - pose.xy))) > 0.2:
                 return (*self._drive_to(pose, look, None, speed=0.7), False)
             return 0.0, 0.5 * self.role.max_angular_rad_s, False
@@ -1515,11 +1548,9 @@ class AllianceStrategy:
             self._bad_stages = []
         self.target_goal = name
         xy = self.goals[name].xy
-        home = (
-            xy is not None
-            and float(xy[0]) < self.layout.home_zone[2] - self.goals[name].goal.base_radius_m
-        )
-        self._steal_carried = self._seen_moving(xy) or home
+        # One seen carried is held to the end; any other is tested on the way to the haul spot
+        # (_phase_haul: another robot's comes slower than the robot drives).
+        self._steal_carried = self._seen_moving(xy)
         self.intent = f"steal:{name}"
         return self._get_goal(name, pose, inputs, dt, wait_until=None)
 
@@ -1533,10 +1564,9 @@ class AllianceStrategy:
 
     def _steal_goal(self, pose: _Pose) -> str | None:
         """The neutral goal to steal: the one another robot carries (the other alliance's
-        loaded goal, wherever it stands; jetson/autonomy/carried_goal.py) first, else the
-        nearest outside the home zone, else one in the home zone (held there: it may be another
-        robot's); never one on a platform, one by the other alliance's platform, or one it left
-        itself."""
+        loaded goal, wherever it stands; jetson/autonomy/carried_goal.py) first, then one
+        standing in the home zone, then the nearest; never one on a platform, one by the other
+        alliance's platform, or one it left itself."""
         line = self.layout.home_zone[2]
         plat = self.layout.platform
         tr = self._tracker.carried(self._now)
@@ -1567,9 +1597,9 @@ class AllianceStrategy:
             carried = self._seen_moving(b.xy)
             cost = float(np.hypot(*(b.xy - pose.xy))) - (3.0 if carried else 0.0)
             if x < line - r and not carried:
-                # Scoring in the home zone already: last (held there to the end, as another
-                # robot may hold it and take it home at the end).
-                cost += 5.0
+                # Standing in the home zone, and not left there by this robot: most likely the
+                # other alliance's loaded goal, parked by its carrier (tested on the way home).
+                cost -= 3.0
             if cost < best_cost:
                 best, best_cost = name, cost
         return best
@@ -1606,18 +1636,21 @@ class AllianceStrategy:
             return self._phase_haul_climb(pose, inputs, dt)
         plat = self.layout.platform
         spot = self._haul_spot(pose)
-        if not self._hauled and float(np.hypot(*(spot - pose.xy))) > 0.15:
+        testing = not self._contested and pose.t - self._clamped_at < 2.5
+        if not self._hauled and (testing or float(np.hypot(*(spot - pose.xy))) > 0.15):
             self.intent = "haul"
             if self._contested:
                 # Another robot holds it too: pull at full speed all the way (a tug goes to
                 # the stronger pull; slowing down or turning in place hands it the goal),
                 # steering toward the spot.
                 d = spot - pose.xy
-                face = float(np.degrees(np.arctan2(d[0], d[1])))
+                face = float(heading_of(d))
                 w = float(np.clip(self._turn_to(pose, face), -1.5, 1.5))
                 return self.role.max_linear_mps, w, True
             v, w = self._drive_to(pose, spot, None, speed=1.0)
             self._backoff_until = -1.0  # never back off: that would hand the goal back
+            if testing:
+                v = max(v, 0.6 * self.role.max_linear_mps)  # fast enough to tell (_check_dragging)
             return max(v, 0.0), w, True
         if not self._contested:
             # A free goal: leave it here (20 points, its rings count here) and take the next.
@@ -1716,7 +1749,7 @@ class AllianceStrategy:
         else:
             target = np.array([plat.x_at(max(along - c.tow_lookahead_m, c.stage_along_m)), y])
         d = target - pose.xy
-        err = math.radians(angle_diff_deg(float(np.degrees(np.arctan2(d[0], d[1]))), pose.heading))
+        err = math.radians(angle_diff_deg(float(heading_of(d)), pose.heading))
         v = self.role.max_linear_mps * max(least, math.cos(err))
         w = float(
             np.clip(c.turn_gain * err, -self.role.max_angular_rad_s, self.role.max_angular_rad_s)
@@ -1729,7 +1762,7 @@ class AllianceStrategy:
         window = self._moved_ahead(pose, least_v=0.0)
         return (
             window is not None
-            and self._moves[-1][4] >= 0.0
+            and self._moves[-1].v >= 0.0
             and window[0] < -self.config.tug_distance_m
         )
 

@@ -58,18 +58,18 @@ def test_the_platform_contact_at_the_end_is_reported_by_side() -> None:
     assert m["vs_ring_race_win_rate"] == pytest.approx(0.5)
 
 
-def test_the_steal_matches_are_their_own_rows_and_leave_the_targets_alone() -> None:
-    """Matches played with the steal on (c) are summarised as vs_ring_race_steal_*; the
+def test_the_climb_only_matches_are_their_own_rows_and_leave_the_targets_alone() -> None:
+    """Matches played with the steal off (c) are summarised as vs_ring_race_climb_only_*; the
     default alliance's rows, which carry the targets, never count them."""
     records = [record(0, 200, 100, 0.0), record(1, 100, 200, 0.0)]
-    steal = [record(2, 250, 90, 0.0), record(3, 240, 80, 0.0), record(4, 90, 100, 0.0)]
-    for g in steal:
-        g.steal = True
+    climb = [record(2, 250, 90, 0.0), record(3, 240, 80, 0.0), record(4, 90, 100, 0.0)]
+    for g in climb:
+        g.climb_only = True
         g.balanced_both_up = {"red": False, "blue": False}
-    m = summarise(records + steal, "training").metrics
+    m = summarise(records + climb, "training").metrics
     assert m["vs_ring_race_win_rate"] == pytest.approx(0.5)
     assert m["vs_ring_race_balanced_both_elevated_rate"] == pytest.approx(1.0)
-    assert m["vs_ring_race_steal_win_rate"] == pytest.approx(2 / 3)
-    assert m["vs_ring_race_steal_score_ours"] == pytest.approx((250 + 240 + 90) / 3)
-    assert m["vs_ring_race_steal_balanced_both_elevated_rate"] == pytest.approx(0.0)
+    assert m["vs_ring_race_climb_only_win_rate"] == pytest.approx(2 / 3)
+    assert m["vs_ring_race_climb_only_score_ours"] == pytest.approx((250 + 240 + 90) / 3)
+    assert m["vs_ring_race_climb_only_balanced_both_elevated_rate"] == pytest.approx(0.0)
     assert m["seeds"] == 2

@@ -187,12 +187,18 @@ def test_pete_jetson_run_with_the_scripted_alliance_drives_and_replays(tmp_path:
 
 def test_the_steal_setting_reaches_the_strategy() -> None:
     """`[decision] steal_s` is the strategy's AllianceConfig.steal_s (the same on both robots of
-    an alliance); left out, the scripted alliance climbs."""
+    an alliance): by default the steal from the interaction period's start, then the climb;
+    0 turns the steal off (the 24" scores rings and both robots climb)."""
     from jetson.scripted import ScriptedDecider
     from jetson.settings import DecisionConfig
 
-    assert ScriptedDecider(DecisionConfig(player="alliance")).strategy.config.steal_s is None
-    d = ScriptedDecider(DecisionConfig(player="alliance", role="15in", steal_s=104))
-    assert d.strategy.config.steal_s == 104.0 and not d.strategy.config.steal_climb
-    d = ScriptedDecider(DecisionConfig(player="alliance", steal_s=104, steal_climb=True))
-    assert d.strategy.config.steal_climb
+    d = ScriptedDecider(DecisionConfig(player="alliance"))
+    assert d.strategy.config.steal_s == 104.0 and d.strategy.config.steal_climb
+    assert (
+        ScriptedDecider(DecisionConfig(player="alliance", steal_s=0)).strategy.config.steal_s
+        is None
+    )
+    d = ScriptedDecider(
+        DecisionConfig(player="alliance", role="15in", steal_s=60, steal_climb=False)
+    )
+    assert d.strategy.config.steal_s == 60.0 and not d.strategy.config.steal_climb

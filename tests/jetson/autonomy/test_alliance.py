@@ -279,8 +279,8 @@ def test_the_24_leaves_its_goal_in_the_home_zone_once_the_floor_is_clear() -> No
     from jetson.autonomy.alliance import AllianceConfig
 
     layout = load_layout()
-    # no ring is ever worth taking; deposits on (off by default), the raid off
-    config = replace(AllianceConfig(), ring_x_max_m=-10.0, deposit_after_s=4.0)
+    # no steal; no ring is ever worth taking; deposits on (off by default), the raid off
+    config = replace(AllianceConfig(), steal_s=None, ring_x_max_m=-10.0, deposit_after_s=4.0)
     s = AllianceStrategy(ROLE_24, layout, config)
     s.target_goal = "neutral_south"
     log, clamped = drive(s, (0.0, -0.4, 0.0), 20.0, 15.0, None, True, stop_on_release=True)
@@ -453,7 +453,8 @@ def test_the_steal_targets_the_neutral_goal_seen_carried_before_a_nearer_free_on
     """A neutral goal seen in motion again and again (a robot carries it; one pushed aside
     moves once) is followed whatever its name: with the steal on, the 24" goes for it (the
     other alliance's loaded goal), not for the nearer one standing still; a neutral goal in its
-    own home zone comes after every one outside it, and one it left there is no target."""
+    own home zone (not left there by itself: most likely parked by its carrier) comes before
+    a nearer one outside it, and one it left there is no target."""
     from jetson.autonomy.alliance import AllianceConfig, _Pose
 
     layout = load_layout()
@@ -482,9 +483,12 @@ def test_the_steal_targets_the_neutral_goal_seen_carried_before_a_nearer_free_on
     s._tracker.track = None
     s.goals["neutral_south"].xy = home.copy()
     s.goals["neutral_north"].xy = north.copy()
-    assert s._steal_goal(here) == "neutral_north"  # the one in the home zone comes last
+    here_north = _Pose(north + np.array([-0.3, 0.0]), 90.0, 60.0)
+    assert s._steal_goal(here_north) == "neutral_south"  # the one in the home zone first
+    s.goals["neutral_south"].xy = None
+    assert s._steal_goal(here) == "neutral_north"
+    s.goals["neutral_south"].xy = home.copy()
     s.goals["neutral_north"].xy = None
-    assert s._steal_goal(here) == "neutral_south"
     s._deposited.append("neutral_south")
     assert s._steal_goal(here) is None  # never one it left itself
     s._deposited.clear()
@@ -509,7 +513,7 @@ def test_the_steal_leaves_its_own_goal_home_then_hauls_the_stolen_one_home() -> 
     from jetson.autonomy.carried_goal import Track
 
     layout = load_layout()
-    config = AllianceConfig(steal_s=50.0, ring_x_max_m=-10.0)
+    config = AllianceConfig(steal_s=50.0, steal_climb=False, ring_x_max_m=-10.0)
     t0 = layout.match_length_s - 49.0
     # Nothing seen moving: no other robot's goal to take; it keeps its own, hauls it home and
     # holds it there (a goal let go could be taken).
@@ -582,14 +586,16 @@ def test_a_goal_that_comes_slower_than_the_robot_drives_is_held_by_another_robot
     the way (a tug of war, or a wall): the goal is contested (`_contested`) until the clamp
     opens; a goal that comes along is not."""
     layout = load_layout()
+    from jetson.autonomy.alliance import AllianceConfig
+
     for gain, contested in ((1.0, False), (0.2, True)):
-        s = AllianceStrategy(ROLE_24, layout)
+        s = AllianceStrategy(ROLE_24, layout, AllianceConfig(steal_s=None))
         x, t = -0.5, 30.0
         s.step(AllianceInputs(x, 0.0, 270.0, "red", t, np.zeros((0, 2)), 0, True))
         for _ in range(60):
             t += 0.05
             s.step(AllianceInputs(x, 0.0, 270.0, "red", t, np.zeros((0, 2)), 0, True))
-            s._moves[-1] = (t, x, 0.0, 270.0, ROLE_24.max_linear_mps)  # as if at full speed
+            s._moves[-1] = s._moves[-1]._replace(v=ROLE_24.max_linear_mps)  # as if at full speed
             x -= gain * ROLE_24.max_linear_mps * 0.05  # facing -x: forward is -x
         assert s._contested == contested
         s.step(AllianceInputs(x, 0.0, 270.0, "red", t + 0.05, np.zeros((0, 2)), 0, False))
@@ -717,5 +723,5 @@ def test_a_robot_turning_as_it_drives_is_not_taken_for_dragged_back() -> None:
             h += 14.0  # 280 degrees a second
             t += 0.05
             if s._moves:  # what it commanded: ahead, slowly
-                s._moves[-1] = (*s._moves[-1][:4], 0.4)
+                s._moves[-1] = s._moves[-1]._replace(v=0.4)
         assert released == let_go
