@@ -269,6 +269,9 @@ class AllianceConfig:
     steal_climb: bool = True
     # A neutral goal seen in motion this long is carried (jetson/autonomy/carried_goal.py).
     carried_s: float = 1.5
+    # A goal the steal clamped and did not see carried is tested for at most this long: driven
+    # ahead, one another robot holds too comes slower than the robot drives.
+    steal_test_s: float = 6.0
     steal_haul_y_m: float = 1.15  # the haul spot: this far beside the platform's centre ...
     steal_haul_along_m: float = 0.1  # ... and this far from the hinge toward the field
     # The tow (steal_climb, a goal another robot holds too): the 24" drags it to its stage
@@ -484,6 +487,8 @@ class AllianceStrategy:
         # The neutral goal another robot carries (the steal's first target).
         self._tracker = CarriedGoalTracker(self.config.carried_mps, self.config.carried_s)
         self._hauled = False  # the goal hauled reached the haul spot
+        self._dragged_checked = False  # a whole drag window was read since the clamp closed
+        self._test_to: Vec | None = None  # where the steal tests the goal it clamped
         self._lined = False  # climbing with a held goal: in its lane, heading for the wall
         self._tow_out = False  # towing out to the lane beyond the stage first (_tow)
         self._towing = True  # towing a held goal to its stage (else lining up there)
@@ -567,11 +572,15 @@ class AllianceStrategy:
         robot holds it too (`_contested`, until the clamp opens)."""
         if not inputs.goal_clamped:
             self._contested = False
+            self._dragged_checked = False
+            self._test_to = None
             return
         fast = 0.5 * self.role.max_linear_mps
         window = self._moved_ahead(pose, least_v=fast) if pose.t - self._clamped_at > 1.0 else None
-        if window is not None and window[0] < 0.5 * fast * window[1]:
-            self._contested = True
+        if window is not None:
+            self._dragged_checked = True
+            if window[0] < 0.5 * fast * window[1]:
+                self._contested = True
 
     def _moved_ahead(self, pose: _Pose, least_v: float) -> tuple[float, float] | None:
         """Over the last `tug_window_s` of commands (at least 90 % of it recorded), all of them
@@ -1566,7 +1575,8 @@ class AllianceStrategy:
         """The neutral goal to steal: the one another robot carries (the other alliance's
         loaded goal, wherever it stands; jetson/autonomy/carried_goal.py) first, then one
         standing in the home zone, then the nearest; never one on a platform, one by the other
-        alliance's platform, or one it left itself."""
+        alliance's platform, or one it left itself (but `refetch_s` before the end, when it is
+        the one to climb with)."""
         line = self.layout.home_zone[2]
         plat = self.layout.platform
         tr = self._tracker.carried(self._now)
@@ -1584,9 +1594,10 @@ class AllianceStrategy:
                     return math.inf if xy is None else float(np.hypot(*(xy - tr.xy)))
 
                 self.goals[min(names, key=away)].xy = tr.xy.copy()
+        late = self._time_left(pose) <= self.config.refetch_s  # one to climb with, then
         best, best_cost = None, math.inf
         for name, b in self.goals.items():
-            if b.goal.owner is not None or b.xy is None or name in self._deposited:
+            if b.goal.owner is not None or b.xy is None or (name in self._deposited and not late):
                 continue
             if self._chased.get(name, -math.inf) > self._now:
                 continue  # chased goal_chase_s without taking it: another one for a while
@@ -1636,9 +1647,21 @@ class AllianceStrategy:
             return self._phase_haul_climb(pose, inputs, dt)
         plat = self.layout.platform
         spot = self._haul_spot(pose)
-        testing = not self._contested and pose.t - self._clamped_at < 2.5
+        # The test: with the goal just clamped, driving ahead until a whole drag window was read
+        # (_check_dragging), toward the haul spot when it is far, else out toward the field
+        # (at a wall the goal would come slower whoever holds it).
+        testing = (
+            not self._contested
+            and not self._dragged_checked
+            and pose.t - self._clamped_at < self.config.steal_test_s
+        )
+        if testing and self._test_to is None:
+            far = float(np.hypot(*(spot - pose.xy))) > 0.8
+            self._test_to = spot if far else np.array([pose.xy[0] + 1.0, 0.5 * pose.xy[1]])
         if not self._hauled and (testing or float(np.hypot(*(spot - pose.xy))) > 0.15):
             self.intent = "haul"
+            if testing and self._test_to is not None:
+                spot = self._test_to
             if self._contested:
                 # Another robot holds it too: pull at full speed all the way (a tug goes to
                 # the stronger pull; slowing down or turning in place hands it the goal),
@@ -1652,6 +1675,14 @@ class AllianceStrategy:
             if testing:
                 v = max(v, 0.6 * self.role.max_linear_mps)  # fast enough to tell (_check_dragging)
             return max(v, 0.0), w, True
+        if not self._contested and self._time_left(pose) <= self.config.refetch_s:
+            # A free goal late in the match: kept, and taken to the stage to climb with.
+            if self.config.steal_climb:
+                self._set_phase("haul_climb", pose.t)
+                return self._phase_haul_climb(pose, inputs, dt)
+            self._hauled = True
+            self.intent = "keep"
+            return 0.0, 0.0, True
         if not self._contested:
             # A free goal: leave it here (20 points, its rings count here) and take the next.
             if self.holding is not None:

@@ -725,3 +725,43 @@ def test_a_robot_turning_as_it_drives_is_not_taken_for_dragged_back() -> None:
             if s._moves:  # what it commanded: ahead, slowly
                 s._moves[-1] = s._moves[-1]._replace(v=0.4)
         assert released == let_go
+
+
+def test_the_steal_tests_a_goal_it_clamped_by_driving_out_toward_the_field() -> None:
+    """A goal the steal clamped without seeing it carried is tested: driven ahead at 0.6 of the
+    top speed or more until a whole drag window was read, out toward the field when the haul
+    spot is near (against a wall any goal comes slower). One that comes along is left in the
+    home zone and the next is stolen; one that comes slower another robot holds too: it is
+    towed to the stage (the default `steal_climb`)."""
+    layout = load_layout()
+    for gain, kept in ((1.0, False), (0.2, True)):
+        s = AllianceStrategy(ROLE_24, layout)
+        t = 40.0
+        s._steal_dropped = True
+        s._set_phase("steal", t - 1.0)
+        s.holding = s.target_goal = "neutral_south"
+        x, y, h = -1.3, -1.0, 270.0  # by the haul spot, facing the wall, the goal behind
+        speeds, released = [], None
+        for _ in range(int(10.0 / 0.05)):
+            a = s.step(AllianceInputs(x, y, h, "red", t, np.zeros((0, 2)), 0, True))
+            if a.clamp is False:
+                released = (x, y, h)
+                break
+            speeds.append(a.linear)
+            rad = math.radians(h)
+            x += gain * a.linear * 0.05 * math.sin(rad)
+            y += gain * a.linear * 0.05 * math.cos(rad)
+            h = (h + math.degrees(a.angular * 0.05)) % 360.0
+            t += 0.05
+        assert min(speeds[:20]) >= 0.6 * ROLE_24.max_linear_mps - 1e-9  # until a window is read
+        if kept:
+            assert released is None and s._contested and s.phase == "haul_climb"
+        else:
+            assert released is not None and s._deposited == ["neutral_south"]
+            rx, ry, rh = released
+            goal_at = (
+                rx - 0.47 * math.sin(math.radians(rh)),
+                ry - 0.47 * math.cos(math.radians(rh)),
+            )
+            assert layout.in_home_zone(goal_at)
+            assert max(s._test_to[0] - (-1.3), 0.0) > 0.9  # tested out toward the field
