@@ -236,6 +236,8 @@ class AllianceConfig:
         (0.3, -1.45),
         (0.3, 1.45),
     )
+    # `refetch_s` before the end the 24" wants a goal to climb with: the deposits' (above) and
+    # the steal's (a free goal it holds is kept, one it left home is a target again).
     refetch_s: float = 44.0
     # The raid: once it has left its first goal (the preloads on it), the 24" fetches every
     # goal it believes free outside its home zone, of either alliance's colour or neutral, and
@@ -1557,8 +1559,8 @@ class AllianceStrategy:
             self._bad_stages = []
         self.target_goal = name
         xy = self.goals[name].xy
-        # One seen carried is held to the end; any other is tested on the way to the haul spot
-        # (_phase_haul: another robot's comes slower than the robot drives).
+        # One seen carried is held to the end; any other is tested once clamped (_phase_haul:
+        # another robot's comes slower than the robot drives).
         self._steal_carried = self._seen_moving(xy)
         self.intent = f"steal:{name}"
         return self._get_goal(name, pose, inputs, dt, wait_until=None)
@@ -1634,10 +1636,12 @@ class AllianceStrategy:
     def _phase_haul(
         self, pose: _Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
-        """Drag the stolen goal into the home zone, beside the platform. A goal another robot
+        """Drag the stolen goal into the home zone, beside the platform. One not seen carried is
+        tested first (driven ahead until a whole drag window was read). A goal another robot
         still holds (it comes slower than the robot drives: a tug of war, which the stronger
         pull wins) is held there to the end, pulling toward the wall (with `steal_climb`, it is
-        climbed with: _phase_haul_climb); a free one is left there and the next is stolen."""
+        climbed with: _phase_haul_climb); a free one is left there and the next is stolen, but
+        from `refetch_s` before the end it is kept to climb with."""
         if not inputs.goal_clamped:
             self._set_phase("steal", pose.t)
             return 0.0, 0.0, False

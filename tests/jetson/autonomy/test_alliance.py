@@ -765,3 +765,35 @@ def test_the_steal_tests_a_goal_it_clamped_by_driving_out_toward_the_field() -> 
             )
             assert layout.in_home_zone(goal_at)
             assert max(s._test_to[0] - (-1.3), 0.0) > 0.9  # tested out toward the field
+
+
+def test_late_in_the_match_the_steal_keeps_a_free_goal_to_climb_with() -> None:
+    """From `refetch_s` before the end a free goal the steal tested is not left home: the 24"
+    tows it to its stage (haul_climb) to climb with; a goal it left home earlier is a target
+    again then, and not before."""
+    from jetson.autonomy.alliance import _Pose
+
+    layout = load_layout()
+    s = AllianceStrategy(ROLE_24, layout)
+    late = layout.match_length_s - s.config.refetch_s + 1.0
+    s._steal_dropped = True
+    s._set_phase("steal", late - 1.0)
+    s.holding = s.target_goal = "neutral_south"
+    x, y, h, t = -1.3, -1.0, 270.0, late
+    for _ in range(int(4.0 / 0.05)):
+        a = s.step(AllianceInputs(x, y, h, "red", t, np.zeros((0, 2)), 0, True))
+        assert a.clamp is not False
+        rad = math.radians(h)
+        x += a.linear * 0.05 * math.sin(rad)
+        y += a.linear * 0.05 * math.cos(rad)
+        h = (h + math.degrees(a.angular * 0.05)) % 360.0
+        t += 0.05
+    assert s.phase == "haul_climb" and not s._contested and s._deposited == []
+    left = AllianceStrategy(ROLE_24, layout)
+    for b in left.goals.values():
+        b.xy = None
+    left.goals["neutral_south"].xy = np.array([-1.4, -1.2])
+    left._deposited.append("neutral_south")
+    for when, target in ((60.0, None), (late, "neutral_south")):
+        left._now = when
+        assert left._steal_goal(_Pose(np.array([-0.9, -0.9]), 90.0, when)) == target
