@@ -1744,11 +1744,6 @@ class AllianceStrategy:
             self._moves.clear()
             v, w = self._on_board(pose, y, c.stage_along_m)
             return max(v, 0.0), w, True
-        if not self._contested:
-            # A free goal kept to climb with: nothing pulls it back, so the plain climb from
-            # here, which ends at the point where the board balances (no full-speed press).
-            self._set_phase("climb", pose.t)
-            return self._phase_climb(pose, inputs, dt)
         if self._dragged_back(pose):
             self._pull_until = pose.t + c.tug_s
             self._moves.clear()
