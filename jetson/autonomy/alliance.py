@@ -281,14 +281,18 @@ class AllianceConfig:
     # harder pull: a 24" at this share outpulls a 15" at full speed; turning in place hands the
     # goal over), steering at a point `tow_lookahead_m` along its lane toward the stage; beside
     # the platform it first tows out to the lane `tow_approach_m` beyond the stage. Within
-    # `tow_near_m` of the stage it lines up there and waits; in the last `tow_press_s` it tows
-    # and climbs at full speed.
+    # `tow_near_m` of the stage it lines up there and waits (until `tow_into_board_s`, below);
+    # in the last `tow_press_s` it tows and climbs at full speed.
     tow_speed: float = 0.7
     tow_lookahead_m: float = 0.4
     tow_approach_m: float = 0.5
     tow_lane_m: float = 0.08
     tow_near_m: float = 0.25
     tow_press_s: float = 10.0
+    # From `tow_into_board_s` before the end (None: never) the 24" tows a goal another robot
+    # holds too straight along its lane into the board instead: never slower than `tow_speed`,
+    # pressed against the board's edge until it tips down, then up it and against the wall.
+    tow_into_board_s: float | None = 24.0
 
 
 class AllianceInputs(NamedTuple):
@@ -1708,7 +1712,8 @@ class AllianceStrategy:
         the board's speed, up the board once the sentry tips it down, and against the wall to
         the end, at full speed in the last `tow_press_s`. Dragged backward while climbing (the
         other robot pulls harder: a tug of war goes to the stronger pull), it pulls straight
-        ahead at full speed for `tug_s`."""
+        ahead at full speed for `tug_s`. From `tow_into_board_s` before the end a goal another
+        robot holds too is towed straight into the board instead (no lining up, no wait)."""
         c = self.config
         left = self._time_left(pose)
         if not inputs.goal_clamped:
@@ -1727,6 +1732,13 @@ class AllianceStrategy:
         elif far < c.tow_near_m:
             self._towing = False
         last = left < c.tow_press_s
+        if self._contested and c.tow_into_board_s is not None and left <= c.tow_into_board_s:
+            # The climb's last stretch (tow_into_board_s): never slower than tow_speed (below
+            # it the other robot's pull wins and drags the chain away: lining up at the stage
+            # and waiting there lost the goal). Along the lane into the board's edge, pressed
+            # there until the sentry tips the board down, then up it and against the wall.
+            self.intent = "tow_press"
+            return (*self._tow(pose, y, least=1.0 if last else c.tow_speed, into=True), True)
         if self._towing or (last and not self._lined):
             # In the last seconds the other robot heads home: tow at full speed, never line up.
             self.intent = "tow"
@@ -1764,7 +1776,9 @@ class AllianceStrategy:
             w = 0.0  # against the wall: turning there walks the robot sideways along it
         return v, w, True
 
-    def _tow(self, pose: _Pose, y: float, least: float) -> tuple[float, float]:
+    def _tow(
+        self, pose: _Pose, y: float, least: float, into: bool = False
+    ) -> tuple[float, float]:
         """Drag a goal another robot holds too into the lane at `y`: ahead at `least` of the
         top speed or more whatever the heading (turning in place, or slowing down, hands the goal
         to the other robot's pull), steering at the lane; beside the platform (short of the
@@ -1782,9 +1796,12 @@ class AllianceStrategy:
         if self._tow_out:
             target = out
         else:
-            target = np.array([plat.x_at(max(along - c.tow_lookahead_m, c.stage_along_m)), y])
+            floor = -math.inf if into else c.stage_along_m
+            target = np.array([plat.x_at(max(along - c.tow_lookahead_m, floor)), y])
         d = target - pose.xy
         err = math.radians(angle_diff_deg(float(heading_of(d)), pose.heading))
+        if into and along < plat.size[0] / 2 + self.role.length_m / 2:
+            err = float(np.clip(err, -0.3, 0.3))  # at or on the board: small corrections only
         v = self.role.max_linear_mps * max(least, math.cos(err))
         w = float(
             np.clip(c.turn_gain * err, -self.role.max_angular_rad_s, self.role.max_angular_rad_s)

@@ -625,10 +625,12 @@ def test_a_carried_goal_not_seen_where_the_robot_looks_for_it_is_no_longer_follo
     assert s.goals["neutral_tall"].xy is None and s._tracker.track is None
 
 
-def holding_a_contested_goal(phase: str, t: float) -> tuple[AllianceStrategy, AllianceConfig]:
+def holding_a_contested_goal(
+    phase: str, t: float, tow_into_board_s: float | None = None
+) -> tuple[AllianceStrategy, AllianceConfig]:
     """A red 24" with steal-then-climb on, in `phase` at `t`, its clamp holding the tall goal
-    another robot holds too."""
-    c = AllianceConfig(steal_s=104.0, steal_climb=True)
+    another robot holds too (`tow_into_board_s`: AllianceConfig's, None by default here)."""
+    c = AllianceConfig(steal_s=104.0, steal_climb=True, tow_into_board_s=tow_into_board_s)
     s = AllianceStrategy(ROLE_24, load_layout(), c)
     s._set_phase(phase, t)
     s._contested = True
@@ -701,6 +703,37 @@ def test_with_steal_climb_a_24in_dragged_off_its_stage_tows_back_at_full_speed_l
     late = layout.match_length_s - c.tow_press_s + 0.5
     a = s.step(AllianceInputs(*far, 90.0, "red", late, np.zeros((0, 2)), 0, True))
     assert s.intent == "tow" and a.linear == pytest.approx(ROLE_24.max_linear_mps)
+
+
+def test_late_a_24in_tows_a_contested_goal_into_its_board_never_slowing_down() -> None:
+    """From `tow_into_board_s` before the end the 24" holding a goal another robot holds too
+    tows it along its lane into the board, never slower than `tow_speed` (no lining up at the
+    stage, no waiting there: slower, the other robot's pull wins), only small turns at the
+    board, pressed against it, and at full speed in the last `tow_press_s`."""
+    layout = load_layout()
+    plat = layout.platform
+    c0 = AllianceConfig()
+    assert c0.tow_into_board_s is not None and c0.tow_into_board_s > c0.climb_after_s
+    t = layout.match_length_s - c0.tow_into_board_s + 0.5
+    s, c = holding_a_contested_goal("haul_climb", t, c0.tow_into_board_s)
+    least = c.tow_speed * ROLE_24.max_linear_mps - 1e-9
+    # Off its lane, facing away from the board: it tows on (turning as it drives).
+    log, clamped = drive(s, (plat.x_at(1.6), c.board_y_24_m + 0.6, 90.0), t, 8.0, None, True)
+    assert clamped and all(k[3].clamp for k in log)
+    assert {k[4] for k in log} == {"tow_press"}
+    assert all(k[3].linear >= least for k in log)
+    # Lined up in its lane, in front of the board's edge, it heads straight into it.
+    edge_x = plat.x_at(plat.size[0] / 2 + ROLE_24.length_m / 2 - 0.02)
+    a = s.step(
+        AllianceInputs(edge_x, c.board_y_24_m + 0.03, 272.0, "red", t + 8.0, np.zeros((0, 2)), 0, True)
+    )
+    assert s.intent == "tow_press" and a.clamp and a.linear >= least
+    assert abs(a.angular) <= c.turn_gain * 0.3 + 1e-9
+    late = layout.match_length_s - c.tow_press_s + 0.5
+    a = s.step(
+        AllianceInputs(edge_x, c.board_y_24_m, 270.0, "red", late, np.zeros((0, 2)), 0, True)
+    )
+    assert a.linear == pytest.approx(ROLE_24.max_linear_mps) and a.clamp
 
 
 def test_a_robot_turning_as_it_drives_is_not_taken_for_dragged_back() -> None:
