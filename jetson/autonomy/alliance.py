@@ -1776,9 +1776,7 @@ class AllianceStrategy:
             w = 0.0  # against the wall: turning there walks the robot sideways along it
         return v, w, True
 
-    def _tow(
-        self, pose: _Pose, y: float, least: float, into: bool = False
-    ) -> tuple[float, float]:
+    def _tow(self, pose: _Pose, y: float, least: float, into: bool = False) -> tuple[float, float]:
         """Drag a goal another robot holds too into the lane at `y`: ahead at `least` of the
         top speed or more whatever the heading (turning in place, or slowing down, hands the goal
         to the other robot's pull), steering at the lane; beside the platform (short of the

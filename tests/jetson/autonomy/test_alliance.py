@@ -724,9 +724,8 @@ def test_late_a_24in_tows_a_contested_goal_into_its_board_never_slowing_down() -
     assert all(k[3].linear >= least for k in log)
     # Lined up in its lane, in front of the board's edge, it heads straight into it.
     edge_x = plat.x_at(plat.size[0] / 2 + ROLE_24.length_m / 2 - 0.02)
-    a = s.step(
-        AllianceInputs(edge_x, c.board_y_24_m + 0.03, 272.0, "red", t + 8.0, np.zeros((0, 2)), 0, True)
-    )
+    lane_y = c.board_y_24_m + 0.03
+    a = s.step(AllianceInputs(edge_x, lane_y, 272.0, "red", t + 8.0, np.zeros((0, 2)), 0, True))
     assert s.intent == "tow_press" and a.clamp and a.linear >= least
     assert abs(a.angular) <= c.turn_gain * 0.3 + 1e-9
     late = layout.match_length_s - c.tow_press_s + 0.5
