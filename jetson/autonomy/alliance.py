@@ -1780,7 +1780,8 @@ class AllianceStrategy:
         """Drag a goal another robot holds too into the lane at `y`: ahead at `least` of the
         top speed or more whatever the heading (turning in place, or slowing down, hands the goal
         to the other robot's pull), steering at the lane; beside the platform (short of the
-        stage and out of the lane) out to the lane beyond the stage first."""
+        stage and out of the lane) out to the lane beyond the stage first. `into`: on along the
+        lane past the stage, into the board and up it (small turns only once at the board)."""
         c = self.config
         plat = self.layout.platform
         along = plat.along(float(pose.xy[0]))
