@@ -188,6 +188,10 @@ class AllianceConfig:
     guard: bool = False
     guard_gap_m: float = 0.05  # the guard stands this far in front of the board
     blocked_s: float = 2.0  # no progress onto the board this long: the climb is blocked
+    # The 15" on the board (its sentry spot, or climbing from it) this far from its lane was
+    # pushed out of it (a chain of robots and a goal swung through it; off the board's end it
+    # holds nothing level and climbs nowhere): it goes back to its stage and lines up again.
+    off_lane_m: float = 0.15
     park_along_m: float = 0.3  # a blocked robot parks here (from the hinge) ...
     park_y_m: float = 1.15  # ... this far beside the platform's centre
     # A tug of war: driving forward yet moved `tug_distance_m` backward in `tug_window_s`.
@@ -858,6 +862,8 @@ class AllianceStrategy:
         plat = self.layout.platform
         clamp = bool(inputs.goal_clamped)
         y = c.board_y_15_m
+        if self._climbing and abs(float(pose.xy[1]) - y) > c.off_lane_m:
+            self._climbing = self._sentry_set = False  # pushed out of its lane: line up again
         if not self._climbing:
             stage = np.array([self._board_x(c.sentry_stage_along_m), y])
             heading_err = angle_diff_deg(plat.wall_heading_deg, pose.heading)
@@ -1399,6 +1405,26 @@ class AllianceStrategy:
         big = self.role.role == "24in"
         clamp: bool | None = bool(inputs.goal_clamped)
         y = c.board_y_24_m if big else c.board_y_15_m
+        if (
+            not big
+            and self._climbing
+            and abs(float(pose.xy[1]) - y) > c.off_lane_m
+            and self._time_left(pose) > c.blocked_s + 4.0
+        ):
+            self._climbing = False  # pushed out of its lane: to the stage, line up again
+        if (
+            big
+            and inputs.goal_clamped
+            and not self._climbing
+            and c.steal_s is not None
+            and c.steal_climb
+            and self._dragged_back(pose)
+        ):
+            # Dragged backward on its way to the stage: another robot holds the goal too (the
+            # steal's test had not told yet), and the slow approach hands it over: the tow.
+            self._contested = True
+            self._set_phase("haul_climb", pose.t)
+            return self._phase_haul_climb(pose, inputs, dt)
         if big and not self._climbing and not inputs.goal_clamped:
             cleared = self._clear_lane(pose, y)
             if cleared is not None:
@@ -1801,6 +1827,8 @@ class AllianceStrategy:
         err = math.radians(angle_diff_deg(float(heading_of(d)), pose.heading))
         if into and along < plat.size[0] / 2 + self.role.length_m / 2:
             err = float(np.clip(err, -0.3, 0.3))  # at or on the board: small corrections only
+            if along < self.role.length_m / 2 - plat.size[0] / 2 + 0.03:
+                err = 0.0  # against the wall: turning there walks the robot sideways along it
         v = self.role.max_linear_mps * max(least, math.cos(err))
         w = float(
             np.clip(c.turn_gain * err, -self.role.max_angular_rad_s, self.role.max_angular_rad_s)

@@ -829,3 +829,84 @@ def test_late_in_the_match_the_steal_keeps_a_free_goal_to_climb_with() -> None:
     for when, target in ((60.0, None), (late, "neutral_south")):
         left._now = when
         assert left._steal_goal(_Pose(np.array([-0.9, -0.9]), 90.0, when)) == target
+
+
+def test_a_15in_pushed_out_of_its_lane_on_the_board_lines_up_again() -> None:
+    """The 15" at its lock spot (or climbing from it) pushed along the wall more than
+    `off_lane_m` (off the board's end it holds nothing level) goes back to its stage in front of
+    the board and lines up in its lane again; nudged less, it stays where it is."""
+    layout = load_layout()
+    plat = layout.platform
+    wall = plat.wall_heading_deg
+    c = AllianceConfig()
+    x = plat.x_at(c.lock_along_m)
+    lane = c.board_y_15_m
+    for nudge, stays in ((0.5 * c.off_lane_m, True), (c.off_lane_m + 0.4, False)):
+        s = AllianceStrategy(ROLE_15, layout, c)
+        s._set_phase("sentry", 60.0)
+        s._climbing = s._sentry_set = True
+        s.step(AllianceInputs(x, lane + nudge, wall, "red", 70.0, np.zeros((0, 2)), 0, True))
+        assert (s.intent == "lock") is stays and (s.intent == "to_sentry") is not stays
+        log, _ = drive(s, (x, lane + nudge, wall), 70.0, 12.0, None, True)
+        if not stays:
+            x_end, y_end, h_end = log[-1][:3]
+            assert s.intent == "lock" and y_end == pytest.approx(lane, abs=0.07)
+            assert plat.along(x_end) == pytest.approx(c.lock_along_m, abs=0.05)
+            assert abs(angle_diff_deg(wall, h_end)) < 8.0
+    # Climbing: the same, while there is time to line up again.
+    left = c.blocked_s + 6.0
+    s = AllianceStrategy(ROLE_15, layout, c)
+    s._set_phase("climb", layout.match_length_s - left - 1.0)
+    s._climbing = True
+    s.step(
+        AllianceInputs(
+            x, lane + c.off_lane_m + 0.3, wall, "red", layout.match_length_s - left,
+            np.zeros((0, 2)), 0, True,
+        )
+    )  # fmt: skip
+    assert s.intent == "to_stage" and not s._climbing
+
+
+def test_a_24in_pressing_a_contested_goal_against_the_wall_does_not_turn() -> None:
+    """Towed into the board and up it, the 24" against the wall drives straight on, however
+    far its heading is off: turning there walks it sideways along the wall, off its lane and
+    its footprint off the board's end."""
+    layout = load_layout()
+    plat = layout.platform
+    c0 = AllianceConfig()
+    assert c0.tow_into_board_s is not None
+    t = layout.match_length_s - c0.tow_into_board_s + 2.0
+    s, c = holding_a_contested_goal("haul_climb", t, c0.tow_into_board_s)
+    wall_x = plat.x_at(ROLE_24.length_m / 2 - plat.size[0] / 2)
+    for y, h in ((c.board_y_24_m + 0.1, 270.0), (c.board_y_24_m, 262.0)):
+        a = s.step(AllianceInputs(wall_x, y, h, "red", t, np.zeros((0, 2)), 0, True))
+        assert s.intent == "tow_press" and a.clamp and a.angular == 0.0 and a.linear > 0
+        t += 0.05
+    # A step away from the wall, it still steers into its lane.
+    a = s.step(AllianceInputs(wall_x + 0.2, c.board_y_24_m + 0.1, 270.0, "red", t,
+                              np.zeros((0, 2)), 0, True))  # fmt: skip
+    assert a.angular != 0.0
+
+
+def test_a_24in_dragged_back_on_its_way_to_climb_takes_its_goal_for_held_by_another() -> None:
+    """The 24" heading for its stage with a goal it believed free, driving ahead yet moved
+    backward (another robot holds the goal too: the steal's test had not told yet), tows it
+    (haul_climb) instead of lining up slowly, the clamp closed."""
+    layout = load_layout()
+    c = AllianceConfig()
+    s = AllianceStrategy(ROLE_24, layout, c)
+    t = layout.match_length_s - c.climb_24_s + 1.0
+    s._set_phase("climb", t)
+    s.holding = s.target_goal = "neutral_tall"
+    s._was_clamped = True
+    x, y, h = 0.0, -0.3, 270.0  # facing its board (-x), toward the stage
+    a = s.step(AllianceInputs(x, y, h, "red", t, np.zeros((0, 2)), 0, True))
+    assert s.phase == "climb" and a.linear > 0
+    for _ in range(30):
+        x += 0.3 * 0.05  # dragged toward the field, away from the board
+        t += 0.05
+        a = s.step(AllianceInputs(x, y, h, "red", t, np.zeros((0, 2)), 0, True))
+        if s.phase != "climb":
+            break
+    assert s.phase == "haul_climb" and s._contested and a.clamp
+    assert a.linear >= c.tow_speed * ROLE_24.max_linear_mps - 1e-9
