@@ -24,11 +24,11 @@ import math
 
 import numpy as np
 
-from jetson.autonomy.alliance import (
+from jetson.autonomy.alliance import AllianceStrategy
+from jetson.autonomy.alliance_config import (
     AllianceAction,
     AllianceConfig,
     AllianceInputs,
-    AllianceStrategy,
     RobotRole,
 )
 from jetson.autonomy.field_layout import FieldLayout, load_layout
