@@ -1523,14 +1523,6 @@ class AllianceStrategy:
             self._set_phase("climb", pose.t)
             return self._phase_climb(pose, inputs, dt)
         y = c.board_y_24_m
-        wall = self.layout.platform.wall_heading_deg
-        waiting = left > c.climb_after_s
-        stage = np.array([self._board_x(c.stage_along_m), y])
-        far = float(np.hypot(*(stage - pose.xy)))
-        if far > c.tow_near_m + 0.2 and (waiting or not self._lined):
-            self._towing, self._lined = True, False  # dragged away from the stage: back to it
-        elif far < c.tow_near_m:
-            self._towing = False
         last = left < c.tow_press_s
         if self._contested and c.tow_into_board_s is not None and left <= c.tow_into_board_s:
             # The climb's last stretch (tow_into_board_s): never slower than tow_speed (below
@@ -1539,6 +1531,14 @@ class AllianceStrategy:
             # there until the sentry tips the board down, then up it and against the wall.
             self.intent = "tow_press"
             return (*self._tow(pose, y, least=1.0 if last else c.tow_speed, into=True), True)
+        wall = self.layout.platform.wall_heading_deg
+        waiting = left > c.climb_after_s
+        stage = np.array([self._board_x(c.stage_along_m), y])
+        far = float(np.hypot(*(stage - pose.xy)))
+        if far > c.tow_near_m + 0.2 and (waiting or not self._lined):
+            self._towing, self._lined = True, False  # dragged away from the stage: back to it
+        elif far < c.tow_near_m:
+            self._towing = False
         if self._towing or (last and not self._lined):
             # In the last seconds the other robot heads home: tow at full speed, never line up.
             self.intent = "tow"
@@ -1600,7 +1600,8 @@ class AllianceStrategy:
         d = target - pose.xy
         err = math.radians(angle_diff_deg(float(heading_of(d)), pose.heading))
         if into and along < plat.size[0] / 2 + self.role.length_m / 2:
-            err = float(np.clip(err, -0.3, 0.3))  # at or on the board: small corrections only
+            # At or on the board: small corrections only.
+            err = float(np.clip(err, -c.tow_board_err_rad, c.tow_board_err_rad))
             if along < self.role.length_m / 2 - plat.size[0] / 2 + 0.03:
                 err = 0.0  # against the wall: turning there walks the robot sideways along it
         v = self.role.max_linear_mps * max(least, math.cos(err))

@@ -224,6 +224,9 @@ class AllianceConfig:
     # holds too straight along its lane into the board instead: never slower than `tow_speed`,
     # pressed against the board's edge until it tips down, then up it and against the wall.
     tow_into_board_s: float | None = 24.0
+    # Towed into the board, at or on it the 24" steers at most this far (radians) off its heading
+    # toward its lane: turning harder there swings the chain across the board behind it.
+    tow_board_err_rad: float = 0.3
 
 
 class AllianceInputs(NamedTuple):

@@ -727,7 +727,7 @@ def test_late_a_24in_tows_a_contested_goal_into_its_board_never_slowing_down() -
     lane_y = c.board_y_24_m + 0.03
     a = s.step(AllianceInputs(edge_x, lane_y, 272.0, "red", t + 8.0, np.zeros((0, 2)), 0, True))
     assert s.intent == "tow_press" and a.clamp and a.linear >= least
-    assert abs(a.angular) <= c.turn_gain * 0.3 + 1e-9
+    assert abs(a.angular) <= c.turn_gain * c.tow_board_err_rad + 1e-9
     late = layout.match_length_s - c.tow_press_s + 0.5
     a = s.step(
         AllianceInputs(edge_x, c.board_y_24_m, 270.0, "red", late, np.zeros((0, 2)), 0, True)
