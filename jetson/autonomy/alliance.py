@@ -1352,6 +1352,7 @@ class AllianceStrategy:
             # up to about 2 m), and a neutral goal not found where it was tried may be found
             # again.
             self.intent = "steal_search"
+            self._stage_goal = None  # a goal found again is chased afresh (goal_chase_s)
             for b in self.goals.values():
                 if b.goal.owner is None:
                     b.tries = 0.0

@@ -910,3 +910,32 @@ def test_a_24in_dragged_back_on_its_way_to_climb_takes_its_goal_for_held_by_anot
             break
     assert s.phase == "haul_climb" and s._contested and a.clamp
     assert a.linear >= c.tow_speed * ROLE_24.max_linear_mps - 1e-9
+
+
+def test_a_goal_the_steal_finds_again_after_searching_is_chased_afresh() -> None:
+    """The steal's time on one goal (`goal_chase_s`, then it is left for `busy_s`) counts from
+    when the goal was found again: time spent searching after losing sight of it (the robot
+    backs onto it blind, another robot drags it away) does not use it up."""
+    layout = load_layout()
+    c = AllianceConfig()
+    s = AllianceStrategy(ROLE_24, layout, c)
+    name = "neutral_tall"
+    t = 30.0
+    s._set_phase("steal", t - 5.0)
+    s._steal_dropped = True
+    s.goals[name].xy = np.array([-0.5, -1.0])
+    s.step(AllianceInputs(-0.9, -0.2, 180.0, "red", t, np.zeros((0, 2)), 0, False))
+    assert s.target_goal == name and s.intent != "steal_search"
+    # Lost: nothing known, it searches for most of goal_chase_s.
+    for b in s.goals.values():
+        b.xy = None
+    t += c.goal_chase_s - 1.0
+    s.step(AllianceInputs(-0.9, -0.2, 180.0, "red", t, np.zeros((0, 2)), 0, False))
+    assert s.intent == "steal_search"
+    # Found again, past goal_chase_s since it was first chased: still the one it goes for.
+    s.goals[name].xy = np.array([-0.5, -1.0])
+    for _ in range(3):
+        t += 1.0
+        s.step(AllianceInputs(-0.9, -0.2, 180.0, "red", t, np.zeros((0, 2)), 0, False))
+    assert s.target_goal == name and s._chased.get(name, -math.inf) <= t
+    assert s.intent != "steal_search"
