@@ -636,7 +636,7 @@ class AllianceStrategy:
         plat = self.layout.platform
         clamp = bool(inputs.goal_clamped)
         y = c.board_y_15_m
-        if self._climbing and abs(float(pose.xy[1]) - y) > c.off_lane_m:
+        if self._climbing and self._off_lane(pose, y):
             self._climbing = self._sentry_set = False  # pushed out of its lane: line up again
         if not self._climbing:
             stage = np.array([self._board_x(c.sentry_stage_along_m), y])
@@ -1182,7 +1182,7 @@ class AllianceStrategy:
         if (
             not big
             and self._climbing
-            and abs(float(pose.xy[1]) - y) > c.off_lane_m
+            and self._off_lane(pose, y)
             and self._time_left(pose) > c.blocked_s + 4.0
         ):
             self._climbing = False  # pushed out of its lane: to the stage, line up again
@@ -1573,7 +1573,7 @@ class AllianceStrategy:
         press = last and along < plat.size[0] / 2
         speed = self.role.max_linear_mps if press else None
         v, w = self._on_board(pose, y, -math.inf, speed=speed)
-        if along < self.role.length_m / 2 - plat.size[0] / 2 + 0.03:
+        if self._against_wall(along):
             w = 0.0  # against the wall: turning there walks the robot sideways along it
         return v, w, True
 
@@ -1603,13 +1603,21 @@ class AllianceStrategy:
         if into and along < plat.size[0] / 2 + self.role.length_m / 2:
             # At or on the board: small corrections only.
             err = float(np.clip(err, -c.tow_board_err_rad, c.tow_board_err_rad))
-            if along < self.role.length_m / 2 - plat.size[0] / 2 + 0.03:
+            if self._against_wall(along):
                 err = 0.0  # against the wall: turning there walks the robot sideways along it
         v = self.role.max_linear_mps * max(least, math.cos(err))
         w = float(
             np.clip(c.turn_gain * err, -self.role.max_angular_rad_s, self.role.max_angular_rad_s)
         )
         return v, w
+
+    def _against_wall(self, along: float) -> bool:
+        """At `along` from the hinge the robot's front is (within 3 cm) against the wall."""
+        return along < self.role.length_m / 2 - self.layout.platform.size[0] / 2 + 0.03
+
+    def _off_lane(self, pose: _Pose, y: float) -> bool:
+        """Pushed out of the lane at `y` (more than `off_lane_m` along the wall)."""
+        return abs(float(pose.xy[1]) - y) > self.config.off_lane_m
 
     def _dragged_back(self, pose: _Pose) -> bool:
         """Over the last `tug_window_s` of commands (none of them backward), the robot moved
