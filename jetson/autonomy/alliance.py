@@ -279,6 +279,7 @@ class AllianceStrategy:
         self._pull_until = -1.0  # climbing with a held goal: at full pull until
         self._contested = False  # the goal hauled is another robot's too: held to the end
         self._steal_carried = False  # the goal it backs onto was seen carried
+        self._left_at: list[Vec] = []  # where the steal left goals it tested free (clamp point)
         self._stage_xy: Vec | None = None  # the stage it drives to now
         self._bad_stages: list[Vec] = []  # stages it was blocked on, stealing this goal
         self.intent = "start"  # what the last step was doing, for logs and tests
@@ -1342,8 +1343,9 @@ class AllianceStrategy:
         if inputs.goal_clamped:
             self._set_phase("haul", pose.t)
             # A goal seen carried is another robot's: held to the end (the robot holding it
-            # may stand still, and then nothing pulls back to tell).
-            self._contested = self._contested or self._steal_carried
+            # may stand still, and then nothing pulls back to tell); so is one standing where
+            # the steal left a goal it tested free (AllianceConfig.steal_again_m).
+            self._contested = self._contested or self._steal_carried or self._taken_again(pose)
             self._hauled = False
             return self._phase_haul(pose, inputs, dt)
         name = self._steal_goal(pose)
@@ -1369,6 +1371,15 @@ class AllianceStrategy:
         self._steal_carried = self._seen_moving(xy)
         self.intent = f"steal:{name}"
         return self._get_goal(name, pose, inputs, dt, wait_until=None)
+
+    def _taken_again(self, pose: _Pose) -> bool:
+        """The goal just clamped stands where the steal left one it tested free
+        (AllianceConfig.steal_again_m)."""
+        near = self.config.steal_again_m
+        if near is None:
+            return False
+        at = self._clamp_point(pose, self._widest)
+        return any(float(np.hypot(*(at - p))) < near for p in self._left_at)
 
     def _haul_spot(self, pose: _Pose) -> Vec:
         """Where the 24" leaves or holds a goal it takes home: deep in the home zone beside the
@@ -1496,6 +1507,7 @@ class AllianceStrategy:
             # A free goal: leave it here (20 points, its rings count here) and take the next.
             if self.holding is not None:
                 self._deposited.append(self.holding)
+            self._left_at.append(self._clamp_point(pose, self._widest))
             self._hauled = False
             self._set_phase("steal", pose.t)
             self.intent = "steal_drop"

@@ -205,6 +205,12 @@ class AllianceConfig:
     # A goal the steal clamped and did not see carried is tested for at most this long: driven
     # ahead, one another robot holds too comes slower than the robot drives.
     steal_test_s: float = 6.0
+    # A goal the steal clamps within `steal_again_m` of where it left one it tested free is held
+    # to the end as another robot's. A chaser standing still with its loaded goal does not pull,
+    # so that goal tests free and is left home; it stays where it was left (its chaser stands
+    # still), and the steal comes back for it under another goal's name. A free goal left home
+    # is pushed away by the robots passing (docs/notes/2026-11-28-taken-again.md). None: never.
+    steal_again_m: float | None = 0.6
     steal_haul_y_m: float = 1.15  # the haul spot: this far beside the platform's centre ...
     steal_haul_along_m: float = 0.1  # ... and this far from the hinge toward the field
     # The tow (steal_climb, a goal another robot holds too): the 24" drags it to its stage

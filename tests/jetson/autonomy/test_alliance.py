@@ -939,3 +939,44 @@ def test_a_goal_the_steal_finds_again_after_searching_is_chased_afresh() -> None
         s.step(AllianceInputs(-0.9, -0.2, 180.0, "red", t, np.zeros((0, 2)), 0, False))
     assert s.target_goal == name and s._chased.get(name, -math.inf) <= t
     assert s.intent != "steal_search"
+
+
+def test_a_goal_the_steal_takes_where_it_left_one_is_held_untested() -> None:
+    """A chaser standing still with its loaded goal does not pull: the goal tests free and is
+    left home, where it stays (its chaser stands still) and the steal comes back for it. A goal
+    the steal clamps within `steal_again_m` of where it left one is held as another robot's
+    (towed to the stage, no test drive); one clamped elsewhere is tested, and left home when
+    it comes along, its place remembered."""
+    from jetson.autonomy.alliance import _Pose
+
+    layout = load_layout()
+    x0, y0, h0 = -1.3, -1.0, 270.0  # by the haul spot, facing the wall, the goal behind
+    probe = AllianceStrategy(ROLE_24, layout)
+    left_at = probe._clamp_point(_Pose(np.array([x0, y0]), h0, 0.0), probe._widest)
+    for shift, held in ((0.2, True), (1.0, False)):
+        s = AllianceStrategy(ROLE_24, layout)
+        t = 40.0
+        s._steal_dropped = True
+        s._left_at = [left_at + np.array([0.0, shift])]  # a goal it tested free, left there
+        s._set_phase("steal", t - 1.0)
+        s.holding = s.target_goal = "neutral_south"
+        x, y, h = x0, y0, h0
+        released = False
+        for _ in range(int(10.0 / 0.05)):
+            a = s.step(AllianceInputs(x, y, h, "red", t, np.zeros((0, 2)), 0, True))
+            if a.clamp is False:
+                released = True
+                break
+            rad = math.radians(h)
+            x += a.linear * 0.05 * math.sin(rad)  # the goal comes along at full speed
+            y += a.linear * 0.05 * math.cos(rad)
+            h = (h + math.degrees(a.angular * 0.05)) % 360.0
+            t += 0.05
+        assert released != held
+        if held:
+            assert s._contested and s.phase == "haul_climb" and s._test_to is None
+        else:
+            assert s._deposited == ["neutral_south"] and len(s._left_at) == 2
+    off = AllianceStrategy(ROLE_24, layout, AllianceConfig(steal_again_m=None))
+    off._left_at = [left_at]
+    assert not off._taken_again(_Pose(np.array([x0, y0]), h0, 40.0))
