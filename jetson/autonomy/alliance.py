@@ -52,7 +52,9 @@ robots' masses, the carried goals'): the 24" holds the board tipped toward the f
 cancel.
 
 Its settings and messages (RobotRole, AllianceConfig, AllianceInputs, AllianceAction) live in
-jetson/autonomy/alliance_config.py.
+jetson/autonomy/alliance_config.py, its own state types (the pose, a step's command, a goal
+belief) in jetson/autonomy/alliance_state.py, and the steal's phases (the steal, the haul, the
+tow) in jetson/autonomy/alliance_steal.py, a mixin of AllianceStrategy.
 
 Interface (what the daemon's decide.py calls):
 
@@ -69,10 +71,8 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
 
 from jetson.autonomy.alliance_config import (
     AllianceAction,
@@ -80,6 +80,8 @@ from jetson.autonomy.alliance_config import (
     AllianceInputs,
     RobotRole,
 )
+from jetson.autonomy.alliance_state import GoalBelief, Move, Pose, Vec
+from jetson.autonomy.alliance_steal import StealPhases
 from jetson.autonomy.carried_goal import CarriedGoalTracker
 from jetson.autonomy.field_layout import FieldLayout, GoalLayout
 from jetson.autonomy.geometry import (
@@ -94,32 +96,6 @@ from jetson.autonomy.observation import RobotView
 from jetson.autonomy.ring_memory import RingMemory
 from jetson.autonomy.skills import Trail, arc_through, back_onto, pursuit_point, turn_first
 from jetson.autonomy.spec import SPEC_VERSION, ObservationSpec
-
-Vec = NDArray[np.float64]
-
-
-class _Move(NamedTuple):
-    """One control step's command and where it left the robot (the tug-of-war windows)."""
-
-    t: float
-    x: float
-    y: float
-    heading: float
-    v: float  # the commanded speed, m/s (forward positive)
-
-
-@dataclass
-class _Pose:
-    xy: Vec  # alliance frame
-    heading: float
-    t: float
-
-
-@dataclass
-class _GoalBelief:
-    goal: GoalLayout
-    xy: Vec | None  # where it is believed to be (alliance frame); None: missing
-    tries: float = 0.0  # seconds spent backing onto it
 
 
 @dataclass(frozen=True)
@@ -141,25 +117,6 @@ class _Plan:
     iso: list[_IsoTask] = field(default_factory=list)
     neutral: list[str] = field(default_factory=list)  # interaction goals, in order
     sentry: bool = False  # after its isolation jobs, wait on the platform (see _phase_sentry)
-
-
-# Where the steal looks when it knows of no neutral goal to take (alliance frame, m), 4 s each:
-# its own home zone's two sides and middle (the ring race's chaser parks its loaded goal there),
-# then the field's middle.
-_STEAL_SEARCH: tuple[tuple[float, float], ...] = (
-    (-0.9, -1.0),
-    (-1.0, -0.9),
-    (-0.9, 0.0),
-    (-0.9, 1.0),
-    (-1.0, 0.9),
-    (-0.9, 0.0),
-    (0.0, -0.8),
-    (0.25, -1.35),
-    (0.3, 0.0),
-    (0.0, 0.8),
-    (0.25, 1.35),
-    (0.3, 0.0),
-)
 
 
 def default_plan(role: str, layout: FieldLayout) -> _Plan:
@@ -187,7 +144,7 @@ def _segment_distance(point: Vec, a: Vec, b: Vec) -> float:
     return float(np.hypot(*(point - (a + t * ab))))
 
 
-class AllianceStrategy:
+class AllianceStrategy(StealPhases):
     """One robot of the scripted alliance: reset() at a match's start, step() every control
     step (see the module docstring)."""
 
@@ -225,7 +182,7 @@ class AllianceStrategy:
         self._iso_index = 0
         self._held_at_clamp = 0
         self.goals = {
-            g.name: _GoalBelief(g, np.array(g.xy, dtype=np.float64)) for g in self.layout.goals
+            g.name: GoalBelief(g, np.array(g.xy, dtype=np.float64)) for g in self.layout.goals
         }
         self.phase = "iso_goal"
         self.phase_since = 0.0
@@ -247,7 +204,7 @@ class AllianceStrategy:
         self._tug_until = -1.0
         self._tugs = 0
         # t, x, y, heading, commanded v
-        self._moves: list[_Move] = []
+        self._moves: list[Move] = []
         self._stage_goal: str | None = None
         self._stage_since = 0.0
         self._last_t = 0.0
@@ -287,7 +244,7 @@ class AllianceStrategy:
     def step(self, inputs: AllianceInputs) -> AllianceAction:
         xy, heading = to_alliance_frame((inputs.x, inputs.y), inputs.heading_deg, inputs.alliance)
         assert heading is not None
-        pose = _Pose(np.asarray(xy, dtype=np.float64), float(heading), float(inputs.time_s))
+        pose = Pose(np.asarray(xy, dtype=np.float64), float(heading), float(inputs.time_s))
         dt = max(0.0, pose.t - self._last_t)
         self._last_t = pose.t
         view = RobotView(
@@ -320,7 +277,7 @@ class AllianceStrategy:
         return AllianceAction(float(v), float(w), clamp, lift, intake)
 
     def _tug(
-        self, pose: _Pose, inputs: AllianceInputs, v: float, w: float
+        self, pose: Pose, inputs: AllianceInputs, v: float, w: float
     ) -> tuple[float, float, bool]:
         """A robot of the other alliance clamped the goal this one holds and drags it (the
         robot drives forward yet moves backward): pull away at full speed, straight, for a
@@ -328,7 +285,7 @@ class AllianceStrategy:
         let it go instead (the third value: release the clamp)."""
         c = self.config
         endgame = self.phase in ("climb", "balance", "stage", "steal", "haul", "haul_climb")
-        self._moves.append(_Move(pose.t, float(pose.xy[0]), float(pose.xy[1]), pose.heading, v))
+        self._moves.append(Move(pose.t, float(pose.xy[0]), float(pose.xy[1]), pose.heading, v))
         while self._moves and self._moves[0].t < pose.t - c.tug_window_s:
             self._moves.pop(0)
         if not inputs.goal_clamped:
@@ -351,7 +308,7 @@ class AllianceStrategy:
             return self.role.max_linear_mps, 0.0, False
         return v, w, False
 
-    def _check_dragging(self, pose: _Pose, inputs: AllianceInputs) -> None:
+    def _check_dragging(self, pose: Pose, inputs: AllianceInputs) -> None:
         """The goal in the clamp comes slower than the robot drives (over the last
         `tug_window_s` of driving forward at half speed or more, less than half the way): another
         robot holds it too (`_contested`, until the clamp opens)."""
@@ -367,7 +324,7 @@ class AllianceStrategy:
             if window[0] < 0.5 * fast * window[1]:
                 self._contested = True
 
-    def _moved_ahead(self, pose: _Pose, least_v: float) -> tuple[float, float] | None:
+    def _moved_ahead(self, pose: Pose, least_v: float) -> tuple[float, float] | None:
         """Over the last `tug_window_s` of commands (at least 90 % of it recorded), all of them
         forward at `least_v` or more: how far the robot moved along its heading (each step along
         the heading it had then: a robot that turned on the way ends behind where it began along
@@ -383,7 +340,7 @@ class AllianceStrategy:
             moved += (b.x - a.x) * math.sin(h) + (b.y - a.y) * math.cos(h)
         return moved, m[-1].t - m[0].t
 
-    def _let_go(self, pose: _Pose) -> None:
+    def _let_go(self, pose: Pose) -> None:
         """Give up the goal held in a tug of war: it is not where this robot can score it (the
         other robot keeps it), so it is marked missing, and the next goal on the list is next."""
         if self.holding is not None:
@@ -397,11 +354,11 @@ class AllianceStrategy:
 
     # --- memories ----------------------------------------------------------------------------
 
-    def _clamp_point(self, pose: _Pose, goal: GoalLayout) -> Vec:
+    def _clamp_point(self, pose: Pose, goal: GoalLayout) -> Vec:
         h = math.radians(pose.heading)
         return pose.xy - self.role.clamp_offset(goal) * np.array([math.sin(h), math.cos(h)])
 
-    def _track_clamp(self, pose: _Pose, clamped: bool) -> None:
+    def _track_clamp(self, pose: Pose, clamped: bool) -> None:
         if clamped and not self._was_clamped:
             self._clamped_at = pose.t
             # The goal now held: the one it was backing onto, else the believed one nearest
@@ -424,7 +381,7 @@ class AllianceStrategy:
             self.holding = None
         self._was_clamped = clamped
 
-    def _see_goals(self, pose: _Pose, alliance: str, goals_robot: Vec) -> None:
+    def _see_goals(self, pose: Pose, alliance: str, goals_robot: Vec) -> None:
         """Take the goal detector's sightings into the goal beliefs (see AllianceConfig)."""
         c = self.config
         seen = np.asarray(goals_robot, dtype=np.float64).reshape(-1, 3)
@@ -478,7 +435,7 @@ class AllianceStrategy:
                 self._goal_seen[name] = (now, xy.copy())
             best.xy = xy.copy()
 
-    def _forget_goals(self, pose: _Pose) -> None:
+    def _forget_goals(self, pose: Pose) -> None:
         """A goal whose spot the robot's body now covers is not there (pushed away)."""
         half = min(self.role.length_m, self.role.width_m) / 2
         for b in self.goals.values():
@@ -487,7 +444,7 @@ class AllianceStrategy:
 
     # --- the state machine -------------------------------------------------------------------
 
-    def _time_left(self, pose: _Pose) -> float:
+    def _time_left(self, pose: Pose) -> float:
         return self.layout.match_length_s - pose.t
 
     def _set_phase(self, phase: str, t: float) -> None:
@@ -501,7 +458,7 @@ class AllianceStrategy:
                 self._towing = True
 
     def _decide(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         c = self.config
         left = self._time_left(pose)
@@ -566,7 +523,7 @@ class AllianceStrategy:
     # isolation: the alliance goal and the preloads ------------------------------------------
 
     def _phase_iso_goal(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         """Back onto the current isolation job's goal."""
         if self._iso_index >= len(self.plan.iso) or pose.t >= self.layout.isolation_s:
@@ -585,7 +542,7 @@ class AllianceStrategy:
         return self._get_goal(task.goal, pose, inputs, dt, wait_until=None)
 
     def _phase_iso_score(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         """Thread the job's preloads onto the goal (dragging it where the job says), then let
         go of it or keep it."""
@@ -615,7 +572,7 @@ class AllianceStrategy:
         return v, w, True
 
     def _phase_release(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         """Open the clamp and drive forward, away from the goal just let go."""
         self.intent = "release"
@@ -628,7 +585,7 @@ class AllianceStrategy:
         return 0.0, 0.0, False
 
     def _phase_sentry(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         """Wait on the platform's field side with the goal it holds: the board stays tipped
         toward the field (the ramp down) whatever the other robots push onto it, so the
@@ -663,7 +620,7 @@ class AllianceStrategy:
             return 0.0, 0.0, clamp  # in place: never drive while the other alliance may be near
         return (*self._on_board(pose, y, want), clamp)
 
-    def _next_goal(self, pose: _Pose) -> None:
+    def _next_goal(self, pose: Pose) -> None:
         if (
             self.config.iso_rings
             and pose.t < self.layout.isolation_s - self.config.iso_rings_until_s
@@ -676,7 +633,7 @@ class AllianceStrategy:
         self._next_goal_interaction(pose)
 
     def _phase_iso_rings(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         """The rest of the isolation period: rings on its own side, deep enough that the
         other alliance's robots are unlikely there; they go onto the neutral goal later."""
@@ -695,7 +652,7 @@ class AllianceStrategy:
         return v, w, False
 
     def _phase_iso_wait(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         """The rest of the isolation period: stand in front of the platform, in its climbing
         lane, facing the wall (a goal pushed toward the board meets the robot instead, and a
@@ -742,7 +699,7 @@ class AllianceStrategy:
         far = b.goal.base_radius_m + 0.05 if raid else half_diag
         return not plat.either_contains((x, y), half_diag, far)
 
-    def _raiding(self, pose: _Pose) -> bool:
+    def _raiding(self, pose: Pose) -> bool:
         """The raid is on (see AllianceConfig.raid): the 24", a goal detector, its first goal
         left in the home zone, more than `deposit_until_s` left."""
         c = self.config
@@ -754,7 +711,7 @@ class AllianceStrategy:
             and self._time_left(pose) > c.deposit_until_s
         )
 
-    def _raid_goal(self, pose: _Pose) -> str | None:
+    def _raid_goal(self, pose: Pose) -> str | None:
         """The raid's next goal (see AllianceConfig.raid): a free goal outside the home zone,
         the nearest, one in the other alliance's home zone first within `raid_prefer_m`. Only
         the 24" raids, only with a goal detector (it finds the goals the others moved), and
@@ -780,7 +737,7 @@ class AllianceStrategy:
                 best, best_cost = name, cost
         return best
 
-    def _interaction_goal(self, pose: _Pose) -> str | None:
+    def _interaction_goal(self, pose: Pose) -> str | None:
         """The next goal to take: the first available on the list that it has not left in its
         home zone (after the first it left, the raid's: _raid_goal); with none, from
         `refetch_s` before the end, the nearest one it left there (to climb with)."""
@@ -798,7 +755,7 @@ class AllianceStrategy:
                 return min(left, key=lambda n: float(np.hypot(*(self.goals[n].xy - pose.xy))))
         return None
 
-    def _next_goal_interaction(self, pose: _Pose) -> None:
+    def _next_goal_interaction(self, pose: Pose) -> None:
         if self.plan.sentry:
             self._set_phase("sentry", pose.t)
             return
@@ -817,7 +774,7 @@ class AllianceStrategy:
     # interaction: a goal to score on, rings onto it ---------------------------------------------
 
     def _phase_get_goal(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         if inputs.goal_clamped:
             self.target_goal = None
@@ -831,7 +788,7 @@ class AllianceStrategy:
         wait = self.layout.isolation_s - self.config.isolation_margin_s
         return self._get_goal(name, pose, inputs, dt, wait_until=wait)
 
-    def _stage_for(self, goal: Vec, pose: _Pose) -> Vec:
+    def _stage_for(self, goal: Vec, pose: Pose) -> Vec:
         """Where to stand before backing onto a goal: on the own side of one near the centre
         line (never toward the other alliance), else the free spot around it (inside the walls,
         off the platform) nearest the robot, far enough to turn there without sweeping it."""
@@ -890,7 +847,7 @@ class AllianceStrategy:
     def _get_goal(
         self,
         name: str,
-        pose: _Pose,
+        pose: Pose,
         inputs: AllianceInputs,
         dt: float,
         wait_until: float | None,
@@ -955,7 +912,7 @@ class AllianceStrategy:
             return 0.5 * self.role.max_linear_mps, 0.0, True
         return v, w, True
 
-    def _look(self, name: str, pose: _Pose, goal: Vec) -> tuple[float, float, bool | None] | None:
+    def _look(self, name: str, pose: Pose, goal: Vec) -> tuple[float, float, bool | None] | None:
         """Before backing onto a goal in the interaction period (with a goal detector): unless
         it was seen where it is believed in the last confirm_s, face it and look; a goal not
         seen within look_s is marked missing. None: go ahead (confirmed, or no check)."""
@@ -1012,7 +969,7 @@ class AllianceStrategy:
         return -0.7 * rc.max_linear_mps * max(0.0, math.cos(back)) ** 6, w2
 
     def _phase_collect(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         c = self.config
         if not inputs.goal_clamped and pose.t - self.phase_since > 0.5:
@@ -1047,7 +1004,7 @@ class AllianceStrategy:
         return v, w, keep
 
     def _phase_deposit(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         """Leave the goal it holds deep in the home zone, beside the platform (its rings count
         there, and it scores 20), then drive off and take the next goal."""
@@ -1071,7 +1028,7 @@ class AllianceStrategy:
         self._next_goal_interaction(pose)
         return 0.0, 0.0, False
 
-    def _search(self, pose: _Pose) -> tuple[float, float]:
+    def _search(self, pose: Pose) -> tuple[float, float]:
         """No ring known in its half: sweep its half's waypoints so the camera finds some."""
         side = -1.0 if self.role.role == "24in" else 1.0
         points = [(-0.3, 0.45 * side), (0.1, 1.2 * side), (-0.8, 1.4 * side), (-0.45, 0.9 * side)]
@@ -1079,7 +1036,7 @@ class AllianceStrategy:
         return self._drive_to(pose, np.array(points[k]), None, speed=0.7)
 
     def _choose_ring(
-        self, pose: _Pose, x_max: float | None = None, only_mine: bool = False
+        self, pose: Pose, x_max: float | None = None, only_mine: bool = False
     ) -> Vec | None:
         c = self.config
         known = self.memory.known
@@ -1135,7 +1092,7 @@ class AllianceStrategy:
         return self.layout.platform.x_at(along)
 
     def _phase_drop(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         """The 15": leave the goal it carries deep in the home zone, clear of the platform."""
         self.intent = "drop"
@@ -1151,7 +1108,7 @@ class AllianceStrategy:
         self.phase_since = pose.t
         return 0.0, 0.0, False
 
-    def _search_home(self, pose: _Pose) -> tuple[float, float]:
+    def _search_home(self, pose: Pose) -> tuple[float, float]:
         """Until the stage time: rings near the home zone, on its own half."""
         target = self._choose_ring(pose)
         if target is None or target[0] > -0.1:
@@ -1159,7 +1116,7 @@ class AllianceStrategy:
         return self._drive_to(pose, target, None, speed=0.7, ring=True)
 
     def _phase_stage(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         """The 15": wait in front of the board, facing the wall, until the 24" holds its edge
         down; then climb."""
@@ -1173,7 +1130,7 @@ class AllianceStrategy:
         return (*self._arrive(pose, stage, self.layout.platform.wall_heading_deg), clamp)
 
     def _phase_climb(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         c = self.config
         plat = self.layout.platform
@@ -1267,7 +1224,7 @@ class AllianceStrategy:
                 return xy
         return None
 
-    def _clear_lane(self, pose: _Pose, y: float) -> tuple[float, float, bool | None] | None:
+    def _clear_lane(self, pose: Pose, y: float) -> tuple[float, float, bool | None] | None:
         """The 24" before its climb, its clamp empty: a goal on the board in its lane is taken
         (stand at the stage facing the field, back up the lane onto it) for at most
         `clear_lane_s`, and then carried up (see AllianceConfig.clear_lane_s). None: nothing
@@ -1304,334 +1261,15 @@ class AllianceStrategy:
         v, w = self._back_onto(float(local[0]), float(local[1]), dist)
         return v, w, True
 
-    def _phase_steal(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
-    ) -> tuple[float, float, bool | None]:
-        """The 24" (AllianceConfig.steal_s): leave the goal it holds in the home zone, then
-        back onto the neutral goal to steal (_steal_goal) and haul it home."""
-        if (
-            inputs.goal_clamped
-            and not self._steal_dropped
-            and (self._contested or not self._steal_worth(pose))
-        ):
-            # No other robot's goal to take: its own goal is the one to keep home.
-            self._steal_dropped = True
-            self._steal_carried = True  # held to the end: a goal let go may be taken
-            self._set_phase("haul", pose.t)
-            self._contested = True
-            self._hauled = False
-            return self._phase_haul(pose, inputs, dt)
-        if inputs.goal_clamped and not self._steal_dropped:
-            spot = self._haul_spot(pose)
-            if self.layout.in_home_zone(tuple(self._clamp_point(pose, self._widest))):
-                spot = pose.xy  # its goal is home already: leave it here
-            near = float(np.hypot(*(spot - pose.xy))) < 0.25
-            if not near and pose.t - self.phase_since < 8.0:
-                self.intent = "steal_drop"
-                return (*self._drive_to(pose, spot, None, speed=0.8), True)
-            if self.holding is not None:
-                self._deposited.append(self.holding)
-            self._steal_dropped = True
-            self.phase_since = pose.t
-            self.intent = "steal_drop"
-            return 0.0, 0.0, False
-        if not self._steal_dropped:
-            self._steal_dropped = True  # nothing held when the steal began
-        if pose.t - self.phase_since < 0.6:
-            # The phase's first 0.6 s: away from a goal just left (and at the steal's start).
-            return 0.4 * self.role.max_linear_mps, 0.0, False
-        if inputs.goal_clamped:
-            self._set_phase("haul", pose.t)
-            # A goal seen carried is another robot's: held to the end (the robot holding it
-            # may stand still, and then nothing pulls back to tell); so is one standing where
-            # the steal left a goal it tested free (AllianceConfig.steal_again_m).
-            self._contested = self._contested or self._steal_carried or self._taken_again(pose)
-            self._hauled = False
-            return self._phase_haul(pose, inputs, dt)
-        name = self._steal_goal(pose)
-        if name is None:
-            # None known: sweep the home zone, then the field's middle (the camera sees goals
-            # up to about 2 m), and a neutral goal not found where it was tried may be found
-            # again.
-            self.intent = "steal_search"
-            self._stage_goal = None  # a goal found again is chased afresh (goal_chase_s)
-            for b in self.goals.values():
-                if b.goal.owner is None:
-                    b.tries = 0.0
-            look = np.array(_STEAL_SEARCH[int(pose.t // 4.0) % len(_STEAL_SEARCH)])
-            if float(np.hypot(*(look - pose.xy))) > 0.2:
-                return (*self._drive_to(pose, look, None, speed=0.7), False)
-            return 0.0, 0.5 * self.role.max_angular_rad_s, False
-        if self.target_goal != name:
-            self._bad_stages = []
-        self.target_goal = name
-        xy = self.goals[name].xy
-        # One seen carried is held to the end; any other is tested once clamped (_phase_haul:
-        # another robot's comes slower than the robot drives).
-        self._steal_carried = self._seen_moving(xy)
-        self.intent = f"steal:{name}"
-        return self._get_goal(name, pose, inputs, dt, wait_until=None)
-
-    def _taken_again(self, pose: _Pose) -> bool:
-        """The goal just clamped stands where the steal left one it tested free
-        (AllianceConfig.steal_again_m)."""
-        near = self.config.steal_again_m
-        if near is None:
-            return False
-        at = self._clamp_point(pose, self._widest)
-        return any(float(np.hypot(*(at - p))) < near for p in self._left_at)
-
-    def _haul_spot(self, pose: _Pose) -> Vec:
-        """Where the 24" leaves or holds a goal it takes home: deep in the home zone beside the
-        platform, on the side of the platform it is on (the goal trails it toward the field)."""
-        c = self.config
-        plat = self.layout.platform
-        side = 1.0 if float(pose.xy[1]) > plat.center[1] else -1.0
-        return np.array([plat.x_at(c.steal_haul_along_m), plat.center[1] + side * c.steal_haul_y_m])
-
-    def _steal_goal(self, pose: _Pose) -> str | None:
-        """The neutral goal to steal: the one another robot carries (the other alliance's
-        loaded goal, wherever it stands; jetson/autonomy/carried_goal.py) first, then one
-        standing in the home zone, then the nearest; never one on a platform, one by the other
-        alliance's platform, or one it left itself (but `refetch_s` before the end, when it is
-        the one to climb with)."""
-        line = self.layout.home_zone[2]
-        plat = self.layout.platform
-        tr = self._tracker.carried(self._now)
-        if tr is not None:
-            # The goal followed is the neutral one believed nearest it (or a missing one).
-            names = [
-                n
-                for n, b in self.goals.items()
-                if b.goal.owner is None and n != self.holding and n not in self._deposited
-            ]
-            if names and not any(self._seen_moving(self.goals[n].xy) for n in names):
-
-                def away(n: str) -> float:
-                    xy = self.goals[n].xy
-                    return math.inf if xy is None else float(np.hypot(*(xy - tr.xy)))
-
-                self.goals[min(names, key=away)].xy = tr.xy.copy()
-        late = self._time_left(pose) <= self.config.refetch_s  # one to climb with, then
-        best, best_cost = None, math.inf
-        for name, b in self.goals.items():
-            if b.goal.owner is not None or b.xy is None or (name in self._deposited and not late):
-                continue
-            if self._chased.get(name, -math.inf) > self._now:
-                continue  # chased goal_chase_s without taking it: another one for a while
-            x, y = float(b.xy[0]), float(b.xy[1])
-            r = b.goal.base_radius_m
-            if plat.either_contains((x, y), r, r + 0.15):
-                continue  # on a platform; or by the other's, protected in the endgame
-            carried = self._seen_moving(b.xy)
-            cost = float(np.hypot(*(b.xy - pose.xy))) - (3.0 if carried else 0.0)
-            if x < line - r and not carried:
-                # Standing in the home zone, and not left there by this robot: most likely the
-                # other alliance's loaded goal, parked by its carrier (tested on the way home).
-                cost -= 3.0
-            if cost < best_cost:
-                best, best_cost = name, cost
-        return best
-
-    def _steal_worth(self, pose: _Pose) -> bool:
-        """A neutral goal another robot carries is followed, away from the clamp: the goal it
-        holds is worth leaving for it."""
-        tr = self._tracker.carried(self._now)
-        if tr is None:
-            return False
-        clamp = self._clamp_point(pose, self._widest)
-        return float(np.hypot(*(tr.xy - clamp))) > 0.5
-
-    def _seen_moving(self, xy: Vec | None) -> bool:
-        """The neutral goal carried by another robot was last seen near `xy`."""
-        tr = self._tracker.carried(self._now)
-        if xy is None or tr is None:
-            return False
-        return float(np.hypot(*(tr.xy - xy))) < 0.3
-
-    def _phase_haul(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
-    ) -> tuple[float, float, bool | None]:
-        """Drag the stolen goal into the home zone, beside the platform. One not seen carried is
-        tested first (driven ahead until a whole drag window was read). A goal another robot
-        still holds (it comes slower than the robot drives: a tug of war, which the stronger
-        pull wins) is held there to the end, pulling toward the wall (with `steal_climb`, it is
-        climbed with: _phase_haul_climb); a free one is left there and the next is stolen, but
-        from `refetch_s` before the end it is kept to climb with."""
-        if not inputs.goal_clamped:
-            self._set_phase("steal", pose.t)
-            return 0.0, 0.0, False
-        if self._contested and self.config.steal_climb:
-            # Held by another robot too, and climbed with: to the stage in its lane and up.
-            self._set_phase("haul_climb", pose.t)
-            return self._phase_haul_climb(pose, inputs, dt)
-        plat = self.layout.platform
-        spot = self._haul_spot(pose)
-        # The test: with the goal just clamped, driving ahead until a whole drag window was read
-        # (_check_dragging), toward the haul spot when it is far, else out toward the field
-        # (at a wall the goal would come slower whoever holds it).
-        testing = (
-            not self._contested
-            and not self._dragged_checked
-            and pose.t - self._clamped_at < self.config.steal_test_s
-        )
-        if testing and self._test_to is None:
-            far = float(np.hypot(*(spot - pose.xy))) > 0.8
-            self._test_to = spot if far else np.array([pose.xy[0] + 1.0, 0.5 * pose.xy[1]])
-        if not self._hauled and (testing or float(np.hypot(*(spot - pose.xy))) > 0.15):
-            self.intent = "haul"
-            if testing and self._test_to is not None:
-                spot = self._test_to
-            if self._contested:
-                # Another robot holds it too: pull at full speed all the way (a tug goes to
-                # the stronger pull; slowing down or turning in place hands it the goal),
-                # steering toward the spot.
-                d = spot - pose.xy
-                face = float(heading_of(d))
-                w = float(np.clip(self._turn_to(pose, face), -1.5, 1.5))
-                return self.role.max_linear_mps, w, True
-            v, w = self._drive_to(pose, spot, None, speed=1.0)
-            self._backoff_until = -1.0  # never back off: that would hand the goal back
-            if testing:
-                v = max(v, 0.6 * self.role.max_linear_mps)  # fast enough to tell (_check_dragging)
-            return max(v, 0.0), w, True
-        if not self._contested and self._time_left(pose) <= self.config.refetch_s:
-            # A free goal late in the match: kept, and taken to the stage to climb with.
-            if self.config.steal_climb:
-                self._set_phase("haul_climb", pose.t)
-                return self._phase_haul_climb(pose, inputs, dt)
-            self._hauled = True
-            self.intent = "keep"
-            return 0.0, 0.0, True
-        if not self._contested:
-            # A free goal: leave it here (20 points, its rings count here) and take the next.
-            if self.holding is not None:
-                self._deposited.append(self.holding)
-            self._left_at.append(self._clamp_point(pose, self._widest))
-            self._hauled = False
-            self._set_phase("steal", pose.t)
-            self.intent = "steal_drop"
-            return 0.0, 0.0, False
-        self._hauled = True
-        self.intent = "hold"
-        return self.role.max_linear_mps, self._turn_to(pose, plat.wall_heading_deg), True
-
-    def _phase_haul_climb(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
-    ) -> tuple[float, float, bool | None]:
-        """The 24" (AllianceConfig.steal_climb) with a goal another robot holds too: towed to the
-        stage in its lane (_tow), lined up there facing the wall, and held there (towed back
-        when dragged away) until `climb_after_s` before the end; then straight at the wall at
-        the board's speed, up the board once the sentry tips it down, and against the wall to
-        the end, at full speed in the last `tow_press_s`. Dragged backward while climbing (the
-        other robot pulls harder: a tug of war goes to the stronger pull), it pulls straight
-        ahead at full speed for `tug_s`. From `tow_into_board_s` before the end a goal another
-        robot holds too is towed straight into the board instead (no lining up, no wait)."""
-        c = self.config
-        left = self._time_left(pose)
-        if not inputs.goal_clamped:
-            if left > c.climb_24_s:
-                self._set_phase("steal", pose.t)  # it let go: steal on
-                return 0.0, 0.0, False
-            self._set_phase("climb", pose.t)
-            return self._phase_climb(pose, inputs, dt)
-        y = c.board_y_24_m
-        last = left < c.tow_press_s
-        if self._contested and c.tow_into_board_s is not None and left <= c.tow_into_board_s:
-            # The climb's last stretch (tow_into_board_s): never slower than tow_speed (below
-            # it the other robot's pull wins and drags the chain away: lining up at the stage
-            # and waiting there lost the goal). Along the lane into the board's edge, pressed
-            # there until the sentry tips the board down, then up it and against the wall.
-            self.intent = "tow_press"
-            return (*self._tow(pose, y, least=1.0 if last else c.tow_speed, into=True), True)
-        wall = self.layout.platform.wall_heading_deg
-        waiting = left > c.climb_after_s
-        stage = np.array([self._board_x(c.stage_along_m), y])
-        far = float(np.hypot(*(stage - pose.xy)))
-        if far > c.tow_near_m + 0.2 and (waiting or not self._lined):
-            self._towing, self._lined = True, False  # dragged away from the stage: back to it
-        elif far < c.tow_near_m:
-            self._towing = False
-        if self._towing or (last and not self._lined):
-            # In the last seconds the other robot heads home: tow at full speed, never line up.
-            self.intent = "tow"
-            return (*self._tow(pose, y, least=1.0 if last else c.tow_speed), True)
-        if not self._lined:
-            if not (far < 0.1 and abs(angle_diff_deg(wall, pose.heading)) < 8.0):
-                self.intent = "haul_stage"
-                return (*self._arrive(pose, stage, wall), True)
-            self._lined = True
-        if waiting:
-            # Not yet: wait at the stage facing the wall, off the board's edge (pressed against
-            # it while the board is level, the robot and its chain slide along it). Only ever
-            # forward: backing up hands the goal to the other robot's pull.
-            self.intent = "haul_wait"
-            self._moves.clear()
-            v, w = self._on_board(pose, y, c.stage_along_m)
-            return max(v, 0.0), w, True
-        if self._dragged_back(pose):
-            self._pull_until = pose.t + c.tug_s
-            self._moves.clear()
-        if pose.t < self._pull_until:
-            # Dragged backward by the other robot: pull straight ahead at full speed.
-            self.intent = "pull"
-            return self.role.max_linear_mps, 0.0, True
-        # Straight at the wall at the board's speed, in its lane: a point past the wall is never
-        # reached. On the board in the last `tow_press_s`, at full speed: the other robot heads
-        # home then, and its pull never wins against this one's.
-        self.intent = "haul_climb"
-        plat = self.layout.platform
-        along = plat.along(float(pose.xy[0]))
-        press = last and along < plat.size[0] / 2
-        speed = self.role.max_linear_mps if press else None
-        v, w = self._on_board(pose, y, -math.inf, speed=speed)
-        if self._against_wall(along):
-            w = 0.0  # against the wall: turning there walks the robot sideways along it
-        return v, w, True
-
-    def _tow(self, pose: _Pose, y: float, least: float, into: bool = False) -> tuple[float, float]:
-        """Drag a goal another robot holds too into the lane at `y`: ahead at `least` of the
-        top speed or more whatever the heading (turning in place, or slowing down, hands the goal
-        to the other robot's pull), steering at the lane; beside the platform (short of the
-        stage and out of the lane) out to the lane beyond the stage first. `into`: on along the
-        lane past the stage, into the board and up it (small turns only once at the board)."""
-        c = self.config
-        plat = self.layout.platform
-        along = plat.along(float(pose.xy[0]))
-        off = abs(float(pose.xy[1]) - y)
-        approach = c.stage_along_m + c.tow_approach_m
-        out = np.array([plat.x_at(approach), y])
-        if along < c.stage_along_m and off > 2 * c.tow_lane_m:
-            self._tow_out = True
-        if self._tow_out and float(np.hypot(*(out - pose.xy))) < c.tow_near_m:
-            self._tow_out = False
-        if self._tow_out:
-            target = out
-        else:
-            floor = -math.inf if into else c.stage_along_m
-            target = np.array([plat.x_at(max(along - c.tow_lookahead_m, floor)), y])
-        d = target - pose.xy
-        err = math.radians(angle_diff_deg(float(heading_of(d)), pose.heading))
-        if into and along < plat.size[0] / 2 + self.role.length_m / 2:
-            # At or on the board: small corrections only.
-            err = float(np.clip(err, -c.tow_board_err_rad, c.tow_board_err_rad))
-            if self._against_wall(along):
-                err = 0.0  # against the wall: turning there walks the robot sideways along it
-        v = self.role.max_linear_mps * max(least, math.cos(err))
-        w = float(
-            np.clip(c.turn_gain * err, -self.role.max_angular_rad_s, self.role.max_angular_rad_s)
-        )
-        return v, w
-
     def _against_wall(self, along: float) -> bool:
         """At `along` from the hinge the robot's front is (within 3 cm) against the wall."""
         return along < self.role.length_m / 2 - self.layout.platform.size[0] / 2 + 0.03
 
-    def _off_lane(self, pose: _Pose, y: float) -> bool:
+    def _off_lane(self, pose: Pose, y: float) -> bool:
         """Pushed out of the lane at `y` (more than `off_lane_m` along the wall)."""
         return abs(float(pose.xy[1]) - y) > self.config.off_lane_m
 
-    def _dragged_back(self, pose: _Pose) -> bool:
+    def _dragged_back(self, pose: Pose) -> bool:
         """Over the last `tug_window_s` of commands (none of them backward), the robot moved
         backward more than `tug_distance_m`: another robot drags the goal in its clamp."""
         window = self._moved_ahead(pose, least_v=0.0)
@@ -1642,7 +1280,7 @@ class AllianceStrategy:
         )
 
     def _phase_park(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         """The climb is blocked: end the match with the goal it carries deep in the home zone,
         beside the platform (not in front of it)."""
@@ -1658,12 +1296,12 @@ class AllianceStrategy:
         return 0.0, 0.0, clamp
 
     def _phase_hold(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         return self._phase_climb(pose, inputs, dt)
 
     def _phase_balance(
-        self, pose: _Pose, inputs: AllianceInputs, dt: float
+        self, pose: Pose, inputs: AllianceInputs, dt: float
     ) -> tuple[float, float, bool | None]:
         c = self.config
         self.intent = "balance"
@@ -1694,7 +1332,7 @@ class AllianceStrategy:
         return float(np.clip(-torque / self.role.mass_kg, -reach, reach))
 
     def _on_board(
-        self, pose: _Pose, y: float, along: float, speed: float | None = None
+        self, pose: Pose, y: float, along: float, speed: float | None = None
     ) -> tuple[float, float]:
         """Drive straight toward the wall (or back) to `along` from the hinge, heading held, at
         `speed` at most (None: the board's speed)."""
@@ -1718,7 +1356,7 @@ class AllianceStrategy:
 
     # driving ----------------------------------------------------------------------------------
 
-    def _turn_to(self, pose: _Pose, heading: float) -> float:
+    def _turn_to(self, pose: Pose, heading: float) -> float:
         err = math.radians(angle_diff_deg(heading, pose.heading))
         if abs(err) < math.radians(2):
             return 0.0
@@ -1730,7 +1368,7 @@ class AllianceStrategy:
             )
         )
 
-    def _arrive(self, pose: _Pose, point: Vec, heading: float) -> tuple[float, float]:
+    def _arrive(self, pose: Pose, point: Vec, heading: float) -> tuple[float, float]:
         """Drive to a point, then turn to a heading there."""
         if float(np.hypot(*(point - pose.xy))) > 0.05:
             return self._drive_to(pose, point, None, speed=0.8)
@@ -1738,7 +1376,7 @@ class AllianceStrategy:
 
     def _drive_to(
         self,
-        pose: _Pose,
+        pose: Pose,
         target: Vec,
         after: Vec | None,
         speed: float,

@@ -338,9 +338,9 @@ def test_the_raid_takes_the_other_alliances_zone_first_and_never_one_scored_alre
     s.step(sighting(40.0, []))  # the detector reports (nothing seen)
     s._deposited = ["neutral_south"]
     s.goals["neutral_south"].xy = np.array([-1.4, -1.3])  # left in the home zone
-    from jetson.autonomy.alliance import _Pose
+    from jetson.autonomy.alliance import Pose
 
-    here = _Pose(np.array([0.0, 0.0]), 90.0, 40.0)
+    here = Pose(np.array([0.0, 0.0]), 90.0, 40.0)
     for name in ("red_north", "red_south", "neutral_north", "neutral_tall", "blue_north"):
         s.goals[name].xy = None
     s.goals["neutral_tall"].xy = np.array([0.3, 0.6])  # 0.67 m away, in the neutral zone
@@ -354,7 +354,7 @@ def test_the_raid_takes_the_other_alliances_zone_first_and_never_one_scored_alre
     s._busy["blue_south"] = 50.0  # seen carried
     assert s._raid_goal(here) is None
     s._busy.clear()
-    late = _Pose(here.xy, 90.0, layout.match_length_s - s.config.deposit_until_s + 0.1)
+    late = Pose(here.xy, 90.0, layout.match_length_s - s.config.deposit_until_s + 0.1)
     assert s._raid_goal(late) is None
     s._deposited = []
     assert s._raid_goal(here) is None  # no raid before the first goal is left
@@ -375,11 +375,11 @@ def test_a_goal_beside_a_platform_is_backed_onto_from_where_the_robot_stays_off_
     start) leaves the robot's whole footprint off both platforms when the clamp closes."""
     layout = load_layout()
     s = AllianceStrategy(ROLE_24, layout)
-    from jetson.autonomy.alliance import _Pose
+    from jetson.autonomy.alliance import Pose
 
     goal = np.array(layout.goal("blue_south").xy)
     for start in ((0.0, 0.0), (0.5, -1.4), (0.6, 0.3)):
-        stage = s._stage_for(goal, _Pose(np.array(start), 90.0, 40.0))
+        stage = s._stage_for(goal, Pose(np.array(start), 90.0, 40.0))
         assert not s._clamped_touches_platform(goal, stage)
         assert not s._near_a_platform(stage, 0.3)
     # straight from the field side the footprint would touch the board's corner
@@ -455,13 +455,13 @@ def test_the_steal_targets_the_neutral_goal_seen_carried_before_a_nearer_free_on
     other alliance's loaded goal), not for the nearer one standing still; a neutral goal in its
     own home zone (not left there by itself: most likely parked by its carrier) comes before
     a nearer one outside it, and one it left there is no target."""
-    from jetson.autonomy.alliance import AllianceConfig, _Pose
+    from jetson.autonomy.alliance import AllianceConfig, Pose
 
     layout = load_layout()
     s = AllianceStrategy(ROLE_24, layout, AllianceConfig(steal_s=50.0))
     south = np.array(layout.goal("neutral_south").xy)
     north = np.array(layout.goal("neutral_north").xy)
-    here = _Pose(np.array([-0.9, -0.9]), 90.0, 60.0)
+    here = Pose(np.array([-0.9, -0.9]), 90.0, 60.0)
     t = 60.0
     s.step(sighting(t, [(*south, "yellow"), (*north, "yellow")]))
     assert s._tracker.track is None
@@ -483,7 +483,7 @@ def test_the_steal_targets_the_neutral_goal_seen_carried_before_a_nearer_free_on
     s._tracker.track = None
     s.goals["neutral_south"].xy = home.copy()
     s.goals["neutral_north"].xy = north.copy()
-    here_north = _Pose(north + np.array([-0.3, 0.0]), 90.0, 60.0)
+    here_north = Pose(north + np.array([-0.3, 0.0]), 90.0, 60.0)
     assert s._steal_goal(here_north) == "neutral_south"  # the one in the home zone first
     s.goals["neutral_south"].xy = None
     assert s._steal_goal(here) == "neutral_north"
@@ -606,7 +606,7 @@ def test_a_carried_goal_not_seen_where_the_robot_looks_for_it_is_no_longer_follo
     """The 24" looks before backing onto a goal; a goal followed as carried (the steal's first
     target) that is not seen where it was last seen in `look_s` is gone from there: the tracker
     drops it (it would send the robot back to that spot until the track is a minute old)."""
-    from jetson.autonomy.alliance import AllianceConfig, _Pose
+    from jetson.autonomy.alliance import AllianceConfig, Pose
     from jetson.autonomy.carried_goal import Track
 
     layout = load_layout()
@@ -617,10 +617,10 @@ def test_a_carried_goal_not_seen_where_the_robot_looks_for_it_is_no_longer_follo
     s._detector = True
     s.goals["neutral_tall"].xy = spot.copy()
     t = 20.0
-    here = _Pose(np.array([-0.7, -1.1]), 110.0, t)
+    here = Pose(np.array([-0.7, -1.1]), 110.0, t)
     assert s._look("neutral_tall", here, spot) is not None  # turns to look
     assert s._tracker.carried(t) is not None
-    later = _Pose(here.xy, here.heading, t + c.look_s + 0.1)
+    later = Pose(here.xy, here.heading, t + c.look_s + 0.1)
     assert s._look("neutral_tall", later, spot) == (0.0, 0.0, False)
     assert s.goals["neutral_tall"].xy is None and s._tracker.track is None
 
@@ -803,7 +803,7 @@ def test_late_in_the_match_the_steal_keeps_a_free_goal_to_climb_with() -> None:
     """From `refetch_s` before the end a free goal the steal tested is not left home: the 24"
     tows it to its stage (haul_climb) to climb with; a goal it left home earlier is a target
     again then, and not before."""
-    from jetson.autonomy.alliance import _Pose
+    from jetson.autonomy.alliance import Pose
 
     layout = load_layout()
     s = AllianceStrategy(ROLE_24, layout)
@@ -828,7 +828,7 @@ def test_late_in_the_match_the_steal_keeps_a_free_goal_to_climb_with() -> None:
     left._deposited.append("neutral_south")
     for when, target in ((60.0, None), (late, "neutral_south")):
         left._now = when
-        assert left._steal_goal(_Pose(np.array([-0.9, -0.9]), 90.0, when)) == target
+        assert left._steal_goal(Pose(np.array([-0.9, -0.9]), 90.0, when)) == target
 
 
 def test_a_15in_pushed_out_of_its_lane_on_the_board_lines_up_again() -> None:
@@ -947,12 +947,12 @@ def test_a_goal_the_steal_takes_where_it_left_one_is_held_untested() -> None:
     the steal clamps within `steal_again_m` of where it left one is held as another robot's
     (towed to the stage, no test drive); one clamped elsewhere is tested, and left home when
     it comes along, its place remembered."""
-    from jetson.autonomy.alliance import _Pose
+    from jetson.autonomy.alliance import Pose
 
     layout = load_layout()
     x0, y0, h0 = -1.3, -1.0, 270.0  # by the haul spot, facing the wall, the goal behind
     probe = AllianceStrategy(ROLE_24, layout)
-    left_at = probe._clamp_point(_Pose(np.array([x0, y0]), h0, 0.0), probe._widest)
+    left_at = probe._clamp_point(Pose(np.array([x0, y0]), h0, 0.0), probe._widest)
     for shift, held in ((0.2, True), (1.0, False)):
         s = AllianceStrategy(ROLE_24, layout)
         t = 40.0
@@ -979,4 +979,4 @@ def test_a_goal_the_steal_takes_where_it_left_one_is_held_untested() -> None:
             assert s._deposited == ["neutral_south"] and len(s._left_at) == 2
     off = AllianceStrategy(ROLE_24, layout, AllianceConfig(steal_again_m=None))
     off._left_at = [left_at]
-    assert not off._taken_again(_Pose(np.array([x0, y0]), h0, 40.0))
+    assert not off._taken_again(Pose(np.array([x0, y0]), h0, 40.0))
