@@ -1150,10 +1150,11 @@ class AllianceStrategy(StealPhases):
             and not self._climbing
             and c.steal_s is not None
             and c.steal_climb
-            and self._dragged_back(pose)
+            and (self._contested or self._dragged_back(pose))
         ):
-            # Dragged backward on its way to the stage: another robot holds the goal too (the
-            # steal's test had not told yet), and the slow approach hands it over: the tow.
+            # Another robot holds the goal too (the steal's test told only after the climb
+            # began, or it drags the robot backward on its way to the stage): the slow approach
+            # and turning in place hand the goal over, so the tow takes it to the stage.
             self._contested = True
             self._set_phase("haul_climb", pose.t)
             return self._phase_haul_climb(pose, inputs, dt)

@@ -569,10 +569,12 @@ class World:
                 self._set_velocities()
                 p.stepSimulation(physicsClientId=cid)
         before = [(r.x, r.y, r.heading) for r in self.robots]
+        goals_before = [(g.x, g.y) for g in self.goals]
         self._read_poses()
         self._contain()
         if self.game:
             self._board_contacts(before)
+            self._goal_board_contacts(goals_before)
         for r, (x0, y0, h0) in zip(self.robots, before, strict=True):
             h = math.radians(h0)
             r.measured_v = ((r.x - x0) * math.sin(h) + (r.y - y0) * math.cos(h)) / dt
@@ -626,11 +628,33 @@ class World:
                 if r.on_platform is None and seesaw.may_mount(plat, spec, state, (x0, y0)):
                     r.on_platform = plat.alliance
                     continue
-                dx, dy = seesaw.push_out(r, plat)
+                dx, dy = seesaw.push_out(box, (r.x, r.y), plat)
                 r.x += dx
                 r.y += dy
                 box = seesaw.robot_box(r)
                 self._place(r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading))
+
+    def _goal_board_contacts(self, before: list[tuple[float, float]]) -> None:
+        """The whole game: a free goal goes onto a see-saw only up its lowered field-side edge
+        (its centre came from beyond that edge while the edge is down, as a robot mounts); one
+        already resting on the board stays; anywhere else the board stops it (sim.world.seesaw).
+        Goals a robot holds move with it (the robot meets the board)."""
+        spec = self.field.seesaw
+        for g, (x0, y0) in zip(self.goals, before, strict=True):
+            if g.holders:
+                continue
+            for plat in self.field.platforms:
+                box = seesaw.goal_box(g)
+                ox, oy = seesaw.overlap(box, seesaw.board_box(plat))
+                if ox <= 0 or oy <= 0 or plat.contains_point(x0, y0):
+                    continue
+                if seesaw.may_mount(plat, spec, self.platforms[plat.alliance], (x0, y0)):
+                    continue
+                dx, dy = seesaw.push_out(box, (g.x, g.y), plat)
+                g.x += dx
+                g.y += dy
+                pos, q = p.getBasePositionAndOrientation(g.body, physicsClientId=self.client)
+                self._place(g.body, g.x, g.y, pos[2], quaternion_yaw(q))
 
     def _tug_of_war(self) -> None:
         """A goal clamped by robots of both alliances (training and high fidelity alike, a model):

@@ -13,9 +13,10 @@ where it was left.
 
 A robot drives onto a board only over its field-side edge, and only while that edge is no higher
 than `climb_edge` (the ramp side, the board tipped toward the field); anywhere else the board is
-an obstacle it is pushed back from. Free goals are not stopped by the board (a simplification: a
-goal pushed onto it rests on it). Both fidelities use this model; high fidelity shows it on a
-hinged body (sim.world.physics).
+an obstacle it is pushed back from. A free goal meets the board the same way: pushed up the ramp
+it rests on the board; pushed at a raised edge or at the board's ends it is stopped (its base
+does not ride over an edge higher than a robot's wheels do). Both fidelities use this model;
+high fidelity shows it on a hinged body (sim.world.physics).
 """
 
 from __future__ import annotations
@@ -62,13 +63,21 @@ def may_mount(
     )
 
 
-def push_out(r: RobotState, plat: PlatformSpec) -> tuple[float, float]:
-    """The smallest move (dx, dy) that takes the robot's bounding box off the board."""
-    rb, bb = robot_box(r), board_box(plat)
-    ox, oy = overlap(rb, bb)
+def goal_box(g: GoalState) -> tuple[float, float, float, float]:
+    """The goal's base's bounding box (x0, y0, x1, y1)."""
+    rad = g.spec.base_radius
+    return g.x - rad, g.y - rad, g.x + rad, g.y + rad
+
+
+def push_out(
+    box: tuple[float, float, float, float], xy: tuple[float, float], plat: PlatformSpec
+) -> tuple[float, float]:
+    """The smallest move (dx, dy) that takes a box (a robot's or a goal's, its centre at xy)
+    off the board."""
+    ox, oy = overlap(box, board_box(plat))
     if ox <= oy:
-        return (ox if r.x >= plat.center[0] else -ox), 0.0
-    return 0.0, (oy if r.y >= plat.center[1] else -oy)
+        return (ox if xy[0] >= plat.center[0] else -ox), 0.0
+    return 0.0, (oy if xy[1] >= plat.center[1] else -oy)
 
 
 def loads(

@@ -912,6 +912,29 @@ def test_a_24in_dragged_back_on_its_way_to_climb_takes_its_goal_for_held_by_anot
     assert a.linear >= c.tow_speed * ROLE_24.max_linear_mps - 1e-9
 
 
+def test_a_24in_that_finds_its_goal_held_by_another_on_its_way_to_climb_tows_it() -> None:
+    """The 24" heading for its stage with a goal it believed free that comes slower than the
+    robot drives (another robot holds it too and is dragged along) tows it (haul_climb) instead
+    of lining up slowly and turning in place, which would hand the goal over."""
+    layout = load_layout()
+    c = AllianceConfig()
+    for share, towed in ((0.2, True), (1.0, False)):
+        s = AllianceStrategy(ROLE_24, layout, c)
+        t = layout.match_length_s - c.climb_24_s + 1.0
+        s._set_phase("climb", t)
+        s.holding = s.target_goal = "neutral_tall"
+        s._was_clamped = True
+        x, y, h = 0.4, -0.25, 270.0  # facing its board (-x), far from the stage, in its lane
+        for _ in range(40):
+            a = s.step(AllianceInputs(x, y, h, "red", t, np.zeros((0, 2)), 0, True))
+            if s.phase != "climb":
+                break
+            x -= share * max(a.linear, 0.0) * 0.05  # the goal (and the robot) come this share
+            t += 0.05
+        assert (s.phase == "haul_climb") == towed
+        assert s._contested == towed and a.clamp
+
+
 def test_a_goal_the_steal_finds_again_after_searching_is_chased_afresh() -> None:
     """The steal's time on one goal (`goal_chase_s`, then it is left for `busy_s`) counts from
     when the goal was found again: time spent searching after losing sight of it (the robot

@@ -95,6 +95,46 @@ def test_no_robot_climbs_over_the_boards_end(solo: World) -> None:
     assert r.y - r.config.length_m / 2 >= end - 1e-6
 
 
+def _push_goal_at_the_board(w: World, tilt: float) -> tuple[float, float]:
+    """Robot 0 pushes a goal straight at the red board tipped to `tilt`; the goal's x after."""
+    plat = w.field.platform("red")
+    w.set_tilt("red", tilt)
+    g = w.goals[0]
+    w.place_robot(0, -0.55, 0.0, 270.0)
+    w.place_goal(0, -0.55 - w.robots[0].config.length_m / 2 - g.spec.base_radius - 0.03, 0.0)
+    drive_to_x(w, HINGE_X, seconds=4.0)
+    return g.x, plat.center[0] + plat.size[0] / 2
+
+
+def test_a_goal_pushed_at_the_raised_edge_stays_off_the_board(solo: World) -> None:
+    """A level board's field-side edge (or a raised one) stops a pushed goal as it stops a robot:
+    its base stays off the board, and nothing rests on it."""
+    x, edge = _push_goal_at_the_board(solo, 0.0)
+    g = solo.goals[0]
+    assert x - g.spec.base_radius >= edge - 1e-6
+    assert not rules.goal_on_board(solo.field.platform("red"), g)
+    assert solo.robots[0].on_platform is None
+
+
+def test_a_goal_pushed_up_the_lowered_ramp_rests_on_the_board(solo: World) -> None:
+    plat = solo.field.platform("red")
+    x, edge = _push_goal_at_the_board(solo, plat.max_tilt_rad)
+    assert x < edge - 0.1
+    assert rules.goal_on_board(plat, solo.goals[0])
+
+
+def test_no_goal_is_pushed_onto_the_board_over_its_end(solo: World) -> None:
+    plat = solo.field.platform("red")
+    end = plat.center[1] + plat.size[1] / 2
+    g = solo.goals[0]
+    solo.place_robot(0, HINGE_X, end + 0.6, 180.0)  # north of the board, facing south
+    solo.place_goal(0, HINGE_X, end + 0.6 - solo.robots[0].config.length_m / 2 - 0.2)
+    for _ in range(60):
+        solo.step([DriveCommand(0.4, 0.0, intake=False)])
+    assert g.y - g.spec.base_radius >= end - 1e-6
+    assert not rules.goal_on_board(plat, g)
+
+
 def test_two_robots_balance_side_by_side() -> None:
     """The 24" and the 15" robot climb one after the other and balance the platform side by side
     at the hinge: 60 points. The second can climb only while the first holds the board's field
