@@ -224,21 +224,16 @@ class AllianceStrategy(StealPhases):
         self._lane_goal_xy: Vec | None = None  # a goal on the board in the 24"'s lane
         self._clear_since: float | None = None
         self._clear_backing = False
-        self._steal_dropped = False
         # The neutral goal another robot carries (the steal's first target).
         self._tracker = CarriedGoalTracker(self.config.carried_mps, self.config.carried_s)
-        self._hauled = False  # the goal hauled reached the haul spot
         self._dragged_checked = False  # a whole drag window was read since the clamp closed
         self._test_to: Vec | None = None  # where the steal tests the goal it clamped
         self._lined = False  # climbing with a held goal: in its lane, heading for the wall
-        self._tow_out = False  # towing out to the lane beyond the stage first (_tow)
         self._towing = True  # towing a held goal to its stage (else lining up there)
-        self._pull_until = -1.0  # climbing with a held goal: at full pull until
         self._contested = False  # the goal hauled is another robot's too: held to the end
-        self._steal_carried = False  # the goal it backs onto was seen carried
-        self._left_at: list[Vec] = []  # where the steal left goals it tested free (clamp point)
         self._stage_xy: Vec | None = None  # the stage it drives to now
         self._bad_stages: list[Vec] = []  # stages it was blocked on, stealing this goal
+        self._reset_steal()
         self.intent = "start"  # what the last step was doing, for logs and tests
 
     def step(self, inputs: AllianceInputs) -> AllianceAction:

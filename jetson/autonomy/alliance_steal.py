@@ -42,8 +42,9 @@ _STEAL_SEARCH: tuple[tuple[float, float], ...] = (
 
 
 class StealPhases:
-    """The steal's phases of AllianceStrategy (see the module docstring). The state it reads
-    and sets, all of it the strategy's (AllianceStrategy.reset):"""
+    """The steal's phases of AllianceStrategy (see the module docstring). Its own state it sets
+    up in _reset_steal (called by AllianceStrategy.reset); the strategy's state it reads and
+    sets too (AllianceStrategy.reset):"""
 
     config: AllianceConfig
     role: RobotRole
@@ -59,11 +60,7 @@ class StealPhases:
     _moves: list[Move]  # the last tug_window_s of commands
     _chased: dict[str, float]  # name -> chased too long: not stolen until
     _deposited: list[str]  # goals left in the home zone, oldest first
-    _left_at: list[Vec]  # where the steal left goals it tested free (clamp point)
-    _steal_dropped: bool  # the goal held when the steal began is dealt with
-    _steal_carried: bool  # the goal it backs onto was seen carried
     _contested: bool  # the goal hauled is another robot's too: held to the end
-    _hauled: bool  # the goal hauled reached the haul spot
     _dragged_checked: bool  # a whole drag window was read since the clamp closed
     _test_to: Vec | None  # where the steal tests the goal it clamped
     _clamped_at: float
@@ -71,9 +68,16 @@ class StealPhases:
     _bad_stages: list[Vec]
     _backoff_until: float
     _lined: bool  # climbing with a held goal: in its lane, heading for the wall
-    _tow_out: bool  # towing out to the lane beyond the stage first (_tow)
     _towing: bool  # towing a held goal to its stage (else lining up there)
-    _pull_until: float
+
+    def _reset_steal(self) -> None:
+        """The steal's own state, as a match starts."""
+        self._steal_dropped = False  # the goal held when the steal began is dealt with
+        self._steal_carried = False  # the goal it backs onto was seen carried
+        self._hauled = False  # the goal hauled reached the haul spot
+        self._left_at: list[Vec] = []  # where the steal left goals it tested free (clamp point)
+        self._tow_out = False  # towing out to the lane beyond the stage first (_tow)
+        self._pull_until = -1.0  # climbing with a held goal: at full pull until
 
     def _phase_steal(
         self, pose: Pose, inputs: AllianceInputs, dt: float
