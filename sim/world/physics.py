@@ -754,21 +754,7 @@ class World:
         """
         lim = self.field.half
         for r in self.robots:
-            rc = r.config
-            h = math.radians(r.heading)
-            ac, as_ = abs(math.cos(h)), abs(math.sin(h))
-            hw, hl = rc.width_m / 2, rc.length_m / 2
-            ex = hw * ac + hl * as_  # half extents of the footprint's bounding box
-            ey = hw * as_ + hl * ac
-            lo_x, hi_x, lo_y, hi_y = r.x - ex, r.x + ex, r.y - ey, r.y + ey
-            if r.carried_goal is not None:
-                g = self.goals[r.carried_goal]
-                gx, gy = self.clamp_point(r, g)
-                rad = g.spec.base_radius
-                lo_x, hi_x = min(lo_x, gx - rad), max(hi_x, gx + rad)
-                lo_y, hi_y = min(lo_y, gy - rad), max(hi_y, gy + rad)
-            sx = max(0.0, -lim - lo_x) - max(0.0, hi_x - lim)
-            sy = max(0.0, -lim - lo_y) - max(0.0, hi_y - lim)
+            sx, sy = self._inside_walls(r, with_goal=True)
             if sx or sy:
                 r.x += sx
                 r.y += sy
@@ -783,6 +769,27 @@ class World:
                 g.x, g.y = nx, ny
                 pos, q = p.getBasePositionAndOrientation(g.body, physicsClientId=self.client)
                 self._place(g.body, nx, ny, pos[2], quaternion_yaw(q))
+
+    def _inside_walls(self, r: RobotState, with_goal: bool = False) -> tuple[float, float]:
+        """The smallest move (dx, dy) that takes the robot's footprint (and with_goal, the goal
+        it carries) inside the walls."""
+        lim = self.field.half
+        rc = r.config
+        h = math.radians(r.heading)
+        ac, as_ = abs(math.cos(h)), abs(math.sin(h))
+        hw, hl = rc.width_m / 2, rc.length_m / 2
+        ex = hw * ac + hl * as_  # half extents of the footprint's bounding box
+        ey = hw * as_ + hl * ac
+        lo_x, hi_x, lo_y, hi_y = r.x - ex, r.x + ex, r.y - ey, r.y + ey
+        if with_goal and r.carried_goal is not None:
+            g = self.goals[r.carried_goal]
+            gx, gy = self.clamp_point(r, g)
+            rad = g.spec.base_radius
+            lo_x, hi_x = min(lo_x, gx - rad), max(hi_x, gx + rad)
+            lo_y, hi_y = min(lo_y, gy - rad), max(hi_y, gy + rad)
+        sx = max(0.0, -lim - lo_x) - max(0.0, hi_x - lim)
+        sy = max(0.0, -lim - lo_y) - max(0.0, hi_y - lim)
+        return sx, sy
 
     # --- goals --------------------------------------------------------------------------------
 
@@ -870,7 +877,15 @@ class World:
                 if headings_before is not None:
                     turned = r.heading - headings_before[r.index]
                     other.heading = (headings_before[other.index] + turned) % 360.0
-                self._drag(other, g, xy)
+                sx, sy = self._drag(other, g, xy)
+                if sx or sy:
+                    # A wall stops the robot dragged: it pushes the whole chain back.
+                    r.x += sx
+                    r.y += sy
+                    xy = (xy[0] + sx, xy[1] + sy)
+                    self._place(
+                        r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading)
+                    )
             g.x, g.y = xy
             pos, _ = p.getBasePositionAndOrientation(g.body, physicsClientId=cid)
             p.resetBasePositionAndOrientation(
@@ -888,12 +903,19 @@ class World:
                 physicsClientId=cid,
             )
 
-    def _drag(self, r: RobotState, g: GoalState, goal_xy: tuple[float, float]) -> None:
-        """Move a robot (at its heading) so its clamp holds a goal that will sit at goal_xy."""
+    def _drag(
+        self, r: RobotState, g: GoalState, goal_xy: tuple[float, float]
+    ) -> tuple[float, float]:
+        """Move a robot (at its heading) so its clamp holds a goal that will sit at goal_xy, and
+        back inside the walls: the move the walls made (dx, dy; the chain goes with it)."""
         gx, gy = self.clamp_point(r, g)
         r.x += goal_xy[0] - gx
         r.y += goal_xy[1] - gy
+        sx, sy = self._inside_walls(r)
+        r.x += sx
+        r.y += sy
         self._place(r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading))
+        return sx, sy
 
     # --- rings --------------------------------------------------------------------------------
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from sim.config import ROBOTS, world_preset
-from sim.world import rules
+from sim.world import rules, seesaw
 from sim.world.physics import World
 from sim.world.state import DriveCommand
 
@@ -88,9 +88,9 @@ def tug(w: World, red_v: float, blue_v: float, steps: int = 24) -> None:
         w.step([DriveCommand(red_v, 0.0, intake=False), DriveCommand(blue_v, 0.0, intake=False)])
 
 
-def contested(w: World) -> int:
+def contested(w: World, x: float = 0.0) -> int:
     gi = next(g.index for g in w.goals if g.spec.name == "neutral_tall")
-    w.place_goal(gi, 0.0, 0.0)
+    w.place_goal(gi, x, 0.0)
     back_onto(w, 0, gi, heading=0.0)  # red north of it, facing north
     w.step([IDLE, IDLE])
     back_onto(w, 1, gi, heading=180.0)  # blue south of it, facing south
@@ -257,3 +257,20 @@ def test_tug_of_war_neither_pulling_the_one_that_turns_turns_all_three(duel: Wor
     assert abs((red.heading - r0 - turned + 180.0) % 360.0 - 180.0) < 3.0
     assert math.hypot(blue.x - red.x, blue.y - red.y) == pytest.approx(gap, abs=0.05)
     assert duel.goals[gi].holders == (1, 0)
+
+
+def test_tug_of_war_a_robot_swung_at_a_wall_stays_inside_the_field(duel: World) -> None:
+    """The chain near the east wall, blue turning: red, swung toward the wall, is stopped by it
+    (it pushes the whole chain back) instead of passing through it."""
+    contested(duel, x=1.2)
+    red, blue = duel.robots[0], duel.robots[1]
+    lim = duel.field.half
+    gap = math.hypot(blue.x - red.x, blue.y - red.y)
+    widest = 0.0
+    for _ in range(36):
+        duel.step([IDLE, DriveCommand(0.0, blue.config.max_angular_rad_s, intake=False)])
+        x0, y0, x1, y1 = seesaw.robot_box(red)
+        assert -lim - 1e-6 <= x0 and x1 <= lim + 1e-6 and -lim - 1e-6 <= y0 and y1 <= lim + 1e-6
+        widest = max(widest, x1)
+        assert math.hypot(blue.x - red.x, blue.y - red.y) == pytest.approx(gap, abs=0.05)
+    assert widest > lim - 0.02  # it did reach the wall
