@@ -640,12 +640,13 @@ class World:
         already resting on the board stays; anywhere else the board stops it (sim.world.seesaw).
         Goals a robot holds move with it (the robot meets the board)."""
         spec = self.field.seesaw
+        boards = [(plat, seesaw.board_box(plat)) for plat in self.field.platforms]
         for g, (x0, y0) in zip(self.goals, before, strict=True):
             if g.holders:
                 continue
-            for plat in self.field.platforms:
+            for plat, board in boards:
                 box = seesaw.goal_box(g)
-                ox, oy = seesaw.overlap(box, seesaw.board_box(plat))
+                ox, oy = seesaw.overlap(box, board)
                 if ox <= 0 or oy <= 0 or plat.contains_point(x0, y0):
                     continue
                 if seesaw.may_mount(plat, spec, self.platforms[plat.alliance], (x0, y0)):
@@ -774,13 +775,7 @@ class World:
         """The smallest move (dx, dy) that takes the robot's footprint (and with_goal, the goal
         it carries) inside the walls."""
         lim = self.field.half
-        rc = r.config
-        h = math.radians(r.heading)
-        ac, as_ = abs(math.cos(h)), abs(math.sin(h))
-        hw, hl = rc.width_m / 2, rc.length_m / 2
-        ex = hw * ac + hl * as_  # half extents of the footprint's bounding box
-        ey = hw * as_ + hl * ac
-        lo_x, hi_x, lo_y, hi_y = r.x - ex, r.x + ex, r.y - ey, r.y + ey
+        lo_x, lo_y, hi_x, hi_y = seesaw.robot_box(r)
         if with_goal and r.carried_goal is not None:
             g = self.goals[r.carried_goal]
             gx, gy = self.clamp_point(r, g)
