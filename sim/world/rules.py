@@ -26,8 +26,11 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+import numpy as np
+from numpy.typing import NDArray
+
 from jetson.autonomy.geometry import AllianceName
-from sim.field import PlatformSpec
+from sim.field import FieldSpec, PlatformSpec
 from sim.world.state import (
     AllianceScore,
     AutonomousResult,
@@ -97,15 +100,25 @@ def goal_owner(world: WorldState, g: GoalState) -> tuple[AllianceName | None, bo
     """Which alliance a goal scores for right now, and whether it is elevated."""
     if whole_game(world):
         return _goal_owner_game(world, g, _Judged(world))
-    if g.carried_by is not None:
-        carrier = world.robots[g.carried_by]
-        if robot_elevated(world, carrier) and g.spec.alliance in (None, carrier.alliance):
-            return carrier.alliance, True
-    for alliance, zone in world.field.home_zones.items():
-        inside = zone.contains_point(g.x, g.y, margin=g.spec.base_radius)
-        if inside and g.spec.alliance in (None, alliance):
-            return alliance, False  # type: ignore[return-value]
-    return None, False
+    owner, up, _ = ring_race_owners(world.field, *_ring_race_arrays(world))
+    code = int(owner[0, g.index])
+    return (None if code == 0 else ALLIANCES[code - 1]), bool(up[0, g.index])
+
+
+def _ring_race_arrays(
+    world: WorldState,
+) -> tuple[tuple[AllianceName, ...], NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+    """One world as a batch of one: the robots' alliances and positions, the goals' positions
+    and carriers (ring_race_owners' arguments)."""
+    robots = np.array([(r.x, r.y) for r in world.robots], dtype=np.float64).reshape(1, -1, 2)
+    goals = np.array([(g.x, g.y) for g in world.goals], dtype=np.float64).reshape(1, -1, 2)
+    carrier = [-1 if g.carried_by is None else g.carried_by for g in world.goals]
+    return (
+        tuple(r.alliance for r in world.robots),
+        robots,
+        goals,
+        np.array(carrier, dtype=np.int64).reshape(1, -1),
+    )
 
 
 def score(world: WorldState) -> dict[str, AllianceScore]:
@@ -117,30 +130,93 @@ def score(world: WorldState) -> dict[str, AllianceScore]:
 
 def _score_ring_race(world: WorldState) -> dict[str, AllianceScore]:
     """Rings on an alliance goal count for its alliance wherever it is; rings on a neutral goal
-    count only while it is in a home zone (or elevated). Every ring counts as on a branch."""
-    sc = world.field.scoring
-    owners = [goal_owner(world, g) for g in world.goals]
+    count only while it is in a home zone (or elevated). Every ring counts as on a branch.
+    (ring_race_score over a batch of one world.)"""
+    alliances, robots, goals, carrier = _ring_race_arrays(world)
+    rings = np.array([[g.rings for g in world.goals]], dtype=np.int64).reshape(1, -1)
+    counts = ring_race_score(world.field, alliances, robots, goals, rings, carrier)
+    return {a: AllianceScore(*(int(v[0]) for v in counts[a])) for a in ALLIANCES}
+
+
+def ring_race_owners(
+    field: FieldSpec,
+    alliances: tuple[AllianceName, ...],
+    robot_xy: NDArray[np.float64],
+    goal_xy: NDArray[np.float64],
+    goal_carrier: NDArray[np.int64],
+) -> tuple[NDArray[np.int64], NDArray[np.bool_], NDArray[np.bool_]]:
+    """The ring race, for a batch of B worlds: each goal's owner (B, G: 0 none, 1 red, 2 blue),
+    whether it is elevated (B, G), and whether each robot is (B, R). A robot is elevated while
+    its centre is on its alliance's platform; a goal carried by an elevated robot it may score
+    for is elevated with it; otherwise a goal belongs to the first home zone (the field file's
+    order) its base touches, if it may score there. Arguments as ring_race_score's."""
+    team = np.array([a == "red" for a in alliances], dtype=bool)
+    elevated = np.zeros(robot_xy.shape[:2], dtype=bool)
+    for alliance in ALLIANCES:
+        mine = team if alliance == "red" else ~team
+        try:
+            plat = field.platform(alliance)
+        except ValueError:
+            continue
+        elevated |= plat.contains(robot_xy) & mine[None]
+    owner = np.zeros(goal_xy.shape[:2], dtype=np.int64)
+    goal_up = np.zeros(goal_xy.shape[:2], dtype=bool)
+    if len(alliances):
+        carried = goal_carrier >= 0
+        carrier = np.where(carried, goal_carrier, 0)
+        carrier_red = team[carrier]
+        carrier_up = np.take_along_axis(elevated, carrier, axis=1) & carried
+        allowed = np.array(
+            [[s.alliance in (None, "red"), s.alliance in (None, "blue")] for s in field.goals],
+            dtype=bool,
+        ).reshape(-1, 2)
+        may = np.where(carrier_red, allowed[None, :, 0], allowed[None, :, 1])
+        goal_up = carrier_up & may
+        owner = np.where(goal_up, np.where(carrier_red, 1, 2), 0)
+    margin = np.array([s.base_radius for s in field.goals])[None]
+    for alliance, zone in field.home_zones.items():
+        code = 1 if alliance == "red" else 2
+        inside = zone.contains(goal_xy, margin=margin)  # type: ignore[arg-type]
+        ok = np.array([s.alliance in (None, alliance) for s in field.goals], dtype=bool)
+        owner = np.where((owner == 0) & inside & ok[None], code, owner)
+    return owner, goal_up, elevated
+
+
+def ring_race_score(
+    field: FieldSpec,
+    alliances: tuple[AllianceName, ...],
+    robot_xy: NDArray[np.float64],
+    goal_xy: NDArray[np.float64],
+    goal_rings: NDArray[np.int64],
+    goal_carrier: NDArray[np.int64],
+) -> dict[str, tuple[NDArray[np.int64], ...]]:
+    """The ring race's score of a batch of B worlds at once, by alliance: (rings, goals in the
+    home zone, goals elevated, robots elevated, total), each (B,). robot_xy (B, R, 2) with the
+    robots' alliances; goal_xy (B, G, 2), goal_rings (B, G) and goal_carrier (B, G: the robot
+    index, -1 when free), the goals in the field file's order. The twin's World scores through
+    it with B = 1; the batched backend (sim.fast) with every match together."""
+    sc = field.scoring
+    n = goal_xy.shape[0]
+    team = np.array([a == "red" for a in alliances], dtype=bool)  # (R,) red robots
+    owner, goal_up, elevated = ring_race_owners(field, alliances, robot_xy, goal_xy, goal_carrier)
     out = {}
-    for alliance in ("red", "blue"):
-        rings = in_zone = elevated_goals = 0
-        for g, (owner, elevated) in zip(world.goals, owners, strict=True):
-            if g.spec.alliance == alliance or (g.spec.alliance is None and owner == alliance):
-                rings += g.rings
-            if owner == alliance:
-                if elevated:
-                    elevated_goals += 1
-                else:
-                    in_zone += 1
-        robots_up = sum(
-            1 for r in world.robots if r.alliance == alliance and robot_elevated(world, r)
-        )
+    for alliance in ALLIANCES:
+        code = 1 if alliance == "red" else 2
+        own = np.array([s.alliance == alliance for s in field.goals], dtype=bool)
+        neutral = np.array([s.alliance is None for s in field.goals], dtype=bool)
+        counts = own[None] | (neutral[None] & (owner == code))
+        rings = (goal_rings * counts).sum(axis=1)
+        in_zone = ((owner == code) & ~goal_up).sum(axis=1)
+        up_goals = ((owner == code) & goal_up).sum(axis=1)
+        mine = team if alliance == "red" else ~team
+        robots_up = (elevated & mine[None]).sum(axis=1) if len(alliances) else np.zeros(n, int)
         total = (
             rings * sc.ring_branch
             + in_zone * sc.goal_in_home_zone
-            + elevated_goals * sc.goal_elevated
+            + up_goals * sc.goal_elevated
             + robots_up * sc.robot_elevated
         )
-        out[alliance] = AllianceScore(rings, in_zone, elevated_goals, robots_up, total)
+        out[alliance] = (rings, in_zone, up_goals, robots_up, total)
     return out
 
 
@@ -150,23 +226,36 @@ def update_pins(
     events: StepEvents,
     dt: float,
 ) -> None:
-    """One step of the pin rule: a red and a blue robot in contact for pin_time_s is a pin
-    (events.pins), and their timer starts again; apart, it is zero."""
+    """One step of the pin rule for one world (pin_step over its red-blue pairs)."""
     timers = world.pin_timers
-    for a in world.robots:
-        if a.alliance != "red":
-            continue
-        for b in world.robots:
-            if b.alliance != "blue":
-                continue
-            key = (a.index, b.index)
-            if touching(a, b):
-                timers[key] = timers.get(key, 0.0) + dt
-                if timers[key] >= world.pin_time_s - 1e-9:
-                    events.pins.append(key)
-                    timers[key] = 0.0
-            else:
-                timers[key] = 0.0
+    pairs = [
+        (a, b)
+        for a in world.robots
+        if a.alliance == "red"
+        for b in world.robots
+        if b.alliance == "blue"
+    ]
+    if not pairs:
+        return
+    keys = [(a.index, b.index) for a, b in pairs]
+    now = np.array([timers.get(k, 0.0) for k in keys])
+    contact = np.array([touching(a, b) for a, b in pairs], dtype=bool)
+    now, pinned = pin_step(now, contact, dt, world.pin_time_s)
+    for k, t, pin in zip(keys, now, pinned, strict=True):
+        timers[k] = float(t)
+        if pin:
+            events.pins.append(k)
+
+
+def pin_step(
+    timers: NDArray[np.float64], touching: NDArray[np.bool_], dt: float, pin_time_s: float
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """The pin rule, one control step of any batch of red-blue pairs: a pair in contact for
+    pin_time_s is a pin and its timer starts again; apart, its timer is zero. Returns the new
+    timers and which pairs were pinned."""
+    grown = np.where(touching, timers + dt, 0.0)
+    pinned = touching & (grown >= pin_time_s - 1e-9)
+    return np.where(pinned, 0.0, grown), pinned
 
 
 def pin_timer(world: WorldState, red_index: int, blue_index: int) -> float:
