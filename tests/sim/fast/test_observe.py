@@ -1,0 +1,92 @@
+"""The batched observation against the per-robot builder the Jetson runs: value for value without
+noise, the spec's noise within its bounds, and the stack newest first."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jetson.autonomy.geometry import field_to_robot
+from jetson.autonomy.observation import RobotView, build_frame
+from jetson.autonomy.spec import ObservationSpec
+from sim.config import WorldConfig
+from sim.errors import ConfigError
+from sim.fast.observe import FastObserver
+from sim.fast.view import match_view
+from sim.fast.world import FastWorld
+from sim.world import sensors
+
+WORLD = WorldConfig(
+    red=("24in", "15in"),
+    blue=("24in", "15in"),
+    start_jitter_m=0.1,
+    start_jitter_deg=45.0,
+    ring_jitter_m=0.03,
+)
+
+
+def _reference(world: FastWorld, spec: ObservationSpec, k: int, i: int) -> np.ndarray:
+    """build_frame of robot i of match k, from the view MatchCore would give it (truth pose)."""
+    v = match_view(world, k)
+    r = v.robots[i]
+    rings = sensors.visible_rings(v, i)
+    seen = sensors.rings_in_robot_frame(v, i, rings) if len(rings) else np.zeros((0, 2))
+    pts = np.array([(o.x, o.y) for o in v.robots if o.index != i]).reshape(-1, 2)
+    view = RobotView(
+        x=r.x,
+        y=r.y,
+        heading_deg=r.heading,
+        alliance=r.alliance,
+        time_s=v.time_s,
+        rings_robot_xy=seen,
+        rings_held=r.held,
+        others_robot_xy=field_to_robot(pts, r.xy, r.heading),
+        intake_fills=r.config.ring_capacity is not None,
+    )
+    return build_frame(spec, view)
+
+
+def test_frames_equal_the_jetson_builder_value_for_value() -> None:
+    spec = ObservationSpec(version=5, n_other_robots=3, n_stack=0, intake_flag=True)
+    world = FastWorld(WORLD, 8)
+    world.reset(range(8))
+    obs = FastObserver(world, spec, obs_noise=False, gps_noise=False)
+    rng = np.random.default_rng(0)
+    seen = 0
+    for t in range(60):
+        world.step(rng.uniform(-0.5, 1.5, (8, 4)), rng.uniform(-3, 3, (8, 4)))
+        if t % 3:
+            continue
+        frames = obs.frames()
+        for k in range(8):
+            for i in range(4):
+                ref = _reference(world, spec, k, i)
+                assert np.allclose(frames[k, i], ref, atol=1e-6), (t, k, i)
+                seen += int(ref[spec.ring_offset + 2 :: 3].sum())
+    assert seen > 100  # rings were in view, not only empty slots
+
+
+def test_noise_stays_within_the_spec_and_the_stack_is_newest_first() -> None:
+    spec = ObservationSpec(n_stack=2)
+    world = FastWorld(WorldConfig(**{"start_jitter_m": 0.1}), 64)
+    world.reset(range(64))
+    clean = FastObserver(world, spec, obs_noise=False, gps_noise=False)
+    noisy = FastObserver(world, spec, rng=np.random.default_rng(1))
+    first = noisy.reset()
+    assert first.shape == (64, 2, spec.size)
+    a, b = clean.frames(), noisy.frames()
+    # Own position: GPS (about 1.5 cm) plus uniform +-position_noise_m.
+    bound = (spec.position_noise_m + 0.1) / spec.length_unit_m
+    assert np.abs(a[..., 1:3] - b[..., 1:3]).max() < bound
+    assert np.abs(a[..., 1:3] - b[..., 1:3]).std() > 0.01
+    world.step(np.full((64, 2), 0.6), np.zeros((64, 2)))
+    stacked = noisy.push()
+    f = spec.frame_size
+    assert np.array_equal(stacked[..., f : 2 * f], first[..., :f])
+    assert stacked[0, 0, 0] > first[0, 0, 0]  # the clock moved on in the newest frame
+
+
+def test_a_spec_with_memories_is_refused_by_name() -> None:
+    world = FastWorld(WorldConfig(), 1)
+    with pytest.raises(ConfigError, match="ring_memory"):
+        FastObserver(world, ObservationSpec(version=2, ring_memory=True))
