@@ -8,7 +8,6 @@ reported separately.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal
@@ -25,6 +24,7 @@ from jetson.autonomy.spec import ObservationSpec
 from sim.config import CameraConfig, RewardConfig, RobotConfig, WorldConfig, merge
 from sim.errors import ConfigError
 from sim.field import FieldSpec
+from sim.rewards import goal_potential, park_potential, ring_potential
 from sim.world import rules, sensors
 from sim.world.physics import World
 from sim.world.state import (
@@ -526,41 +526,43 @@ class MatchCore:
 
     def _ring_potential(self, index: int) -> float:
         """Distance (m) from the robot's front to the nearest ring on the floor; 0 when its
-        intake is full or no ring is left (the approach shaping's potential)."""
+        intake is full or no ring is left (the approach shaping's potential:
+        sim.rewards.ring_potential)."""
         if not self.reward.approach:
             return 0.0
         w = self.world
         r = w.robots[index]
-        floor = w.ring_xy[w.ring_state == RING_FLOOR]
-        if r.room <= 0 or len(floor) == 0:
-            return 0.0
         front = np.asarray(r.xy) + r.config.length_m / 2 * heading_vector(r.heading)
-        return float(np.sqrt(((floor - front) ** 2).sum(axis=1).min()))
+        room = np.array([[min(r.room, 1 << 30)]])
+        return float(
+            ring_potential(
+                front[None, None], room, w.ring_xy[None], (w.ring_state == RING_FLOOR)[None]
+            )[0, 0]
+        )
 
     def _goal_scores_for(self, goal: int, alliance: AllianceName) -> bool:
         return self.world.goals[goal].spec.alliance in (None, alliance)
 
     def _goal_potential(self, index: int) -> float:
         """Distance (m) from the robot's clamp point to the nearest goal it could score with
-        that no robot holds; 0 while it holds one or none is free (goal_approach's potential)."""
+        that no robot holds; 0 while it holds one or none is free (goal_approach's potential:
+        sim.rewards.goal_potential)."""
         if not self.reward.goal_approach:
             return 0.0
         w = self.world
         r = w.robots[index]
-        if r.carried_goal is not None:
-            return 0.0
-        free = [
-            g
-            for g in w.goals
-            if g.carried_by is None and self._goal_scores_for(g.index, r.alliance)
-        ]
-        if not free:
-            return 0.0
-        return min(math.dist(w.clamp_point(r, g), (g.x, g.y)) for g in free)
+        clamp = np.array([w.clamp_point(r, g) for g in w.goals]).reshape(1, 1, -1, 2)
+        goals = np.array([(g.x, g.y) for g in w.goals]).reshape(1, -1, 2)
+        eligible = np.array(
+            [g.carried_by is None and self._goal_scores_for(g.index, r.alliance) for g in w.goals]
+        ).reshape(1, 1, -1)
+        holding = np.array([[r.carried_goal is not None]])
+        return float(goal_potential(clamp, goals, eligible, holding)[0, 0])
 
     def _park_potential(self, index: int) -> float:
         """Distance (m) from the robot to its platform (shrunk by park_margin_m) in the match's
-        last park_from_s seconds, else 0 (the park shaping's potential)."""
+        last park_from_s seconds, else 0 (the park shaping's potential:
+        sim.rewards.park_potential)."""
         cfg = self.reward
         w = self.world
         if not cfg.park or w.time_s < w.match_length_s - cfg.park_from_s:
@@ -570,11 +572,11 @@ class MatchCore:
             plat = w.field.platform(r.alliance)
         except ValueError:
             return 0.0
-        half_x = max(plat.size[0] / 2 - cfg.park_margin_m, 0.0)
-        half_y = max(plat.size[1] / 2 - cfg.park_margin_m, 0.0)
-        dx = max(abs(r.x - plat.center[0]) - half_x, 0.0)
-        dy = max(abs(r.y - plat.center[1]) - half_y, 0.0)
-        return float(np.hypot(dx, dy))
+        half = [[max(v / 2 - cfg.park_margin_m, 0.0) for v in plat.size]]
+        xy = np.array([[[r.x, r.y]]])
+        return float(
+            park_potential(xy, np.array([plat.center]), np.array(half), np.array([[True]]))[0, 0]
+        )
 
     def goals_counting(self, alliance: AllianceName) -> int:
         """Mobile goals that count for the alliance in its own zone (RewardConfig.goal_zone)."""
