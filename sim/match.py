@@ -161,9 +161,15 @@ def make_config(config: EnvConfig | dict[str, Any] | None = None, **overrides: A
 
 
 def default_spec(world: World) -> ObservationSpec:
-    caps = [r.config.ring_capacity for r in world.robots if r.config.ring_capacity]
+    return derived_spec(world.match_length_s, [r.config.ring_capacity for r in world.robots])
+
+
+def derived_spec(match_length_s: float, capacities: list[int | None]) -> ObservationSpec:
+    """The default layout for a match: its length, and the largest intake as the held rings'
+    unit (10 when no intake fills)."""
+    caps = [c for c in capacities if c]
     return ObservationSpec(
-        match_length_s=world.match_length_s, ring_capacity_norm=max(caps) if caps else 10
+        match_length_s=match_length_s, ring_capacity_norm=max(caps) if caps else 10
     )
 
 

@@ -41,9 +41,9 @@ def goal_potential(clamp_xy: F64, goal_xy: F64, eligible: Bool, holding: Bool) -
 
 
 def park_potential(xy: F64, centre: F64, half: F64, active: Bool) -> F64:
-    """Distance from each robot (xy (B, R, 2)) to its platform (centre (R, 2), half-sizes
-    (R, 2), already shrunk by the park margin), where active (B, R): in the match's last
+    """Distance from each robot (xy (B, R, 2)) to its platform (centre and half-sizes, shrunk
+    by the park margin: (R, 2) or (B, R, 2)), where active (B, R): in the match's last
     park_from_s seconds and the robot has a platform; else 0 (the park shaping)."""
-    dx = np.maximum(np.abs(xy[..., 0] - centre[:, 0]) - half[:, 0], 0.0)
-    dy = np.maximum(np.abs(xy[..., 1] - centre[:, 1]) - half[:, 1], 0.0)
+    dx = np.maximum(np.abs(xy[..., 0] - centre[..., 0]) - half[..., 0], 0.0)
+    dy = np.maximum(np.abs(xy[..., 1] - centre[..., 1]) - half[..., 1], 0.0)
     return np.where(active, np.hypot(dx, dy), 0.0)

@@ -1,0 +1,419 @@
+"""Self-play matches on the batched backend, with VecMatches' interface (sim.training.rollout).
+
+    envs = FastMatches(env_config, RolloutConfig(envs_per_worker=4096, workers=0), seed=1)
+    step = envs.reset()                         # StepResult: learner and opponent observations
+    step = envs.step(learner_actions, opponent_actions)
+
+Every slot is one 1v1 match of one FastWorld; `rollout.n_envs` slots, all stepped together. The
+learner's side is drawn per match as VecMatches draws it (learner_side), from the same per-match
+generator np.random.default_rng((seed, slot, match number)), which then starts the world as
+World.reset would. Rewards are MatchCore's components (sim.match.REWARD_COMPONENTS) for the
+learner, the shaping potentials from sim.rewards. Opponents: "policy" (the caller's actions),
+"random" and "idle"; the planner, the scripted chaser and "none" need per-match Python and stay
+on the PyBullet backend for now, as do teachers, skills, memories and the start curricula
+(ConfigError names what is missing).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from jetson.autonomy.spec import ObservationSpec
+from sim.errors import ConfigError
+from sim.fast.observe import FastObserver, unsupported_spec
+from sim.fast.world import FastWorld, unsupported
+from sim.match import REWARD_COMPONENTS, EnvConfig, derived_spec
+from sim.rewards import goal_potential, park_potential, ring_potential
+from sim.training.rollout import EpisodeStats, RolloutConfig, StepResult, advice_size
+from sim.world import rules
+
+FAST_OPPONENTS = ("policy", "random", "idle")
+F64 = NDArray[np.float64]
+
+
+def fast_unsupported(config: EnvConfig, teacher: str = "none") -> list[str]:
+    """What of a training setup the fast backend cannot run yet (empty: all of it)."""
+    out = unsupported(config.world)
+    if len(config.world.red) != 1 or len(config.world.blue) != 1:
+        out.append("a match that is not 1v1 (training matches are one robot a side)")
+    if config.skills is not None:
+        out.append("[env.skills] (a skill policy)")
+    if config.action_intake or config.action_clamp:
+        out.append("intake or clamp actions")
+    for name in ("goal_start_share", "midgame_start_share"):
+        if getattr(config, name) > 0:
+            out.append(f"env.{name}")
+    if teacher != "none":
+        out.append(f"imitation.teacher = {teacher!r}")
+    if config.observation is not None:
+        out += [f"observation.{name}" for name in unsupported_spec(config.observation)]
+    return out
+
+
+class FastMatches:
+    """VecMatches on a FastWorld (module docstring)."""
+
+    def __init__(
+        self, config: EnvConfig, rollout: RolloutConfig, seed: int, teacher: str = "none"
+    ) -> None:
+        missing = fast_unsupported(config, teacher)
+        if missing:
+            raise ConfigError("--backend fast does not run this config yet: " + "; ".join(missing))
+        self.config = config
+        self.rollout = rollout
+        self.seed = seed
+        n = rollout.n_envs
+        self.n = n
+        self.world = FastWorld(config.world, n)
+        self.spec: ObservationSpec = config.observation or derived_spec(
+            self.world.match_length_s, [rc.ring_capacity for rc in self.world.robot_configs]
+        )
+        self.observer = FastObserver(
+            self.world,
+            self.spec,
+            obs_noise=config.obs_noise,
+            gps_noise=config.gps_noise,
+            rng=np.random.default_rng((seed, 1 << 20)),
+        )
+        self._player_rng = np.random.default_rng((seed, 1 << 21))
+        self.kinds = ["idle"] * n
+        self.tags = [-1] * n
+        self._pending: dict[int, tuple[str, int]] = {}
+        self.episode = np.zeros(n, dtype=np.int64)
+        self.learner = np.zeros(n, dtype=np.int64)  # 0 red, 1 blue (1v1)
+        self.uncapped = np.zeros(n, dtype=bool)
+        self.limits = np.array(
+            [
+                min([x for x in (config.max_steps, rollout.slot_limit(k)) if x] or [1 << 40])
+                for k in range(n)
+            ]
+        )
+        self._rewards = {False: config.reward, True: config.match_reward(True)}
+        self.steps = np.zeros(n, dtype=np.int64)
+        self.total = np.zeros(n)
+        self.totals = np.zeros((n, len(REWARD_COMPONENTS)))
+        self.fill_time = np.full(n, np.nan)
+        self.pins = np.zeros(n, dtype=np.int64)
+        self._potentials: dict[str, F64] = {}
+        self._margin = np.zeros(n)
+        self.obs = np.zeros((n, 2, self.spec.size), np.float32)
+
+    # --- VecMatches' interface ---------------------------------------------------------------
+
+    def set_kinds(self, kinds: list[tuple[str, int]]) -> None:
+        """Each slot's opponent from its next match on (VecMatches.set_kinds)."""
+        if len(kinds) != self.n:
+            raise ConfigError(f"set_kinds needs {self.n} kinds, got {len(kinds)}")
+        for k, (kind, tag) in enumerate(kinds):
+            if kind not in FAST_OPPONENTS:
+                raise ConfigError(
+                    f"--backend fast plays opponents {FAST_OPPONENTS}, not {kind!r} (set "
+                    "[opponents] to the pool, or use the PyBullet backend)"
+                )
+            self._pending[k] = (kind, tag)
+
+    def reset(self) -> StepResult:
+        self._start(np.arange(self.n))
+        self.obs = self.observer.reset()
+        return self._result(np.zeros(self.n, np.float32), np.zeros(self.n, bool), None, [])
+
+    def step(self, actions: np.ndarray, opponent_actions: np.ndarray) -> StepResult:
+        w = self.world
+        rows = np.arange(self.n)
+        me, them = self.learner, 1 - self.learner
+        lin = np.zeros((self.n, 2))
+        ang = np.zeros((self.n, 2))
+        intake = np.ones((self.n, 2), dtype=bool)
+        mine = self._drive(np.asarray(actions, dtype=np.float64))
+        theirs = self._opponents(np.asarray(opponent_actions, dtype=np.float64))
+        for cmd, who in ((mine, me), (theirs, them)):
+            lin[rows, who], ang[rows, who], intake[rows, who] = cmd
+        before = w.collected[rows, me].copy()
+        events = w.step(lin, ang, intake)
+        self.obs = self.observer.push()
+        pinned = events.pins[:, 0] if events.pins.shape[1] else np.zeros(self.n, bool)
+        ended = events.match_over | (pinned & self.config.end_on_pin)
+        rewards, comps = self._reward(before, events.clamped[rows, me], pinned, ended)
+        self.steps += 1
+        self.total += rewards
+        self.totals += comps
+        self.pins += pinned
+        filled = np.isnan(self.fill_time) & (w.collected[rows, me] >= self.rollout.fill_target)
+        self.fill_time = np.where(filled, w.time_s, self.fill_time)
+        terminal = ended | (filled & self.rollout.end_at_fill)
+        truncated = ~terminal & (self.steps >= self.limits)
+        done = terminal | truncated
+        final = None
+        episodes: list[EpisodeStats] = []
+        if done.any():
+            which = np.flatnonzero(done)
+            if truncated.any():
+                final = self.obs[rows, me].copy()
+            episodes = [
+                self._stats(int(k), bool(pinned[k] and self.config.end_on_pin)) for k in which
+            ]
+            self._start(which)
+            self.obs[which] = self.observer.reset(which)[which]
+        result = self._result(rewards.astype(np.float32), done, final, episodes)
+        result.truncated = truncated
+        return result
+
+    def close(self) -> None:
+        """Nothing to release: no processes, no PyBullet clients."""
+
+    def __enter__(self) -> FastMatches:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # --- matches ----------------------------------------------------------------------------
+
+    def _start(self, which: NDArray[np.int64]) -> None:
+        """New matches in slots `which`: side, start, intakes, rewards, bookkeeping."""
+        side = self.rollout.learner_side
+        rngs = []
+        for k in which:
+            if k in self._pending:
+                self.kinds[k], self.tags[k] = self._pending.pop(k)
+            rng = np.random.default_rng((self.seed, int(k), int(self.episode[k])))
+            self.episode[k] += 1
+            red = rng.random() < 0.5 if side == "random" else side == "red"
+            self.learner[k] = 0 if red else 1
+            rngs.append(rng)
+        rngs = self.world.reset_matches(which, rngs)
+        share = self.config.uncapped_share
+        for k, rng in zip(which, rngs, strict=True):
+            uncapped = share > 0 and rng.random() < share
+            self.uncapped[k] = uncapped
+            if uncapped:
+                self.world.room_cap[k] = 1 << 30
+        self.steps[which] = 0
+        self.total[which] = 0.0
+        self.totals[which] = 0.0
+        self.fill_time[which] = np.nan
+        self.pins[which] = 0
+        potentials = self._potential_now()
+        for name, value in potentials.items():
+            old = self._potentials.get(name, value)
+            old[which] = value[which]
+            self._potentials[name] = old
+        margin = self._margin_now()
+        self._margin[which] = margin[which]
+
+    def _drive(self, actions: F64) -> tuple[F64, F64, NDArray[np.bool_]]:
+        """Drive actions (B, 2) of the robots they are for -> (linear, angular, intake); a
+        non-finite action is a stop with the intake off (MatchCore.command)."""
+        if actions.shape != (self.n, self.config.action_size):
+            raise ValueError(f"actions must have shape ({self.n}, {self.config.action_size})")
+        ok = np.isfinite(actions).all(axis=1)
+        a = np.clip(np.where(ok[:, None], actions, 0.0), -1.0, 1.0)
+        return a[:, 0] * self._max_v(), a[:, 1] * self._max_w(), ok
+
+    def _max_v(self) -> F64:
+        return self.world.max_v[self.learner]
+
+    def _max_w(self) -> F64:
+        return self.world.max_w[self.learner]
+
+    def _opponents(self, actions: F64) -> tuple[F64, F64, NDArray[np.bool_]]:
+        kinds = np.array(self.kinds)
+        random = self._player_rng.uniform(-1.0, 1.0, actions.shape)
+        a = np.where((kinds == "random")[:, None], random, actions)
+        a = np.where((kinds == "idle")[:, None], 0.0, a)
+        ok = np.isfinite(a).all(axis=1)
+        a = np.clip(np.where(ok[:, None], a, 0.0), -1.0, 1.0)
+        them = 1 - self.learner
+        w = self.world
+        return a[:, 0] * w.max_v[them], a[:, 1] * w.max_w[them], ok
+
+    # --- rewards ----------------------------------------------------------------------------
+
+    def _reward_config(self, name: str) -> F64:
+        """A RewardConfig weight per match (uncapped matches have their own reward)."""
+        return np.where(
+            self.uncapped,
+            float(getattr(self._rewards[True], name) or 0.0),
+            float(getattr(self._rewards[False], name) or 0.0),
+        )
+
+    def _potential_now(self) -> dict[str, F64]:
+        """The learner's shaping potentials now, (B,) each (MatchCore._shapings)."""
+        w = self.world
+        rows = np.arange(self.n)
+        me = self.learner
+        out: dict[str, F64] = {}
+        rad = np.radians(w.heading)
+        front = np.stack(
+            [w.x + w.half_l * np.sin(rad), w.y + w.half_l * np.cos(rad)], -1
+        )  # (B, R, 2)
+        rings = ring_potential(front, w.room, w.ring_xy, w.ring_floor)[rows, me]
+        out["approach"] = np.where(self._reward_config("approach") != 0, rings, 0.0)
+        g = w.n_goals
+        if g:
+            offsets = w.half_l[:, None] + w.goal_radius[None] + 0.005  # (R, G)
+            sign = np.where(w.front_clamp, 1.0, -1.0)[:, None]
+            cx = w.x[..., None] + sign * offsets * np.sin(rad)[..., None]
+            cy = w.y[..., None] + sign * offsets * np.cos(rad)[..., None]
+            clamp = np.stack([cx, cy], -1)  # (B, R, G, 2)
+            goals = np.stack([w.gx, w.gy], -1)
+            allowed = np.array(
+                [[s.alliance in (None, a) for s in w.field.goals] for a in w.alliances]
+            )  # (R, G)
+            eligible = allowed[None] & (w.carrier < 0)[:, None, :]
+            pot = goal_potential(clamp, goals, eligible, w.carried >= 0)[rows, me]
+        else:
+            pot = np.zeros(self.n)
+        out["goal_approach"] = np.where(self._reward_config("goal_approach") != 0, pot, 0.0)
+        park_from = self._reward_config("park_from_s")
+        margin = self._reward_config("park_margin_m")[:, None, None]  # by match's reward
+        active = (self._reward_config("park") != 0) & (w.time_s >= w.match_length_s - park_from)
+        plats = [w.field.platform(a) for a in w.alliances]
+        centre = np.array([p.center for p in plats])
+        half = np.maximum(np.array([p.size for p in plats])[None] / 2 - margin, 0.0)  # (B, R, 2)
+        xy = np.stack([w.x, w.y], -1)
+        park = park_potential(xy, centre, half, np.broadcast_to(active[:, None], xy.shape[:2]))
+        out["park"] = park[rows, me]
+        return out
+
+    def _margin_now(self) -> F64:
+        red, blue = self.world.totals()
+        margin = (red - blue).astype(np.float64)
+        return np.where(self.learner == 0, margin, -margin)
+
+    def _reward(
+        self,
+        before: NDArray[np.int64],
+        clamped: NDArray[np.int64],
+        pinned: NDArray[np.bool_],
+        ended: NDArray[np.bool_],
+    ) -> tuple[F64, F64]:
+        """The learner's reward for the step just taken (MatchCore.step's components)."""
+        w = self.world
+        rows = np.arange(self.n)
+        me = self.learner
+        comp = np.zeros((self.n, len(REWARD_COMPONENTS)))
+        col = {name: i for i, name in enumerate(REWARD_COMPONENTS)}
+        cap = self._ring_cap()
+        now = w.collected[rows, me]
+        counted = np.where(cap < 0, now - before, np.minimum(now, cap) - np.minimum(before, cap))
+        comp[:, col["rings"]] = self._reward_config("ring") * counted
+        comp[:, col["pin"]] = np.where(pinned, self._reward_config("pin"), 0.0)
+        potentials = self._potential_now()
+        for name, value in potentials.items():
+            weight = self._reward_config(name)
+            comp[:, col[name]] = weight * (self._potentials[name] - value)
+            self._potentials[name] = value
+        hurry = self._reward_config("hurry")
+        comp[:, col["hurry"]] = np.where((cap >= 0) & (before < cap), hurry * w.dt, 0.0)
+        if w.n_goals:
+            ok = clamped >= 0
+            g = np.where(ok, clamped, 0)
+            allowed = np.array(
+                [[s.alliance in (None, a) for a in ("red", "blue")] for s in w.field.goals]
+            )
+            scores = allowed[g, me] & ok
+            comp[:, col["clamp"]] = np.where(scores, self._reward_config("clamp"), 0.0)
+        margin = self._margin_now()
+        comp[:, col["score"]] = self._reward_config("score") * (margin - self._margin)
+        self._margin = margin
+        end = ended & ~(pinned & self.config.end_on_pin)
+        if end.any():
+            comp[:, col["goals_end"]] = np.where(
+                end, self._reward_config("goal_end") * self._goals_counting(), 0.0
+            )
+            theirs = np.where(me == 0, w.x[rows, me] > 0, w.x[rows, me] < 0)
+            comp[:, col["side_end"]] = np.where(
+                end & theirs, self._reward_config("opponent_side_end"), 0.0
+            )
+            plat_up = self._elevated()
+            comp[:, col["elevated_end"]] = np.where(
+                end & plat_up, self._reward_config("elevated_end"), 0.0
+            )
+        return comp.sum(axis=1), comp
+
+    def _ring_cap(self) -> NDArray[np.int64]:
+        """RewardConfig.ring_cap per match, -1 for none."""
+        caps = {u: (-1 if r.ring_cap is None else r.ring_cap) for u, r in self._rewards.items()}
+        return np.where(self.uncapped, caps[True], caps[False])
+
+    def _goals_counting(self) -> F64:
+        """Goals counting for the learner's alliance in its own zone (MatchCore.goals_counting)."""
+        w = self.world
+        me = self.learner
+        allowed = np.array(
+            [[s.alliance in (None, a) for a in ("red", "blue")] for s in w.field.goals]
+        )
+        mine = allowed[:, me].T  # (B, G)
+        if self.config.reward.goal_zone == "home":
+            owner, _, _ = rules.ring_race_owners(
+                w.field,
+                w.alliances,
+                np.stack([w.x, w.y], -1),
+                np.stack([w.gx, w.gy], -1),
+                w.carrier,
+            )
+            counts = owner == (me + 1)[:, None]
+        else:
+            counts = (w.gx < 0) == (me == 0)[:, None]
+        return (counts & mine).sum(axis=1).astype(np.float64)
+
+    def _elevated(self) -> NDArray[np.bool_]:
+        w = self.world
+        _, _, elevated = rules.ring_race_owners(
+            w.field, w.alliances, np.stack([w.x, w.y], -1), np.stack([w.gx, w.gy], -1), w.carrier
+        )
+        return elevated[np.arange(self.n), self.learner]
+
+    # --- results ----------------------------------------------------------------------------
+
+    def _stats(self, k: int, by_pin: bool) -> EpisodeStats:
+        w = self.world
+        me = int(self.learner[k])
+        red, blue = w.totals()
+        mine, theirs = (red[k], blue[k]) if me == 0 else (blue[k], red[k])
+        kind = self.kinds[k]
+        fill = self.fill_time[k]
+        return EpisodeStats(
+            slot=k,
+            kind=kind,
+            tag=self.tags[k],
+            reward=float(self.total[k]),
+            components={
+                n: float(v) for n, v in zip(REWARD_COMPONENTS, self.totals[k], strict=True)
+            },
+            rings=int(w.collected[k, me]),
+            fill_time_s=None if np.isnan(fill) else float(fill),
+            score=float(mine),
+            opponent_score=float(theirs),
+            opponent_rings=int(w.collected[k, 1 - me]),
+            result=1.0 if mine > theirs else 0.5 if mine == theirs else 0.0,
+            pins=int(self.pins[k]),
+            length=int(self.steps[k]),
+            ended_by_pin=by_pin,
+        )
+
+    def _result(
+        self,
+        rewards: NDArray[np.float32],
+        dones: NDArray[np.bool_],
+        final: NDArray[np.float32] | None,
+        episodes: list[EpisodeStats],
+    ) -> StepResult:
+        rows = np.arange(self.n)
+        mine = self.obs[rows, self.learner]
+        policy = np.array([k == "policy" for k in self.kinds])
+        theirs = np.where(policy[:, None], self.obs[rows, 1 - self.learner], 0.0).astype(np.float32)
+        return StepResult(
+            mine,
+            theirs,
+            rewards,
+            dones,
+            np.zeros(self.n, bool),
+            final if final is not None else np.zeros_like(mine),
+            episodes,
+            np.full((self.n, advice_size(self.config)), np.nan, np.float32),
+            np.ones(self.n, bool),
+            self.uncapped.copy(),
+        )
