@@ -110,6 +110,9 @@ def _cmd_train(args: argparse.Namespace) -> int:
             cfg = replace(cfg, total_steps=args.steps)
         if args.seed is not None:
             cfg = replace(cfg, seed=args.seed)
+        if args.backend is not None:
+            cfg = replace(cfg, backend=args.backend)
+        cfg.on_backend()  # a config the backend cannot run fails here, before the run folder
         run_dir = args.run_dir or Path("runs") / cfg.name
         if args.resume and args.force:
             raise ConfigError(
@@ -450,6 +453,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--steps", type=int, default=None, help="override total_steps")
     p.add_argument("--seed", type=int, default=None, help="override the config's seed")
+    p.add_argument(
+        "--backend",
+        choices=("pybullet", "fast"),
+        default=None,
+        help="where the matches run (overrides the config's backend): pybullet, the twin's "
+        "training fidelity on worker processes; fast, thousands of matches at once in numpy "
+        "(sim/fast/; [fast] envs and steps_per_env size it). A config the fast backend cannot "
+        "run yet is refused with what it lacks",
+    )
     add_no_progress(p)
     p.set_defaults(func=_cmd_train)
 

@@ -13,6 +13,8 @@
     pool = 1.0
     [evaluation]                   # periodic deterministic evaluation (EvalConfig)
     [imitation]                    # optional teacher the policy is pulled toward (ImitationConfig)
+    backend = "pybullet"           # or "fast": sim.fast's batched matches (`--backend fast`)
+    [fast]                         # the fast backend's matches per step and steps per iteration
     [[phases]]                     # optional curriculum: from_step = N, then [phases.env],
                                    # [phases.rollout] (short_share, short_steps, learner_side),
                                    # [phases.opponents], applied on top of what came before
@@ -118,6 +120,25 @@ class ImitationConfig:
         return self.coef * max(0.0, 1.0 - (step - self.from_step) / span)
 
 
+BACKENDS = ("pybullet", "fast")
+FAST_OPPONENTS = ("pool", "random", "idle")
+
+
+@dataclass(frozen=True)
+class FastConfig:
+    """How the batched backend (backend = "fast") collects experience: `envs` matches stepped
+    together in one process, `steps_per_env` control steps of each per PPO iteration (the
+    buffer is their product). It replaces [rollout]'s workers, envs_per_worker and
+    steps_per_env; the rest of [rollout] holds."""
+
+    envs: int = 1024
+    steps_per_env: int = 64
+
+    def __post_init__(self) -> None:
+        if self.envs < 1 or self.steps_per_env < 1:
+            raise ConfigError("[fast] envs and steps_per_env must be >= 1")
+
+
 @dataclass(frozen=True)
 class TrainConfig:
     name: str = "default"
@@ -136,11 +157,17 @@ class TrainConfig:
     opponents: dict[str, float] = field(default_factory=lambda: {"pool": 1.0})
     evaluation: EvalConfig = field(default_factory=EvalConfig)
     imitation: ImitationConfig = field(default_factory=ImitationConfig)
+    # Where the matches run: "pybullet" (sim.world, worker processes) or "fast" (sim.fast's
+    # batched numpy matches; what it does not run yet is refused by name: on_backend()).
+    backend: str = "pybullet"
+    fast: FastConfig = field(default_factory=FastConfig)
     # A curriculum: from `from_step` on, [env] / [rollout] / [opponents] change (each phase
     # applies on top of the ones before it). See at_step().
     phases: tuple[dict[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
+        if self.backend not in BACKENDS:
+            raise ConfigError(f"backend must be one of {BACKENDS}, got {self.backend!r}")
         if self.total_steps < 1 or self.checkpoint_steps < 1 or self.keep_checkpoints < 1:
             raise ConfigError("total_steps, checkpoint_steps and keep_checkpoints must be >= 1")
         kinds = {"pool", *OPPONENT_KINDS} - {"policy"}
@@ -195,6 +222,31 @@ class TrainConfig:
     def phase_index(self, step: int) -> int:
         """0 before the first phase, k after phases[k - 1] has started."""
         return sum(1 for p in self.phases if p["from_step"] <= step)
+
+    def on_backend(self) -> TrainConfig:
+        """The config as its backend runs it: on "fast", [fast] sets the rollout's size, and
+        anything the batched matches do not run yet (sim.fast.matches.fast_unsupported, an
+        opponent other than the pool, random or idle) is a ConfigError naming it."""
+        if self.backend != "fast":
+            return self
+        from sim.fast.matches import fast_unsupported
+
+        missing = fast_unsupported(self.env_config(), self.imitation.teacher)
+        kinds = sorted(k for k, share in self.opponents.items() if share > 0)
+        missing += [f"opponents.{k}" for k in kinds if k not in FAST_OPPONENTS]
+        if missing:
+            raise ConfigError(
+                f"config {self.name!r} on --backend fast: the fast backend does not run "
+                + "; ".join(missing)
+                + " yet (train it with --backend pybullet)"
+            )
+        rollout = replace(
+            self.rollout,
+            workers=0,
+            envs_per_worker=self.fast.envs,
+            steps_per_env=self.fast.steps_per_env,
+        )
+        return replace(self, rollout=rollout)
 
     def env_config(self) -> EnvConfig:
         return make_config(_nones(self.env))

@@ -41,6 +41,7 @@ import torch
 
 from jetson.autonomy.skills import SkillConfig
 from jetson.autonomy.spec import ObservationSpec
+from sim.fast.matches import FastMatches
 from sim.match import MatchCore
 from sim.ppo import Agent, Batch, RewardScaler, compute_gae, ppo_update
 from sim.training.checkpoint import build_agent, load_checkpoint, save_checkpoint
@@ -302,6 +303,7 @@ def train(
     from torch.utils.tensorboard import SummaryWriter
     from tqdm import tqdm
 
+    cfg = cfg.on_backend()
     run_dir = Path(run_dir)
     if resume and not (run_dir / "checkpoints" / "latest.pt").is_file():
         raise FileNotFoundError(f"--resume: no {run_dir / 'checkpoints' / 'latest.pt'}")
@@ -317,8 +319,15 @@ def train(
     phase = cfg.phase_index(run.step)
     phase_cfg = run.enter_phase(run.step)
 
-    def open_matches() -> VecMatches:
+    def open_matches() -> VecMatches | FastMatches:
         # A resumed run (or a new phase) draws new matches: the seed stream moves on.
+        if cfg.backend == "fast":
+            return FastMatches(
+                run.env,
+                phase_cfg.rollout,
+                seed=cfg.seed * 1_000 + run.starts + 100 * phase,
+                teacher=cfg.imitation.teacher,
+            )
         return VecMatches(
             run.env,
             phase_cfg.rollout,

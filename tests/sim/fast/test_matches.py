@@ -1,0 +1,111 @@
+"""Training on the batched backend: FastMatches keeps VecMatches' contract (seeded sides and
+starts, rewards as MatchCore's components, truncation with the final observation), the trainer
+runs on it, and a config it cannot run is refused by name."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sim.cli import main
+from sim.errors import ConfigError
+from sim.fast.matches import FastMatches
+from sim.match import make_config
+from sim.training.config import FastConfig, load_config
+from sim.training.rollout import RolloutConfig
+from sim.training.trainer import train
+from sim.world.physics import World
+
+ENV = {"world": {"start_jitter_m": 0.1, "ring_jitter_m": 0.03}, "max_steps": 30}
+
+
+def test_each_match_starts_as_the_pybullet_slot_would() -> None:
+    env = make_config(ENV)
+    fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=4), seed=7)
+    fm.set_kinds([("idle", -1)] * 4)
+    fm.reset()
+    for k in range(4):
+        rng = np.random.default_rng((7, k, 0))
+        red = rng.random() < 0.5
+        assert fm.learner[k] == (0 if red else 1)
+        with World(env.world) as w:
+            w.reset(rng)
+            assert np.allclose([r.x for r in w.robots], fm.world.x[k])
+            assert np.allclose(w.ring_xy, fm.world.ring_xy[k])
+
+
+def test_rewards_are_the_components_and_truncation_bootstraps() -> None:
+    env = make_config({**ENV, "reward": {"ring": 2.0, "approach": 1.0, "ring_cap": 10}})
+    fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=16), seed=1)
+    fm.set_kinds([("random", -1)] * 16)
+    first = fm.reset()
+    assert first.learner_obs.shape == (16, fm.spec.size)
+    assert not first.opponent_obs.any()  # no policy opponent: zeros
+    forward = np.tile(np.float32([1.0, 0.0]), (16, 1))
+    episodes, total = [], np.zeros(16)
+    for t in range(30):
+        res = fm.step(forward, np.zeros((16, 2), np.float32))
+        total += res.rewards
+        episodes += res.episodes
+    assert res.dones.all() and res.truncated.all()  # max_steps: truncated, not ended
+    assert res.final_obs.shape == (16, fm.spec.size) and res.final_obs.any()
+    assert len(episodes) == 16
+    for ep in episodes:
+        assert ep.length == 30
+        assert ep.reward == pytest.approx(sum(ep.components.values()))
+        assert ep.components["rings"] == pytest.approx(2.0 * min(ep.rings, 10))
+    assert np.allclose(sorted(total), sorted(ep.reward for ep in episodes), atol=1e-3)
+    assert sum(ep.rings for ep in episodes) > 0  # driving forward from the start meets rings
+
+
+def test_a_policy_opponent_gets_its_own_observation_and_actions() -> None:
+    env = make_config(ENV)
+    fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=4), seed=3)
+    fm.set_kinds([("policy", 5)] * 4)
+    res = fm.reset()
+    assert res.opponent_obs.any() and not np.array_equal(res.opponent_obs, res.learner_obs)
+    x0 = fm.world.x.copy()
+    for _ in range(6):
+        fm.step(np.zeros((4, 2), np.float32), np.tile(np.float32([1.0, 0.0]), (4, 1)))
+    moved = np.abs(fm.world.x - x0) + np.abs(fm.world.y)
+    them = 1 - fm.learner
+    assert (np.abs(fm.world.x - x0)[np.arange(4), fm.learner] < 1e-9).all()
+    assert moved[np.arange(4), them].min() > 0
+
+
+def test_what_the_fast_backend_cannot_run_is_named() -> None:
+    with pytest.raises(ConfigError, match="skill policy"):
+        replace(load_config("default"), backend="fast").on_backend()
+    env = make_config(ENV)
+    fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=2), seed=1)
+    with pytest.raises(ConfigError, match="planner"):
+        fm.set_kinds([("planner", -1)] * 2)
+
+
+def test_pete_sim_train_refuses_a_config_the_fast_backend_cannot_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code = main(["train", "--config", "default", "--backend", "fast", "--run-dir", str(tmp_path)])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "--backend fast" in err and "ring_memory" in err
+    assert not any(tmp_path.iterdir())  # refused before the run folder was written
+
+
+def test_the_trainer_runs_on_the_fast_backend(tmp_path: Path) -> None:
+    cfg = replace(
+        load_config("tiny"),
+        backend="fast",
+        fast=FastConfig(envs=64, steps_per_env=16),
+        total_steps=4096,
+        checkpoint_steps=4096,
+    )
+    cfg = replace(cfg, env={**cfg.env, "max_steps": 48})
+    result = train(cfg, tmp_path / "run", progress=False, export=False)
+    assert result.steps == 4096
+    assert result.episodes >= 64  # matches of 48 steps ended and started again
+    assert (tmp_path / "run" / "checkpoints" / "latest.pt").is_file()
+    assert result.history[-1]["charts/steps_per_s"] > 0
