@@ -32,8 +32,9 @@ from __future__ import annotations
 
 import math
 import statistics
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -148,7 +149,8 @@ def load_player(text: str) -> PlayerSpec:
     if word.startswith("original:"):
         path = word.removeprefix("original:")
         OriginalPlayer(path)  # fail now, with the reason, not in the first match
-        return PlayerSpec("original", lambda: OriginalPlayer(path))
+        found = str(Path(path).resolve())  # the same file from another working directory
+        return PlayerSpec("original", lambda: OriginalPlayer(found))
     registered = registered_players()
     if word in registered:
         return PlayerSpec(word, registered[word])
@@ -167,7 +169,8 @@ def load_player(text: str) -> PlayerSpec:
         )
     if path.suffix == ".onnx":
         if looks_like_original(path):
-            return PlayerSpec("original", lambda: OriginalPlayer(path))
+            found = path.resolve()
+            return PlayerSpec("original", lambda: OriginalPlayer(found))
         from jetson.autonomy.policy import OnnxPolicy
         from jetson.errors import PolicyError
 
@@ -175,11 +178,10 @@ def load_player(text: str) -> PlayerSpec:
             policy = OnnxPolicy(path)
         except PolicyError as e:
             raise EvalError(str(e)) from e
-        skills = policy.skills
+        # The maker loads the file again (by its absolute path), so a PlayerSpec can travel to
+        # another process (sim.training.ray_backend), which an onnxruntime session cannot.
         return PlayerSpec(
-            path.parent.name or path.stem,
-            lambda: PolicyPlayer(policy, "ours", skills),
-            policy.spec,
+            path.parent.name or path.stem, partial(onnx_player, path.resolve()), policy.spec
         )
     if path.suffix == ".pt":
         from sim.training.checkpoint import load_policy_fn
@@ -190,6 +192,14 @@ def load_player(text: str) -> PlayerSpec:
             raise EvalError(str(e)) from e
         return PlayerSpec(path.stem, lambda: PolicyPlayer(fn, "ours", skills), spec)
     raise EvalError(f"{path}: expected a .onnx policy or a .pt checkpoint")
+
+
+def onnx_player(path: Path) -> Player:
+    """Our policy.onnx (policy.json beside it) as a player."""
+    from jetson.autonomy.policy import OnnxPolicy
+
+    policy = OnnxPolicy(path)
+    return PolicyPlayer(policy, "ours", policy.skills)
 
 
 def load_side(text: str) -> tuple[PlayerSpec, ...]:
@@ -591,6 +601,67 @@ def _specs(side: PlayerSpec | Sequence[PlayerSpec]) -> tuple[PlayerSpec, ...]:
     return specs
 
 
+@dataclass(frozen=True)
+class Series:
+    """The matches of one evaluation. Match k depends on nothing but these fields and k (A on red
+    for even k, on blue for odd k, seed + k // 2), so any subset of them can be played in any
+    process: here (`play_here`) or as Ray tasks (sim.training.ray_backend)."""
+
+    a: tuple[PlayerSpec, ...]
+    b: tuple[PlayerSpec, ...] | None  # None: A alone on the field
+    env: EnvConfig
+    seed: int
+    stop_when_filled: bool = False
+
+    def play(
+        self, ks: Iterable[int], progress: Callable[[int], None] | None = None
+    ) -> list[MatchRecord]:
+        """Matches ks, in order; progress(n) after the n-th."""
+        try:
+            cores = make_cores(self.env)
+        except (ConfigError, ValueError) as e:
+            raise EvalError(str(e)) from e
+        pa = _Side(self.a)
+        pb = _Side(self.b) if self.b is not None else None
+        lineup = cores["duel"].world.lineup
+        counts = {al: sum(1 for x, _ in lineup if x == al) for al in ("red", "blue")}
+        records: list[MatchRecord] = []
+        try:
+            for k in ks:
+                alliance = "red" if k % 2 == 0 else "blue"
+                other = other_alliance(alliance)  # type: ignore[arg-type]
+                players_b = pb.players(counts[other]) if pb is not None else None
+                records.append(
+                    play_match(
+                        cores,
+                        pa.players(counts[alliance]),
+                        players_b,
+                        self.seed + k // 2,
+                        alliance,
+                        self.stop_when_filled,
+                    )
+                )
+                if progress is not None:
+                    progress(len(records))
+        finally:
+            for core in cores.values():
+                core.close()
+        return records
+
+
+# Plays matches 0 ... n - 1 of a Series and returns their records in order, calling
+# progress(done, n) as they finish: where an evaluation's matches run.
+SeriesRunner = Callable[[Series, int, Callable[[int, int], None] | None], list[MatchRecord]]
+
+
+def play_here(
+    series: Series, matches: int, progress: Callable[[int, int], None] | None = None
+) -> list[MatchRecord]:
+    """The matches one after another in this process (evaluate's default runner)."""
+    done = None if progress is None else (lambda n: progress(n, matches))
+    return series.play(range(matches), done)
+
+
 def evaluate(
     a: PlayerSpec | Sequence[PlayerSpec],
     b: PlayerSpec | Sequence[PlayerSpec] | None,
@@ -602,10 +673,13 @@ def evaluate(
     base_env: dict[str, Any] | None = None,
     progress: Callable[[int, int], None] | None = None,
     world: str | None = None,
+    runner: SeriesRunner | None = None,
 ) -> Summary:
     """`matches` seeded matches of A against B (None: A alone), sides alternating per seed, in
     the `world` preset (None: the ring race). A side is one PlayerSpec for all its alliance's
-    robots, or one per robot."""
+    robots, or one per robot. runner: where the matches are played (default: here, one after
+    another; sim.training.ray_backend.RayBackend.play: as Ray tasks over a cluster); the
+    records are the same either way."""
     if matches < 1:
         raise EvalError(f"matches must be at least 1, got {matches}")
     side_a = _specs(a)
@@ -615,9 +689,9 @@ def evaluate(
         raise EvalError("the two policies expect different observations; evaluate each alone")
     try:
         env = eval_env(scenario, fidelity, specs[0] if specs else None, base_env, world)
-        cores = make_cores(env)
     except (ConfigError, ValueError) as e:
         raise EvalError(str(e)) from e
+    series = Series(side_a, side_b if b is not None else None, env, seed, stop_when_filled)
     summary = Summary(
         side_label(side_a),
         "nobody" if b is None else side_label(side_b),
@@ -625,29 +699,5 @@ def evaluate(
         fidelity,
         world=world or "ring_race",
     )
-    pa = _Side(side_a)
-    pb = _Side(side_b) if b is not None else None
-    counts = {
-        al: sum(1 for x, _ in cores["duel"].world.lineup if x == al) for al in ("red", "blue")
-    }
-    try:
-        for k in range(matches):
-            alliance = "red" if k % 2 == 0 else "blue"
-            other = other_alliance(alliance)  # type: ignore[arg-type]
-            players_b = pb.players(counts[other]) if pb is not None else None
-            summary.matches.append(
-                play_match(
-                    cores,
-                    pa.players(counts[alliance]),
-                    players_b,
-                    seed + k // 2,
-                    alliance,
-                    stop_when_filled,
-                )
-            )
-            if progress is not None:
-                progress(k + 1, matches)
-    finally:
-        for core in cores.values():
-            core.close()
+    summary.matches.extend((runner or play_here)(series, matches, progress))
     return summary

@@ -32,6 +32,11 @@ has exactly one opponent, which is what ELO needs. Finished matches reset on the
 statistics come back as EpisodeStats. Each match draws its randomness from
 np.random.default_rng((seed, slot, match number)), so a run is reproducible.
 
+Where the workers run is the caller's choice (`launcher`): processes on this machine by default
+(multiprocessing pipes), or anything else that builds one MatchGroup per GroupSpec and calls its
+methods in lockstep (sim.training.ray_backend: Ray actors over a cluster). Every backend steps the
+same MatchGroup, so the same seeds give the same StepResults wherever the matches run.
+
 This module does not import torch: workers only simulate.
 """
 
@@ -41,8 +46,9 @@ import contextlib
 import multiprocessing as mp
 import signal
 import traceback
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 import numpy as np
 
@@ -383,8 +389,8 @@ def _make_player(kind: str) -> Player | None:
     return None  # policy: the caller acts; none: no robot
 
 
-class _Group:
-    """The slots one process steps."""
+class MatchGroup:
+    """The slots one worker steps: what a worker process (or a Ray actor) holds."""
 
     def __init__(
         self,
@@ -457,32 +463,103 @@ class _Group:
             s.close()
 
 
-def _worker(
-    conn: Any, config: EnvConfig, rollout: RolloutConfig, seed: int, first: int, teacher: str
-) -> None:
+@dataclass(frozen=True)
+class GroupSpec:
+    """What one worker's MatchGroup is built from: slots first_slot ... first_slot + count - 1."""
+
+    config: EnvConfig
+    rollout: RolloutConfig
+    seed: int
+    first_slot: int
+    count: int
+    teacher: str = "none"
+
+    def build(self) -> MatchGroup:
+        return MatchGroup(
+            self.config, self.rollout, self.seed, self.first_slot, self.count, self.teacher
+        )
+
+
+class Workers(Protocol):
+    """The workers of a VecMatches: one MatchGroup per GroupSpec, called in lockstep."""
+
+    def call(self, method: str, args: Sequence[tuple[Any, ...]]) -> list[Any]:
+        """MatchGroup.<method>(*args[w]) on every worker w, their results in worker order; a
+        failure is a WorkerError (the workers are closed)."""
+        ...
+
+    def close(self) -> None: ...
+
+
+# Builds the workers for a list of GroupSpecs (VecMatches' `launcher`).
+Launcher = Callable[[list[GroupSpec]], Workers]
+GROUP_METHODS = ("reset", "step", "set_kinds")
+
+
+def _worker(conn: Any, spec: GroupSpec) -> None:
     # Ctrl-C reaches the whole process group: the training process decides, and closes us.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    group: _Group | None = None
+    group: MatchGroup | None = None
     try:
-        group = _Group(config, rollout, seed, first, rollout.envs_per_worker, teacher)
+        group = spec.build()
         conn.send(("ok", None))
         while True:
             cmd, data = conn.recv()
-            if cmd == "step":
-                conn.send(("ok", group.step(*data)))
-            elif cmd == "reset":
-                conn.send(("ok", group.reset()))
-            elif cmd == "kinds":
-                group.set_kinds(data)
-                conn.send(("ok", None))
-            elif cmd == "close":
+            if cmd == "close":
                 break
+            if cmd not in GROUP_METHODS:
+                raise ValueError(f"unknown worker command {cmd!r}")
+            conn.send(("ok", getattr(group, cmd)(*data)))
     except Exception:  # the training process re-raises it with the worker's traceback
         conn.send(("error", traceback.format_exc()))
     finally:
         if group is not None:
             group.close()
         conn.close()
+
+
+class ProcessWorkers:
+    """Workers as processes on this machine, one pipe each (the default launcher)."""
+
+    def __init__(self, specs: list[GroupSpec], start_method: str = "spawn") -> None:
+        ctx = mp.get_context(start_method)
+        self._conns: list[Any] = []
+        self._procs: list[Any] = []
+        for spec in specs:
+            parent, child = ctx.Pipe()
+            proc = ctx.Process(target=_worker, args=(child, spec), daemon=True)
+            proc.start()
+            child.close()
+            self._conns.append(parent)
+            self._procs.append(proc)
+        for conn in self._conns:
+            self._receive(conn)
+
+    def _receive(self, conn: Any) -> Any:
+        try:
+            status, payload = conn.recv()
+        except EOFError as e:
+            self.close()
+            raise WorkerError("a rollout worker exited without a reply") from e
+        if status == "error":
+            self.close()
+            raise WorkerError(f"rollout worker failed:\n{payload}")
+        return payload
+
+    def call(self, method: str, args: Sequence[tuple[Any, ...]]) -> list[Any]:
+        for conn, a in zip(self._conns, args, strict=True):
+            conn.send((method, a))
+        return [self._receive(c) for c in list(self._conns)]
+
+    def close(self) -> None:
+        for conn in self._conns:
+            with contextlib.suppress(BrokenPipeError, OSError):
+                conn.send(("close", None))
+        for proc in self._procs:
+            proc.join(timeout=5)
+            if proc.is_alive():
+                proc.terminate()
+        self._conns, self._procs = [], []
 
 
 def _merge(results: list[StepResult]) -> StepResult:
@@ -503,14 +580,21 @@ def _merge(results: list[StepResult]) -> StepResult:
 
 
 class VecMatches:
-    """n_envs matches, split over `workers` processes (or stepped here when workers = 0).
+    """n_envs matches, split over `workers` workers (or stepped here when workers = 0).
 
     teacher: "planner" labels every learner observation with the planner's action
-    (StepResult.advice); "none" leaves advice NaN.
+    (StepResult.advice); "none" leaves advice NaN. launcher: where the workers run (default:
+    processes on this machine, ProcessWorkers; sim.training.ray_backend.RayBackend.launch puts
+    them on a Ray cluster).
     """
 
     def __init__(
-        self, config: EnvConfig, rollout: RolloutConfig, seed: int, teacher: str = "none"
+        self,
+        config: EnvConfig,
+        rollout: RolloutConfig,
+        seed: int,
+        teacher: str = "none",
+        launcher: Launcher | None = None,
     ) -> None:
         if teacher not in TEACHERS:
             raise ConfigError(f"teacher must be one of {TEACHERS}, got {teacher!r}")
@@ -519,39 +603,27 @@ class VecMatches:
         self.config = config
         self.rollout = rollout
         self.n_envs = rollout.n_envs
-        self._local: _Group | None = None
-        self._conns: list[Any] = []
-        self._procs: list[Any] = []
+        self._local: MatchGroup | None = None
+        self._workers: Workers | None = None
         per = rollout.envs_per_worker
+        specs = [
+            GroupSpec(config, rollout, seed, w * per, per, teacher)
+            for w in range(max(1, rollout.workers))
+        ]
         if rollout.workers == 0:
-            self._local = _Group(config, rollout, seed, 0, per, teacher)
-            return
-        ctx = mp.get_context(rollout.start_method)
-        for w in range(rollout.workers):
-            parent, child = ctx.Pipe()
-            proc = ctx.Process(
-                target=_worker, args=(child, config, rollout, seed, w * per, teacher), daemon=True
-            )
-            proc.start()
-            child.close()
-            self._conns.append(parent)
-            self._procs.append(proc)
-        for conn in self._conns:
-            self._receive(conn)
+            self._local = specs[0].build()
+        elif launcher is None:
+            self._workers = ProcessWorkers(specs, rollout.start_method)
+        else:
+            self._workers = launcher(specs)
 
-    def _receive(self, conn: Any) -> Any:
-        try:
-            status, payload = conn.recv()
-        except EOFError as e:
-            raise WorkerError("a rollout worker exited without a reply") from e
-        if status == "error":
-            self.close()
-            raise WorkerError(f"rollout worker failed:\n{payload}")
-        return payload
+    def _call(self, method: str, args: list[tuple[Any, ...]]) -> list[Any]:
+        assert self._workers is not None, "VecMatches is closed"
+        return self._workers.call(method, args)
 
     def _split(self, array: np.ndarray) -> list[np.ndarray]:
         per = self.rollout.envs_per_worker
-        return [array[w * per : (w + 1) * per] for w in range(len(self._conns))]
+        return [array[w * per : (w + 1) * per] for w in range(self.rollout.workers)]
 
     def set_kinds(self, kinds: list[tuple[str, int]]) -> None:
         """Opponent (kind, tag) per slot, applied when each slot's current match ends (and to
@@ -562,41 +634,30 @@ class VecMatches:
             self._local.set_kinds(kinds)
             return
         per = self.rollout.envs_per_worker
-        for w, conn in enumerate(self._conns):
-            conn.send(("kinds", kinds[w * per : (w + 1) * per]))
-        for conn in self._conns:
-            self._receive(conn)
+        self._call(
+            "set_kinds", [(kinds[w * per : (w + 1) * per],) for w in range(self.rollout.workers)]
+        )
 
     def reset(self) -> StepResult:
         if self._local is not None:
             return self._local.reset()
-        for conn in self._conns:
-            conn.send(("reset", None))
-        return _merge([self._receive(c) for c in self._conns])
+        return _merge(self._call("reset", [()] * self.rollout.workers))
 
     def step(self, actions: np.ndarray, opponent_actions: np.ndarray) -> StepResult:
         actions = np.asarray(actions, dtype=np.float32)
         opponent_actions = np.asarray(opponent_actions, dtype=np.float32)
         if self._local is not None:
             return self._local.step(actions, opponent_actions)
-        for conn, a, b in zip(
-            self._conns, self._split(actions), self._split(opponent_actions), strict=True
-        ):
-            conn.send(("step", (a, b)))
-        return _merge([self._receive(c) for c in self._conns])
+        pairs = list(zip(self._split(actions), self._split(opponent_actions), strict=True))
+        return _merge(self._call("step", pairs))
 
     def close(self) -> None:
         if self._local is not None:
             self._local.close()
             self._local = None
-        for conn in self._conns:
-            with contextlib.suppress(BrokenPipeError, OSError):
-                conn.send(("close", None))
-        for proc in self._procs:
-            proc.join(timeout=5)
-            if proc.is_alive():
-                proc.terminate()
-        self._conns, self._procs = [], []
+        if self._workers is not None:
+            self._workers.close()
+            self._workers = None
 
     def __enter__(self) -> VecMatches:
         return self

@@ -34,7 +34,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -47,8 +47,11 @@ from sim.ppo import Agent, Batch, RewardScaler, compute_gae, ppo_update
 from sim.training.checkpoint import build_agent, load_checkpoint, save_checkpoint
 from sim.training.config import TrainConfig
 from sim.training.export import export_policy, versions
-from sim.training.rollout import EpisodeStats, VecMatches, advice_size
+from sim.training.rollout import EpisodeStats, Launcher, VecMatches, advice_size
 from sim.training.selfplay import OpponentPool
+
+if TYPE_CHECKING:
+    from sim.evaluate import SeriesRunner
 
 POOL = "pool"
 
@@ -261,8 +264,10 @@ def evaluate_agent(
     matches: int,
     seed: int,
     skills: SkillConfig | None = None,
+    runner: SeriesRunner | None = None,
 ) -> dict[str, float]:
-    """Deterministic matches of the current agent (capped scenario); the scalars to log."""
+    """Deterministic matches of the current agent (capped scenario); the scalars to log.
+    runner: where the matches are played (sim.evaluate.evaluate; default: here)."""
     from sim.evaluate import PlayerSpec, evaluate, load_player
     from sim.players import PolicyPlayer
 
@@ -271,7 +276,7 @@ def evaluate_agent(
         return agent.deterministic(torch.as_tensor(obs, dtype=torch.float32)[None])[0].numpy()
 
     ours = PlayerSpec("ours", lambda: PolicyPlayer(act, "ours", skills), spec)
-    summary = evaluate(ours, load_player(opponent), matches, seed, "capped")
+    summary = evaluate(ours, load_player(opponent), matches, seed, "capped", runner=runner)
     a, b = summary.side(0), summary.side(1)
     return {
         "eval/fill_rate": a["fill_rate"],
@@ -299,7 +304,15 @@ def train(
     progress: bool = True,
     callback: Callback | None = None,
     export: bool = True,
+    launcher: Launcher | None = None,
+    runner: SeriesRunner | None = None,
 ) -> TrainResult:
+    """Train `cfg` into `run_dir` (see the module docstring).
+
+    launcher: where the rollout workers run (sim.training.rollout.VecMatches; default: processes
+    on this machine); runner: where the periodic evaluation's matches run (sim.evaluate.evaluate;
+    default: here). sim.training.ray_backend.RayBackend gives both for a Ray cluster.
+    """
     from torch.utils.tensorboard import SummaryWriter
     from tqdm import tqdm
 
@@ -333,6 +346,7 @@ def train(
             phase_cfg.rollout,
             seed=cfg.seed * 1_000 + run.starts + 100 * phase,
             teacher=cfg.imitation.teacher,
+            launcher=launcher,
         )
 
     vec = open_matches()
@@ -502,6 +516,7 @@ def train(
                     ev_cfg.matches,
                     ev_cfg.seed,
                     run.env.skills,
+                    runner,
                 )
                 for k, v in ev.items():
                     if math.isfinite(v):
