@@ -22,9 +22,12 @@ PettingZoo environments, PPO self-play training and evaluation.
 
   pete-sim versions        the simulation stack this environment has installed
   pete-sim view            a PNG of a seeded field and a GIF of a scripted match
-  pete-sim train           PPO self-play from a TOML config (sim/configs/), --resume to go on
+  pete-sim train           PPO self-play from a TOML config (sim/configs/), --resume to go on;
+                           --ray ADDRESS: its rollouts and evaluation on a Ray cluster
+  pete-sim sweep           a hyperparameter sweep of a training config with Ray Tune
   pete-sim export          a checkpoint to policy.onnx + policy.json (onnxruntime only)
   pete-sim eval            seeded matches of a policy against another: rings, score, wins
+                           (--ray ADDRESS: as tasks on a Ray cluster)
   pete-sim play            one match as a top-down GIF with a score overlay + reward plots
   pete-sim match           the whole robot stack (Brain core, wire, Jetson daemon) on the
                            simulated field, or --stack sim: summary, replay GIF, plots
@@ -98,10 +101,12 @@ def _clear_run(run_dir: Path) -> None:
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
+    from contextlib import nullcontext
     from dataclasses import replace
 
-    from sim.errors import ConfigError, WorkerError
+    from sim.errors import ClusterError, ConfigError, WorkerError
     from sim.training.config import load_config
+    from sim.training.ray_cli import check_rollout_cpus, ray_backend
     from sim.training.trainer import train
 
     try:
@@ -110,6 +115,11 @@ def _cmd_train(args: argparse.Namespace) -> int:
             cfg = replace(cfg, total_steps=args.steps)
         if args.seed is not None:
             cfg = replace(cfg, seed=args.seed)
+        if args.workers is not None:
+            cfg = replace(cfg, rollout=replace(cfg.rollout, workers=args.workers))
+        cluster = ray_backend(args.ray)
+        if cluster is not None:
+            check_rollout_cpus(cfg.rollout.workers, cfg.evaluation.every_steps > 0, None)
         if args.backend is not None:
             cfg = replace(cfg, backend=args.backend)
         cfg.on_backend()  # a config the backend cannot run fails here, before the run folder
@@ -129,8 +139,26 @@ def _cmd_train(args: argparse.Namespace) -> int:
         # SIGTERM stops like Ctrl-C: a checkpoint and an export, then exit.
         signal.signal(signal.SIGTERM, _interrupt)
         progress = progress_wanted(args.no_progress)
-        result = train(cfg, run_dir, resume=args.resume, progress=progress)
-    except (ConfigError, ValueError, FileNotFoundError, WorkerError) as e:
+        with cluster or nullcontext():
+            if cluster is not None:  # the rollout workers as actors, evaluations as tasks
+                if cfg.backend != "pybullet":
+                    raise ConfigError(
+                        f"--ray spreads the pybullet backend's rollout workers; the "
+                        f"{cfg.backend} backend steps its matches in this process"
+                    )
+                evaluating = cfg.evaluation.every_steps > 0
+                check_rollout_cpus(cfg.rollout.workers, evaluating, cluster.cpus())
+            result = train(
+                cfg,
+                run_dir,
+                resume=args.resume,
+                progress=progress,
+                launcher=None if cluster is None else cluster.launch,
+                runner=None if cluster is None else cluster.play,
+            )
+            if cluster is not None:
+                print(cluster.describe())
+    except (ConfigError, ValueError, FileNotFoundError, WorkerError, ClusterError) as e:
         print(f"pete-sim train: {e}", file=sys.stderr)
         return 2
     stopped = " (interrupted: --resume goes on)" if result.interrupted else ""
@@ -175,22 +203,28 @@ def _side(word: str) -> tuple[PlayerSpec, ...] | None:
 
 def _cmd_eval(args: argparse.Namespace) -> int:
     import json
+    from contextlib import nullcontext
 
-    from sim.errors import EvalError, OriginalPolicyError
+    from sim.errors import ClusterError, EvalError, OriginalPolicyError
     from sim.evaluate import evaluate, load_side
+    from sim.training.ray_cli import ray_backend
 
     try:
+        cluster = ray_backend(args.ray)
         a = load_side(args.policy)
         b = _side(args.opponent)
         from tqdm import tqdm
 
-        with tqdm(
-            total=args.matches,
-            unit="match",
-            desc="pete-sim eval",
-            disable=not progress_wanted(args.no_progress),
-            dynamic_ncols=True,
-        ) as bar:
+        with (
+            cluster or nullcontext(),
+            tqdm(
+                total=args.matches,
+                unit="match",
+                desc="pete-sim eval",
+                disable=not progress_wanted(args.no_progress),
+                dynamic_ncols=True,
+            ) as bar,
+        ):
             summary = evaluate(
                 a,
                 b,
@@ -200,8 +234,9 @@ def _cmd_eval(args: argparse.Namespace) -> int:
                 fidelity=args.fidelity,
                 progress=lambda done, total: bar.update(done - bar.n),
                 world=args.world,
+                runner=None if cluster is None else cluster.play,
             )
-    except (EvalError, OriginalPolicyError) as e:
+    except (EvalError, OriginalPolicyError, ClusterError) as e:
         print(f"pete-sim eval: {e}", file=sys.stderr)
         return 2
     print(summary.table())
@@ -406,6 +441,8 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from sim.training.ray_cli import add_ray_option, add_sweep_command  # no ray: --help is light
+
     parser = make_parser("pete-sim", DESCRIPTION)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     p = sub.add_parser("versions", help="print the installed simulation stack's versions")
@@ -462,8 +499,22 @@ def build_parser() -> argparse.ArgumentParser:
         "(sim/fast/; [fast] envs and steps_per_env size it). A config the fast backend cannot "
         "run yet is refused with what it lacks",
     )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="override [rollout] workers: how many rollout workers (processes here, Ray actors "
+        "with --ray) each step envs_per_worker matches",
+    )
+    add_ray_option(
+        p,
+        "run the rollout workers as Ray actors (one CPU each, spread over the cluster's nodes "
+        "by Ray) and the periodic evaluation's matches as Ray tasks; the learner, the update "
+        "and the self-play pool stay in this process",
+    )
     add_no_progress(p)
     p.set_defaults(func=_cmd_train)
+    add_sweep_command(sub)
 
     p = sub.add_parser("export", help="export a checkpoint to policy.onnx + policy.json")
     p.add_argument("--checkpoint", type=Path, required=True, help="a .pt checkpoint of a run")
@@ -494,6 +545,12 @@ def build_parser() -> argparse.ArgumentParser:
     _add_world(p)
     _add_match_options(p)
     p.add_argument("--json", type=Path, default=None, help="also write the summary as JSON")
+    add_ray_option(
+        p,
+        "play the matches as Ray tasks (a seed's pair of matches each) spread over a cluster: "
+        "the same records as here, sooner on many CPUs; player files must be at the same path "
+        "on every node",
+    )
     add_no_progress(p)
     p.set_defaults(func=_cmd_eval)
 

@@ -28,6 +28,11 @@ class WorkerError(SimError):
     """A rollout worker failed; the message carries its traceback."""
 
 
+class ClusterError(SimError):
+    """Ray is not installed, a Ray cluster cannot be reached, or it could not run the work sent
+    to it; the message says which and what to do."""
+
+
 class CheckpointError(SimError, ValueError):
     """A checkpoint that cannot be written or is refused on loading (not ours, or unsafe), named."""
 
