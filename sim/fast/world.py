@@ -38,7 +38,14 @@ F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 Bool = NDArray[np.bool_]
 
-_GOAL_DAMPING = 0.99  # World's linear damping of a goal in training fidelity (floor friction)
+# World's linear damping of a goal in training fidelity (its floor friction). PyBullet's bodies
+# are multibodies, whose damping is a drag d (1 + |v|) v per unit mass (Bullet's btMultiBody:
+# DAMPING_K1_LINEAR and DAMPING_K2_LINEAR are both the damping), integrated each substep.
+_GOAL_DAMPING = 0.99
+# How much of a wall contact's overlap the contact itself undoes, by turning and moving the
+# robot together; the walls' clamp (_contain) moves it out of the rest. Fitted to PyBullet's
+# training fidelity (a robot turning against a wall).
+_POSITION_SHARE = 0.5
 _UNLIMITED = 1 << 30  # the room of an intake that never fills
 
 
@@ -262,7 +269,6 @@ class FastWorld:
         self.intake_on = on.reshape(b, r)
         before = np.stack([self.x, self.y, self.heading], -1)
         h = self.dt / self.substeps
-        damp = (1.0 - _GOAL_DAMPING) ** h
         # As World sets each body's velocity once a control step (PyBullet keeps it in the
         # field frame through the substeps, where contacts change it).
         rad = np.radians(self.heading)
@@ -274,6 +280,8 @@ class FastWorld:
             self.y += self.rvy * h
             self.heading += np.degrees(self.rw) * h
             free = self.carrier < 0
+            speed = np.hypot(self.gvx, self.gvy)
+            damp = np.maximum(0.0, 1.0 - _GOAL_DAMPING * (1.0 + speed) * h)
             self.gvx *= damp
             self.gvy *= damp
             self.gx += np.where(free, self.gvx, 0.0) * h
@@ -322,10 +330,13 @@ class FastWorld:
         s, c = np.sin(rad), np.cos(rad)
         return np.stack([s, c], -1), np.stack([c, -s], -1)
 
-    def _box_overlap(self, bi: I64, i: I64, j: I64) -> tuple[F64, F64]:
+    def _box_overlap(
+        self, bi: I64, i: I64, j: I64, with_point: bool = False
+    ) -> tuple[F64, F64] | tuple[F64, F64, F64]:
         """Robots i and j of matches bi (C,): the least overlap of their boxes over the four
         separating axes (negative: the gap between them) and that axis (C, 2), pointing from
-        robot i to robot j."""
+        robot i to robot j; with_point, also where they touch (C, 2): the corner of the one box
+        deepest in the other's face (the middle of an edge lying flat against it)."""
         rad_i = np.radians(self.heading[bi, i])
         rad_j = np.radians(self.heading[bi, j])
         fi = np.stack([np.sin(rad_i), np.cos(rad_i)], -1)
@@ -346,7 +357,53 @@ class FastWorld:
         rows = np.arange(len(bi))
         sign = np.sign(sep[rows, best])
         sign = np.where(sign == 0, 1.0, sign)
-        return overlap[rows, best], axes[rows, best] * sign[:, None]
+        normal = axes[rows, best] * sign[:, None]
+        if not with_point:
+            return overlap[rows, best], normal
+
+        ci = np.stack([self.x[bi, i], self.y[bi, i]], -1)
+        cj = np.stack([self.x[bi, j], self.y[bi, j]], -1)
+        on_i = best < 2  # the reference face is i's (else j's); the other box's face meets it
+        ref_c = np.where(on_i[:, None], ci, cj)
+        inc_c = np.where(on_i[:, None], cj, ci)
+        n_ref = np.where(on_i[:, None], normal, -normal)  # out of the reference face
+        ref_f = np.where(on_i[:, None], fi, fj)
+        inc_f = np.where(on_i[:, None], fj, fi)
+        inc_r = np.where(on_i[:, None], rj, ri)
+        k_ref = np.where(on_i, i, j)
+        k_inc = np.where(on_i, j, i)
+        along_ref = np.abs(np.einsum("cd,cd->c", ref_f, n_ref)) > 0.5  # the face is a front/back
+        h_n = np.where(along_ref, self.half_l[k_ref], self.half_w[k_ref])
+        h_t = np.where(along_ref, self.half_w[k_ref], self.half_l[k_ref])
+        tangent = np.stack([-n_ref[:, 1], n_ref[:, 0]], -1)
+        # The incident face: the other box's face turned most against the reference normal.
+        a = np.einsum("cd,cd->c", inc_f, n_ref)
+        b = np.einsum("cd,cd->c", inc_r, n_ref)
+        use_f = np.abs(a) >= np.abs(b)
+        axis = np.where(use_f[:, None], inc_f, inc_r)
+        other = np.where(use_f[:, None], inc_r, inc_f)
+        h_axis = np.where(use_f, self.half_l[k_inc], self.half_w[k_inc])
+        h_other = np.where(use_f, self.half_w[k_inc], self.half_l[k_inc])
+        face = inc_c - (np.sign(np.where(use_f, a, b)) * h_axis)[:, None] * axis
+        ends = np.stack([face + h_other[:, None] * other, face - h_other[:, None] * other], 1)
+        # Clip the incident edge to the reference face's extent, keep what is inside it.
+        s = np.einsum("ckd,cd->ck", ends - ref_c[:, None], tangent)
+        ds = s[:, 1] - s[:, 0]
+        safe = np.where(np.abs(ds) < 1e-12, 1.0, ds)
+        t0 = np.clip((-h_t - s[:, 0]) / safe, 0.0, 1.0)
+        t1 = np.clip((h_t - s[:, 0]) / safe, 0.0, 1.0)
+        lo, hi = np.minimum(t0, t1), np.maximum(t0, t1)
+        lo = np.where(np.abs(ds) < 1e-12, 0.0, lo)
+        hi = np.where(np.abs(ds) < 1e-12, 1.0, hi)
+        p_lo = ends[:, 0] + lo[:, None] * (ends[:, 1] - ends[:, 0])
+        p_hi = ends[:, 0] + hi[:, None] * (ends[:, 1] - ends[:, 0])
+        depth_lo = h_n - np.einsum("cd,cd->c", p_lo - ref_c, n_ref)
+        depth_hi = h_n - np.einsum("cd,cd->c", p_hi - ref_c, n_ref)
+        w_lo, w_hi = np.maximum(depth_lo, 0.0), np.maximum(depth_hi, 0.0)
+        total = w_lo + w_hi
+        mix = np.where(total > 1e-12, w_hi / np.where(total > 1e-12, total, 1.0), 0.5)
+        point = p_lo + mix[:, None] * (p_hi - p_lo)
+        return overlap[rows, best], normal, point
 
     def _touching(self) -> Bool:
         """Red-blue pairs within pin_contact_m hull to hull (World._touching), (B, P_pin)."""
@@ -376,11 +433,10 @@ class FastWorld:
         reach = self.radius[i] + self.radius[j]
         d2 = (self.x[:, j] - self.x[:, i]) ** 2 + (self.y[:, j] - self.y[:, i]) ** 2
         bi, pi = np.nonzero(d2 < reach**2)
-        least, axis = self._box_overlap(bi, i[pi], j[pi])
+        least, axis, point = self._box_overlap(bi, i[pi], j[pi], with_point=True)  # type: ignore[misc]
         keep = least > 0
         bi, pi = bi[keep], pi[keep]
-        # Boxes meet along the axis of least overlap; no point (NaN): no turn.
-        return bi, axis[keep], least[keep], i[pi], j[pi], np.full((len(bi), 2), np.nan)
+        return bi, axis[keep], least[keep], i[pi], j[pi], point[keep]
 
     def _robot_goal_contacts(self) -> tuple[I64, F64, F64, I64, I64, F64]:
         """Box against disc for the robots and goals that touch (not a robot and the goal in
@@ -443,21 +499,12 @@ class FastWorld:
         """Push every touching pair (C contacts: match bi, bodies first and second) apart by
         mass and stop its approach at the contact point: an inelastic impulse through both
         bodies' masses and, for robots, inertia (no point, NaN: through the masses alone).
-        Bodies: robots 0..R-1, goals R..R+G-1; a goal in a clamp moves as its robot."""
+        Bodies: robots 0..R-1, goals R..R+G-1. A goal in a clamp pushes with its own mass at
+        its robot's speed and is put back in the clamp after (it never moves its robot), as
+        World's carried goal body is."""
         r = self.n_robots
         k = r + self.n_goals
-
-        def mover(body: I64) -> I64:
-            goal = body >= r
-            holder = self.carrier[bi, np.where(goal, body - r, 0)]
-            return np.where(goal & (holder >= 0), holder, body)
-
-        ma, mc = mover(first), mover(second)
-        keep = ma != mc
-        if not keep.all():
-            bi, normal, depth, point, ma, mc = (v[keep] for v in (bi, normal, depth, point, ma, mc))
-        if not len(bi):
-            return
+        ma, mc = first, second
         robot_mass, robot_inertia = self._body_mass()
 
         def body(m: I64) -> tuple[F64, F64, F64, F64, F64, F64, F64]:
@@ -477,6 +524,18 @@ class FastWorld:
         lever = np.isfinite(point[:, 0])
         m_a, i_a, x_a, y_a, vx_a, vy_a, w_a = body(ma)
         m_c, i_c, x_c, y_c, vx_c, vy_c, w_c = body(mc)
+        # A body already against a wall does not give way toward it (the wall holds it, and
+        # its friction there keeps it from sliding along): it stands like the wall.
+        wall_x, wall_y = self._at_walls()
+        held_a = _into_wall(wall_x[bi, ma], wall_y[bi, ma], -nx, -ny)
+        held_c = _into_wall(wall_x[bi, mc], wall_y[bi, mc], nx, ny)
+        both = held_a & held_c
+        held_a &= ~both
+        held_c &= ~both
+        m_a = np.where(held_a, np.inf, m_a)
+        m_c = np.where(held_c, np.inf, m_c)
+        i_a = np.where(held_a, 0.0, i_a)
+        i_c = np.where(held_c, 0.0, i_c)
         ax = np.where(lever, point[:, 0] - x_a, 0.0)
         ay = np.where(lever, point[:, 1] - y_a, 0.0)
         cx = np.where(lever, point[:, 0] - x_c, 0.0)
@@ -485,8 +544,12 @@ class FastWorld:
         # Speeds at the contact (a clockwise turn w moves a point at arm (x, y) by w (y, -x)).
         rel = (vx_c + w_c * cy - vx_a - w_a * ay) * nx + (vy_c - w_c * cx - vy_a + w_a * ax) * ny
         inv_a, inv_c = 1.0 / m_a, 1.0 / m_c
-        j = np.where(rel < 0, -rel / (inv_a + inv_c + a_n**2 * i_a + c_n**2 * i_c), 0.0)
-        share = depth / (inv_a + inv_c)
+        eff = inv_a + inv_c + a_n**2 * i_a + c_n**2 * i_c
+        j = np.where(rel < 0, -rel / eff, 0.0)
+        # The overlap is undone in part the same way, through masses and inertias (turning as
+        # well as moving the bodies: Box2D's position solver), the rest by moving them apart.
+        share = _POSITION_SHARE * depth / eff
+        apart = (1.0 - _POSITION_SHARE) * depth / (inv_a + inv_c)
         size = self.n * k
         flat_a, flat_c = bi * k + ma, bi * k + mc
 
@@ -495,13 +558,16 @@ class FastWorld:
                 np.bincount(flat_a, values_a, size) + np.bincount(flat_c, values_c, size)
             ).reshape(self.n, k)
 
-        dx = total(-share * inv_a * nx, share * inv_c * nx)
-        dy = total(-share * inv_a * ny, share * inv_c * ny)
+        move = share + apart
+        dx = total(-move * inv_a * nx, move * inv_c * nx)
+        dy = total(-move * inv_a * ny, move * inv_c * ny)
         dvx = total(-j * inv_a * nx, j * inv_c * nx)
         dvy = total(-j * inv_a * ny, j * inv_c * ny)
         dturn = total(j * a_n * i_a, -j * c_n * i_c)
+        dturn_pos = total(share * a_n * i_a, -share * c_n * i_c)
         self.x += dx[:, :r]
         self.y += dy[:, :r]
+        self.heading += np.degrees(dturn_pos[:, :r])
         self.rvx += dvx[:, :r]
         self.rvy += dvy[:, :r]
         self.rw += dturn[:, :r]
@@ -512,29 +578,34 @@ class FastWorld:
         self.gvy += np.where(free, dvy[:, r:], 0.0)
         self._follow_clamps()
 
+    def _at_walls(self) -> tuple[I64, I64]:
+        """Which wall each body (robots, then goals) touches: -1, 0 or +1 along x and y
+        (B, R + G) each."""
+        lim = self.field.half - 1e-4
+        fwd, right = self._axes()
+        ex = self.half_l * np.abs(fwd[..., 0]) + self.half_w * np.abs(right[..., 0])
+        ey = self.half_l * np.abs(fwd[..., 1]) + self.half_w * np.abs(right[..., 1])
+        x = np.concatenate([self.x, self.gx], 1)
+        y = np.concatenate([self.y, self.gy], 1)
+        rx = np.concatenate([ex, np.broadcast_to(self.goal_radius, self.gx.shape)], 1)
+        ry = np.concatenate([ey, np.broadcast_to(self.goal_radius, self.gy.shape)], 1)
+        wx = np.where(x + rx >= lim, 1, np.where(x - rx <= -lim, -1, 0))
+        wy = np.where(y + ry >= lim, 1, np.where(y - ry <= -lim, -1, 0))
+        return wx, wy
+
     def _body_mass(self) -> tuple[F64, F64]:
-        """Each robot's mass and moment of inertia about its centre, (B, R): a box, with the
-        goal in its clamp as a point mass at the clamp."""
-        mass = np.broadcast_to(self.mass, (self.n, self.n_robots)).copy()
-        inertia = mass * ((2 * self.half_w) ** 2 + (2 * self.half_l) ** 2) / 12.0
-        holding = self.carried >= 0
-        if holding.any():
-            gi = np.where(holding, self.carried, 0)
-            mg = np.where(holding, self.goal_mass[gi], 0.0)
-            mass += mg
-            inertia += mg * self.clamp_offsets(gi) ** 2
-        return mass, inertia
+        """Each robot's mass and moment of inertia about its centre (a box), (B, R)."""
+        mass = np.broadcast_to(self.mass, (self.n, self.n_robots))
+        return mass, mass * ((2 * self.half_w) ** 2 + (2 * self.half_l) ** 2) / 12.0
 
     def _wall_impulses(self) -> None:
-        """A robot meeting a wall: the wall takes out the speed of its deepest point into it,
+        """A robot meeting a wall: the wall takes out the speed of its deepest corner into it,
         through the robot's mass and inertia, so a robot turning against a wall is stopped
-        turning as well as pushed (what PyBullet's contact does). Only robots whose bounding
-        circle (grown by the goal they carry) reaches a wall are worked out."""
+        turning as well as pushed (what PyBullet's contact does). The goal in its clamp is
+        only kept inside (_contain), as World does. Only robots whose bounding circle reaches
+        a wall are worked out."""
         lim = self.field.half
-        holding = self.carried >= 0
-        gi_all = np.where(holding, self.carried, 0)
-        grown = self.radius + np.where(holding, 2 * self.goal_radius[gi_all] + 0.005, 0.0)
-        near = np.maximum(np.abs(self.x), np.abs(self.y)) + grown > lim
+        near = np.maximum(np.abs(self.x), np.abs(self.y)) + self.radius > lim
         bi, ri = np.nonzero(near)
         if not len(bi):
             return
@@ -548,38 +619,40 @@ class FastWorld:
         hl = self.half_l[ri][:, None, None]
         hw = self.half_w[ri][:, None, None]
         pts = centre[:, None] + sa * hl * fwd[:, None] + sb * hw * right[:, None]  # (C, 4, 2)
-        hold = holding[bi, ri]
-        gi = gi_all[bi, ri]
-        back = (self.half_l[ri] + self.goal_radius[gi] + 0.005) * np.where(
-            self.front_clamp[ri], 1.0, -1.0
-        )
-        gr = np.where(hold, self.goal_radius[gi], 0.0)[:, None]
-        gx = np.where(hold, x + back * fwd[:, 0], x)[:, None]
-        gy = np.where(hold, y + back * fwd[:, 1], y)[:, None]
-        disc = np.stack([gx + gr * [1, -1, 0, 0], gy + gr * [0, 0, 1, -1]], -1)
-        pts = np.concatenate([pts, disc], 1)
         mass, inertia = self._body_mass()
         m, inert = mass[bi, ri], inertia[bi, ri]
         vx, vy, w = self.rvx[bi, ri], self.rvy[bi, ri], self.rw[bi, ri]
         rows = np.arange(len(bi))
+        turn = np.zeros(len(bi))  # radians clockwise, the position correction's
         for axis in (0, 1):
             for side in (-1.0, 1.0):
                 pen = side * pts[..., axis] - lim
                 k = np.argmax(pen, axis=1)
-                hit = pen[rows, k] > 0
+                depth = pen[rows, k]
+                hit = depth > 0
                 if not hit.any():
                     continue
                 px, py = pts[rows, k, 0] - x, pts[rows, k, 1] - y
                 nx, ny = (-side, 0.0) if axis == 0 else (0.0, -side)
                 rxn = px * ny - py * nx
+                eff = 1.0 / m + rxn**2 / inert
                 u = (vx + w * py) * nx + (vy - w * px) * ny
-                j = np.where(hit & (u < 0), -u / (1.0 / m + rxn**2 / inert), 0.0)
+                j = np.where(hit & (u < 0), -u / eff, 0.0)
                 vx = vx + j * nx / m
                 vy = vy + j * ny / m
                 w = w - rxn * j / inert
+                # Out of the wall through mass and inertia alike (the deepest corner leaves it).
+                push = np.where(hit, _POSITION_SHARE * depth / eff, 0.0)
+                x = x + push * nx / m
+                y = y + push * ny / m
+                turn -= rxn * push / inert
+                pts = pts + np.stack([push * nx / m, push * ny / m], -1)[:, None]
         self.rvx[bi, ri] = vx
         self.rvy[bi, ri] = vy
         self.rw[bi, ri] = w
+        self.x[bi, ri] = x
+        self.y[bi, ri] = y
+        self.heading[bi, ri] += np.degrees(turn)
 
     def _contain(self) -> None:
         """Robots (with the goal each carries) and free goals inside the walls (World._contain)."""
@@ -782,3 +855,8 @@ class FastWorld:
         out = np.stack([x, y, hd], -1)
         # At the start only the first pose exists: World reads it.
         return np.where(late[..., None], out, np.where((self.steps == 0)[:, None, None], now, out))
+
+
+def _into_wall(wall_x: I64, wall_y: I64, dx: F64, dy: F64) -> Bool:
+    """Whether a push along (dx, dy) drives a body against the wall it touches."""
+    return ((wall_x != 0) & (dx * wall_x > 1e-6)) | ((wall_y != 0) & (dy * wall_y > 1e-6))
