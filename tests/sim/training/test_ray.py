@@ -65,13 +65,15 @@ def test_vec_matches_over_ray_actors_give_the_process_workers_results(cluster: C
     rollout = RolloutConfig(workers=2, envs_per_worker=2)
     with VecMatches(env, rollout, seed=3, teacher="planner") as vec:
         here = _play(vec, 12)
-    with RayBackend(cluster.address) as backend:
-        with VecMatches(env, rollout, seed=3, teacher="planner", launcher=backend.launch) as vec:
-            there = _play(vec, 12)
-            assert len(set(backend.nodes)) == 2, "Ray spread the two actors over both nodes"
-            # An actor's failure comes back as the process workers' does, with its traceback.
-            with pytest.raises(WorkerError, match="opponent kind must be one of"):
-                vec.set_kinds([("bogus", -1)] * 4)
+    with (
+        RayBackend(cluster.address) as backend,
+        VecMatches(env, rollout, seed=3, teacher="planner", launcher=backend.launch) as vec,
+    ):
+        there = _play(vec, 12)
+        assert len(set(backend.nodes)) == 2, "Ray spread the two actors over both nodes"
+        # An actor's failure comes back as the process workers' does, with its traceback.
+        with pytest.raises(WorkerError, match="opponent kind must be one of"):
+            vec.set_kinds([("bogus", -1)] * 4)
     assert sum(len(r.episodes) for r in here) == 4, "every slot finished a match"
     for a, b in zip(here, there, strict=True):
         _assert_same(a, b)
