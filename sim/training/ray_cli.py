@@ -85,7 +85,6 @@ def add_sweep_command(sub: argparse._SubParsersAction) -> None:
         "sweep",
         help="a hyperparameter sweep of a training config with Ray Tune",
         description=SWEEP_DESCRIPTION,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(
         "--config", required=True, help="a TOML file, or the name of one in sim/configs/"
@@ -93,7 +92,6 @@ def add_sweep_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--param",
         action="append",
-        default=[],
         metavar="KEY=VALUES",
         help="a config key as the TOML file spells it (ppo.learning_rate, rollout.steps_per_env, "
         "env.reward.ring, seed) and its values: a comma-separated grid (1e-3,5e-4; TOML "
@@ -105,14 +103,14 @@ def add_sweep_command(sub: argparse._SubParsersAction) -> None:
         type=int,
         default=1,
         help="Tune's num_samples: the grid runs this many times, distributions drawn anew each "
-        "time (default 1; a grid repeats as it is, so sweep seed=1,2 to repeat it on seeds)",
+        "time (a grid repeats as it is: sweep seed=1,2 to repeat it on other seeds)",
     )
     p.add_argument(
         "--metric",
         default="eval/quality",
         help="what ranks the trials, a scalar the trainer reports at an evaluation: eval/quality "
-        "(the default: win rate + fill rate - 0.01 x median fill time, what best.pt is chosen "
-        "by), eval/win_rate, eval/rings, eval/score_margin, eval/fill_rate",
+        "(win rate + fill rate - 0.01 x median fill time, what best.pt is chosen by), "
+        "eval/win_rate, eval/rings, eval/score_margin, eval/fill_rate",
     )
     p.add_argument("--mode", choices=("max", "min"), default="max", help="max or min the metric")
     p.add_argument(
@@ -127,7 +125,7 @@ def add_sweep_command(sub: argparse._SubParsersAction) -> None:
         "--max-concurrent",
         type=int,
         default=0,
-        help="at most this many trials at once (default 0: as many as the cluster has CPUs for)",
+        help="at most this many trials at once; 0: as many as the cluster has CPUs for",
     )
     p.add_argument(
         "--run-dir",
