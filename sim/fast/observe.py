@@ -179,9 +179,15 @@ class FastObserver:
         """The nearest `slots` present points (B, R, M, 2 robot-frame) into out[offset:] as
         (x, y, 1) triples, nearest first, with the spec's relative noise (build_frame's
         _fill_slots; equal distances keep the points' order)."""
-        d2 = np.where(present, (local**2).sum(-1), np.inf)
+        d2 = np.where(present, local[..., 0] ** 2 + local[..., 1] ** 2, np.inf)
         count = min(slots, d2.shape[-1])
-        order = np.argsort(d2, axis=-1, kind="stable")[..., :count]
+        if count < d2.shape[-1]:
+            # The nearest `count` first (argpartition), then in order among themselves.
+            near = np.argpartition(d2, count - 1, axis=-1)[..., :count]
+            within = np.argsort(np.take_along_axis(d2, near, -1), axis=-1, kind="stable")
+            order = np.take_along_axis(near, within, -1)
+        else:
+            order = np.argsort(d2, axis=-1, kind="stable")
         near = np.take_along_axis(local, order[..., None], -2)
         ok = np.take_along_axis(present, order, -1)
         if self.obs_noise and self.spec.relative_noise > 0:
