@@ -5,24 +5,28 @@
     stacked = obs.push()                       # after each world.step
 
 What MatchCore.view and jetson.autonomy.observation.build_frame do for one robot, done for all
-at once: the rings each camera sees (sim.visibility's frustum and prism occlusion, the same
-functions the twin's training fidelity calls), the GPS pose (its latency and Gaussian noise),
-then the frame: the time, the pose in the alliance frame, the rings held, the nearest other
-robots and the nearest seen rings in the robot frame, each with the spec's noise; FrameStack's
-newest-first stack. Without noise a frame equals build_frame's value for value (tested).
+at once: the rings each camera sees (sim.visibility's frustum and prism occlusion, the
+arithmetic the twin's training fidelity runs, compiled: sim.fast.kernels), the GPS pose (its
+latency and Gaussian noise), then the frame: the time, the pose in the alliance frame, the
+rings held, the nearest other robots and the nearest seen rings in the robot frame, each with
+the spec's noise; FrameStack's newest-first stack. Without noise a frame equals build_frame's
+value for value (tested).
 Specs with memories or route slots (ring_memory, goal_memory, route_slots) are not batched yet:
 ConfigError says so.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
 from jetson.autonomy.spec import SEEN, ObservationSpec
+from sim.config import CameraConfig
 from sim.errors import ConfigError
+from sim.fast.kernels import nearest_seen, visible_rings
 from sim.fast.world import FastWorld
-from sim.visibility import boxes_blocked, camera_poses, discs_blocked, frustum
 from sim.world.state import POST_RADIUS
 
 F32 = NDArray[np.float32]
@@ -65,57 +69,24 @@ class FastObserver:
         self.stack = np.zeros((world.n, world.n_robots, spec.n_frames, spec.frame_size), np.float32)
         g = world.field.goals
         # Goals hide rings as two discs each: the base and the post (sim.world.sensors.obstacles).
-        self._disc_radius = np.array([x.base_radius for x in g] + [POST_RADIUS] * len(g))
-        self._disc_height = np.array([x.base_height for x in g] + [x.height for x in g])
+        self._disc_radius = np.array([x.base_radius for x in g] + [POST_RADIUS] * len(g), float)
+        self._disc_height = np.array([x.base_height for x in g] + [x.height for x in g], float)
         rcs = world.robot_configs
-        self._box_half = np.array([(rc.width_m / 2, rc.length_m / 2) for rc in rcs]).reshape(-1, 2)
-        self._box_height = np.array([rc.height_m for rc in rcs])
+        self._boxes = np.array([(rc.width_m / 2, rc.length_m / 2, rc.height_m) for rc in rcs])
+        self._discs = np.stack([self._disc_radius, self._disc_height], -1).reshape(-1, 2)
+        self._cam = np.array([_camera_row(rc.camera) for rc in rcs]).reshape(-1, 14)
         self._blue = np.array([a == "blue" for a in world.alliances])
 
     # --- what the cameras see ---------------------------------------------------------------
 
     def visible(self) -> Bool:
-        """(B, R, N): the floor rings each robot's camera sees (sensors.visible_rings)."""
+        """(B, R, N): the floor rings each robot's camera sees (sensors.visible_rings: the
+        frustum and the prism occlusion of sim.visibility, compiled: sim.fast.kernels)."""
         w = self.world
-        b, n = w.n, w.ring_xy.shape[1]
-        out = np.zeros((b, w.n_robots, n), dtype=bool)
-        pts = np.concatenate([w.ring_xy, np.full((b, n, 1), w.ring_z)], -1)
-        for i, rc in enumerate(w.robot_configs):
-            cam = rc.camera
-            xy = np.stack([w.x[:, i], w.y[:, i]], -1)
-            pos, rot = camera_poses(xy, w.heading[:, i], cam)
-            mask, _, _ = frustum(pts, pos[:, None], rot[:, None], cam)
-            mask &= w.ring_floor
-            if cam.max_turn_rate_rad_s is not None:
-                mask &= (np.abs(w.w[:, i]) <= cam.max_turn_rate_rad_s)[:, None]
-            bi, ni = np.nonzero(mask)
-            if len(bi):
-                mask[bi, ni] = ~self._occluded(i, bi, pos[bi], pts[bi, ni])
-            out[:, i] = mask
-        return out
-
-    def _occluded(self, robot: int, bi: NDArray[np.int64], cam: F64, target: F64) -> Bool:
-        """Sight lines from robot `robot`'s camera in matches bi to targets (C, 3): blocked by
-        another robot (a box) or a goal (its base and post, discs)."""
-        w = self.world
-        d3 = target - cam
-        d, dz = d3[:, :2], d3[:, 2]
-        t_max = 1.0 - 1e-6
-        hit = np.zeros(len(bi), dtype=bool)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            others = [k for k in range(w.n_robots) if k != robot]
-            if others:
-                xy = np.stack([w.x[bi][:, others], w.y[bi][:, others]], -1)
-                half = np.broadcast_to(self._box_half[others], xy.shape)
-                height = np.broadcast_to(self._box_height[others], xy.shape[:2])
-                hit |= boxes_blocked(cam, d, dz, xy, w.heading[bi][:, others], half, height, t_max)
-            if w.n_goals:
-                gxy = np.stack([w.gx[bi], w.gy[bi]], -1)
-                xy = np.concatenate([gxy, gxy], 1)
-                radius = np.broadcast_to(self._disc_radius, xy.shape[:2])
-                height = np.broadcast_to(self._disc_height, xy.shape[:2])
-                hit |= discs_blocked(cam, d, dz, xy, radius, height, t_max)
-        return hit
+        return visible_rings(
+            w.x, w.y, w.heading, w.w, w.ring_xy, w.ring_floor, w.ring_z,
+            self._cam, self._boxes, w.gx, w.gy, self._discs,
+        )  # fmt: skip
 
     # --- frames -----------------------------------------------------------------------------
 
@@ -161,38 +132,29 @@ class FastObserver:
         if spec.intake_flag:
             fills = w.room_cap < (1 << 30)
             out[..., spec.scalar_index("fills")] = fills
-        true_h = np.radians(w.heading)
-        s, c = np.sin(true_h)[..., None], np.cos(true_h)[..., None]
         if spec.n_other_robots and w.n_robots > 1:
+            true_h = np.radians(w.heading)
+            s, c = np.sin(true_h)[..., None], np.cos(true_h)[..., None]
             dx = w.x[:, None, :] - w.x[:, :, None]  # (B, R, R): robot j from robot i
             dy = w.y[:, None, :] - w.y[:, :, None]
             local = np.stack([dx * c - dy * s, dx * s + dy * c], -1)
-            others = ~np.eye(w.n_robots, dtype=bool)[None].repeat(w.n, 0)
-            self._fill(out, len(spec.scalars), spec.n_other_robots, local, others)
-        px = w.ring_xy[:, None, :, 0] - w.x[..., None]  # (B, R, N)
-        py = w.ring_xy[:, None, :, 1] - w.y[..., None]
-        local = np.stack([px * c - py * s, px * s + py * c], -1)
-        self._fill(out, spec.ring_offset, spec.n_rings, local, visible)
+            d2 = np.where(np.eye(w.n_robots, dtype=bool), np.inf, dx**2 + dy**2)
+            count = min(spec.n_other_robots, w.n_robots - 1)
+            order = np.argsort(d2, axis=-1, kind="stable")[..., :count]
+            near = np.take_along_axis(local, order[..., None], -2)
+            self._write(out, len(spec.scalars), near, np.ones(near.shape[:-1], dtype=bool))
+        near, seen = nearest_seen(w.x, w.y, w.heading, w.ring_xy, visible, spec.n_rings)
+        ok = np.arange(spec.n_rings) < seen[..., None]
+        self._write(out, spec.ring_offset, near, ok)
         return out
 
-    def _fill(self, out: F32, offset: int, slots: int, local: F64, present: Bool) -> None:
-        """The nearest `slots` present points (B, R, M, 2 robot-frame) into out[offset:] as
-        (x, y, 1) triples, nearest first, with the spec's relative noise (build_frame's
-        _fill_slots; equal distances keep the points' order)."""
-        d2 = np.where(present, local[..., 0] ** 2 + local[..., 1] ** 2, np.inf)
-        count = min(slots, d2.shape[-1])
-        if count < d2.shape[-1]:
-            # The nearest `count` first (argpartition), then in order among themselves.
-            near = np.argpartition(d2, count - 1, axis=-1)[..., :count]
-            within = np.argsort(np.take_along_axis(d2, near, -1), axis=-1, kind="stable")
-            order = np.take_along_axis(near, within, -1)
-        else:
-            order = np.argsort(d2, axis=-1, kind="stable")
-        near = np.take_along_axis(local, order[..., None], -2)
-        ok = np.take_along_axis(present, order, -1)
+    def _write(self, out: F32, offset: int, near: F64, ok: Bool) -> None:
+        """Slots (B, R, k, 2 robot-frame points, nearest first; ok: filled) into out[offset:]
+        as (x, y, 1) triples, with the spec's relative noise (build_frame's _fill_slots)."""
         if self.obs_noise and self.spec.relative_noise > 0:
             rel = self.spec.relative_noise
             near = near * (1.0 + self.rng.uniform(-rel, rel, near.shape))
+        count = near.shape[-2]
         block = np.zeros((*near.shape[:-1], 3), dtype=np.float32)
         block[..., :2] = np.where(ok[..., None], near / self.spec.length_unit_m, 0.0)
         block[..., 2] = np.where(ok, SEEN, 0.0)
@@ -222,3 +184,13 @@ class FastObserver:
     def observation(self) -> F32:
         """Every robot's stacked observation now, (B, R, spec.size): a copy."""
         return self.stack.reshape(self.world.n, self.world.n_robots, -1).copy()
+
+
+def _camera_row(cam: CameraConfig) -> list[float]:
+    """A camera as sim.fast.kernels.visible_rings reads it."""
+    t = math.radians(cam.tilt_deg)
+    turn = math.inf if cam.max_turn_rate_rad_s is None else cam.max_turn_rate_rad_s
+    return [
+        cam.forward_m, cam.right_m, cam.height_m, math.cos(t), math.sin(t),
+        cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height, cam.near_m, cam.max_range_m, turn,
+    ]  # fmt: skip
