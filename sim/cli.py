@@ -106,7 +106,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
     from sim.errors import ClusterError, ConfigError, WorkerError
     from sim.training.config import load_config
-    from sim.training.ray_cli import check_rollout_cpus, ray_backend
+    from sim.training.ray_cli import check_ray_training, ray_backend
     from sim.training.trainer import train
 
     try:
@@ -118,11 +118,11 @@ def _cmd_train(args: argparse.Namespace) -> int:
         if args.workers is not None:
             cfg = replace(cfg, rollout=replace(cfg.rollout, workers=args.workers))
         cluster = ray_backend(args.ray)
-        if cluster is not None:
-            check_rollout_cpus(cfg.rollout.workers, cfg.evaluation.every_steps > 0, None)
         if args.backend is not None:
             cfg = replace(cfg, backend=args.backend)
         cfg.on_backend()  # a config the backend cannot run fails here, before the run folder
+        if cluster is not None:
+            check_ray_training(cfg, None)
         run_dir = args.run_dir or Path("runs") / cfg.name
         if args.resume and args.force:
             raise ConfigError(
@@ -141,13 +141,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         progress = progress_wanted(args.no_progress)
         with cluster or nullcontext():
             if cluster is not None:  # the rollout workers as actors, evaluations as tasks
-                if cfg.backend != "pybullet":
-                    raise ConfigError(
-                        f"--ray spreads the pybullet backend's rollout workers; the "
-                        f"{cfg.backend} backend steps its matches in this process"
-                    )
-                evaluating = cfg.evaluation.every_steps > 0
-                check_rollout_cpus(cfg.rollout.workers, evaluating, cluster.cpus())
+                check_ray_training(cfg, cluster.cpus())
             result = train(
                 cfg,
                 run_dir,

@@ -12,6 +12,7 @@ from protocol.cli_conventions import add_no_progress, progress_wanted
 from sim.errors import ConfigError
 
 if TYPE_CHECKING:
+    from sim.training.config import TrainConfig
     from sim.training.ray_backend import RayBackend
 
 RAY_ADDRESS = (
@@ -44,15 +45,22 @@ def ray_backend(address: str | None) -> RayBackend | None:
     return RayBackend(address)
 
 
-def check_rollout_cpus(workers: int, evaluating: bool, cpus: float | None) -> None:
-    """--ray for training: each rollout worker is an actor holding one CPU, and an evaluation
-    task needs one more while they wait. A cluster short of them would wait forever, so it is
-    refused now (cpus None: the count is not known yet, only workers is checked)."""
+def check_ray_training(cfg: TrainConfig, cpus: float | None) -> None:
+    """--ray for training: the pybullet backend, whose rollout workers become actors of one CPU
+    each, and an evaluation task needs one more while they wait. A cluster short of them would
+    wait forever, so it is refused now (cpus None: not known yet, the rest is checked)."""
+    if cfg.backend != "pybullet":
+        raise ConfigError(
+            f"--ray spreads the pybullet backend's rollout workers; the {cfg.backend} backend "
+            "steps its matches in the training process"
+        )
+    workers = cfg.rollout.workers
     if workers < 1:
         raise ConfigError(
             "--ray runs the rollout workers as Ray actors, and this config steps its matches in "
             "the training process ([rollout] workers = 0): give --workers N"
         )
+    evaluating = cfg.evaluation.every_steps > 0
     need = workers + (1 if evaluating else 0)
     if cpus is not None and cpus < need:
         extra = ", and its periodic evaluation one more" if evaluating else ""

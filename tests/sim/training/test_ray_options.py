@@ -88,15 +88,24 @@ def test_training_on_ray_needs_rollout_workers(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     pytest.importorskip("ray")
-    from sim.training.ray_cli import check_rollout_cpus
+    from dataclasses import replace
+
+    from sim.training.config import EvalConfig, load_config
+    from sim.training.ray_cli import check_ray_training
 
     # tiny.toml steps its matches in the training process (workers = 0).
     argv = ["train", "--config", "tiny", "--run-dir", str(tmp_path / "run"), "--ray", "local"]
     assert main(argv) == 2
     assert "[rollout] workers = 0" in capsys.readouterr().err
+    tiny = load_config("tiny")
+    two = replace(tiny, rollout=replace(tiny.rollout, workers=2))
+    check_ray_training(two, 2.0)
+    evaluating = replace(two, evaluation=EvalConfig(every_steps=1000))
     with pytest.raises(ConfigError, match=r"has 2 CPU\(s\); 2 rollout actor\(s\) need one each, "):
-        check_rollout_cpus(2, True, 2.0)
-    check_rollout_cpus(2, False, 2.0)
+        check_ray_training(evaluating, 2.0)
+    check_ray_training(evaluating, 3.0)
+    with pytest.raises(ConfigError, match="--ray spreads the pybullet backend's rollout workers"):
+        check_ray_training(replace(two, backend="fast"), 8.0)
 
 
 def test_a_failing_process_worker_is_a_worker_error_with_its_traceback() -> None:
