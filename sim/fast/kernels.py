@@ -179,3 +179,418 @@ def nearest_seen(
                 k = min(k + 1, slots)
             count[b, i] = k
     return out, count
+
+
+# --- physics ---------------------------------------------------------------------------------
+# One match's substeps, as sim.fast.world describes them, compiled and run for every match in
+# parallel. Bodies: robots 0..R-1 (boxes), goals R..R+G-1 (discs); a goal in a clamp (carrier
+# >= 0) sits at its robot's clamp point and pushes with its own mass at the robot's speed.
+
+
+@nb.njit(cache=True, inline="always")
+def _clamp_point(x: float, y: float, heading: float, back: float) -> tuple[float, float]:
+    h = math.radians(heading)
+    return x + back * math.sin(h), y + back * math.cos(h)
+
+
+@nb.njit(cache=True)
+def _follow(b, x, y, heading, rvx, rvy, gx, gy, gvx, gvy, carried, offset):
+    """Carried goals to their clamp points, moving at their robots' speed."""
+    for i in range(x.shape[1]):
+        g = carried[b, i]
+        if g < 0:
+            continue
+        gx[b, g], gy[b, g] = _clamp_point(x[b, i], y[b, i], heading[b, i], offset[i, g])
+        gvx[b, g] = rvx[b, i]
+        gvy[b, g] = rvy[b, i]
+
+
+@nb.njit(cache=True)
+def _sat(b, i, j, x, y, heading, half_w, half_l):
+    """Robots i, j of match b as boxes: the least overlap over the four separating axes
+    (negative: the gap between them), that axis from i to j, which axis it is (0, 1: i's
+    forward and right; 2, 3: j's), and both boxes' forward and right unit vectors."""
+    hi_, hj = math.radians(heading[b, i]), math.radians(heading[b, j])
+    fi = (math.sin(hi_), math.cos(hi_))
+    ri = (fi[1], -fi[0])
+    fj = (math.sin(hj), math.cos(hj))
+    rj = (fj[1], -fj[0])
+    dx, dy = x[b, j] - x[b, i], y[b, j] - y[b, i]
+    axes = (fi, ri, fj, rj)
+    best, least, sep_best = 0, math.inf, 0.0
+    for a in range(4):
+        ax, ay = axes[a]
+        reach = (
+            half_l[i] * abs(ax * fi[0] + ay * fi[1])
+            + half_w[i] * abs(ax * ri[0] + ay * ri[1])
+            + half_l[j] * abs(ax * fj[0] + ay * fj[1])
+            + half_w[j] * abs(ax * rj[0] + ay * rj[1])
+        )
+        sep = ax * dx + ay * dy
+        over = reach - abs(sep)
+        if over < least:
+            best, least, sep_best = a, over, sep
+    sign = 1.0 if sep_best >= 0 else -1.0
+    return least, axes[best][0] * sign, axes[best][1] * sign, best, fi, ri, fj, rj
+
+
+@nb.njit(cache=True, parallel=True)
+def pair_overlaps(
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    heading: NDArray[np.float64],
+    half_w: NDArray[np.float64],
+    half_l: NDArray[np.float64],
+    pairs: NDArray[np.int64],
+) -> NDArray[np.float64]:
+    """(B, P): each robot pair's least box overlap (negative: the gap between them)."""
+    out = np.empty((x.shape[0], pairs.shape[0]))
+    for b in nb.prange(x.shape[0]):
+        for p in range(pairs.shape[0]):
+            out[b, p] = _sat(b, pairs[p, 0], pairs[p, 1], x, y, heading, half_w, half_l)[0]
+    return out
+
+
+@nb.njit(cache=True)
+def _box_contact(b, i, j, x, y, heading, half_w, half_l):
+    """Robots i, j of match b: least overlap, its axis from i to j, and the contact point
+    (the incident face clipped to the reference face, Box2D's way)."""
+    least, nx, ny, best, fi, ri, fj, rj = _sat(b, i, j, x, y, heading, half_w, half_l)
+    on_i = best < 2
+    if on_i:
+        rc, ic, n_ref, rf, inf_, inr, k_ref, k_inc = (
+            (x[b, i], y[b, i]),
+            (x[b, j], y[b, j]),
+            (nx, ny),
+            fi,
+            fj,
+            rj,
+            i,
+            j,
+        )
+    else:
+        rc, ic, n_ref, rf, inf_, inr, k_ref, k_inc = (
+            (x[b, j], y[b, j]),
+            (x[b, i], y[b, i]),
+            (-nx, -ny),
+            fj,
+            fi,
+            ri,
+            j,
+            i,
+        )
+    along_ref = abs(rf[0] * n_ref[0] + rf[1] * n_ref[1]) > 0.5
+    h_n = half_l[k_ref] if along_ref else half_w[k_ref]
+    h_t = half_w[k_ref] if along_ref else half_l[k_ref]
+    tx, ty = -n_ref[1], n_ref[0]
+    a_ = inf_[0] * n_ref[0] + inf_[1] * n_ref[1]
+    b_ = inr[0] * n_ref[0] + inr[1] * n_ref[1]
+    use_f = abs(a_) >= abs(b_)
+    axis = inf_ if use_f else inr
+    other = inr if use_f else inf_
+    h_axis = half_l[k_inc] if use_f else half_w[k_inc]
+    h_other = half_w[k_inc] if use_f else half_l[k_inc]
+    sa = a_ if use_f else b_
+    sgn = 1.0 if sa > 0 else (-1.0 if sa < 0 else 0.0)
+    fx_, fy_ = ic[0] - sgn * h_axis * axis[0], ic[1] - sgn * h_axis * axis[1]
+    e0x, e0y = fx_ + h_other * other[0], fy_ + h_other * other[1]
+    e1x, e1y = fx_ - h_other * other[0], fy_ - h_other * other[1]
+    s0 = (e0x - rc[0]) * tx + (e0y - rc[1]) * ty
+    s1 = (e1x - rc[0]) * tx + (e1y - rc[1]) * ty
+    ds = s1 - s0
+    if abs(ds) < 1e-12:
+        lo, hi = 0.0, 1.0
+    else:
+        t0 = min(max((-h_t - s0) / ds, 0.0), 1.0)
+        t1 = min(max((h_t - s0) / ds, 0.0), 1.0)
+        lo, hi = min(t0, t1), max(t0, t1)
+    plx, ply = e0x + lo * (e1x - e0x), e0y + lo * (e1y - e0y)
+    phx, phy = e0x + hi * (e1x - e0x), e0y + hi * (e1y - e0y)
+    w_lo = max(h_n - ((plx - rc[0]) * n_ref[0] + (ply - rc[1]) * n_ref[1]), 0.0)
+    w_hi = max(h_n - ((phx - rc[0]) * n_ref[0] + (phy - rc[1]) * n_ref[1]), 0.0)
+    total = w_lo + w_hi
+    mix = w_hi / total if total > 1e-12 else 0.5
+    return least, nx, ny, plx + mix * (phx - plx), ply + mix * (phy - ply)
+
+
+@nb.njit(cache=True, parallel=True)
+def substeps(
+    state: tuple,
+    half_w: NDArray[np.float64],
+    half_l: NDArray[np.float64],
+    mass: NDArray[np.float64],
+    radius: NDArray[np.float64],
+    offset: NDArray[np.float64],
+    goal_radius: NDArray[np.float64],
+    goal_mass: NDArray[np.float64],
+    lim: float,
+    h: float,
+    n_sub: int,
+    damping: float,
+    share_rot: float,
+) -> None:
+    """Every match's `n_sub` substeps of h seconds, in place (sim.fast.world.FastWorld.step).
+    state: (x, y, heading, rvx, rvy, rw, gx, gy, gvx, gvy, carried, carrier); offset (R, G):
+    each robot's signed clamp offset for each goal (negative: behind its back)."""
+    x, y, heading, rvx, rvy, rw, gx, gy, gvx, gvy, carried, carrier = state
+    n_match, n_robot = x.shape
+    n_goal = gx.shape[1]
+    k = n_robot + n_goal
+    inertia = mass * ((2 * half_w) ** 2 + (2 * half_l) ** 2) / 12.0
+    cap = n_robot * n_robot + n_robot * n_goal + n_goal * n_goal
+    for b in nb.prange(n_match):
+        c_n = np.empty((cap, 2))
+        c_d = np.empty(cap)
+        c_p = np.empty((cap, 2))
+        c_a = np.empty(cap, dtype=np.int64)
+        c_c = np.empty(cap, dtype=np.int64)
+        acc = np.zeros((k, 6))  # dx, dy, dvx, dvy, turn speed, turn position
+        wall = np.zeros((k, 2), dtype=np.int64)
+        for _ in range(n_sub):
+            for i in range(n_robot):
+                x[b, i] += rvx[b, i] * h
+                y[b, i] += rvy[b, i] * h
+                heading[b, i] += math.degrees(rw[b, i]) * h
+            for g in range(n_goal):
+                speed = math.hypot(gvx[b, g], gvy[b, g])
+                damp = max(0.0, 1.0 - damping * (1.0 + speed) * h)
+                gvx[b, g] *= damp
+                gvy[b, g] *= damp
+                if carrier[b, g] < 0:
+                    gx[b, g] += gvx[b, g] * h
+                    gy[b, g] += gvy[b, g] * h
+            _follow(b, x, y, heading, rvx, rvy, gx, gy, gvx, gvy, carried, offset)
+            # Contacts, all from this one state (then summed, as the numpy model did).
+            m = 0
+            for i in range(n_robot):
+                for j in range(i + 1, n_robot):
+                    dx, dy = x[b, j] - x[b, i], y[b, j] - y[b, i]
+                    if dx * dx + dy * dy >= (radius[i] + radius[j]) ** 2:
+                        continue
+                    least, nx, ny, px, py = _box_contact(b, i, j, x, y, heading, half_w, half_l)
+                    if least > 0:
+                        c_n[m, 0], c_n[m, 1], c_d[m] = nx, ny, least
+                        c_p[m, 0], c_p[m, 1], c_a[m], c_c[m] = px, py, i, j
+                        m += 1
+            for i in range(n_robot):
+                hr = math.radians(heading[b, i])
+                fx, fy = math.sin(hr), math.cos(hr)
+                rx, ry = fy, -fx
+                for g in range(n_goal):
+                    if carrier[b, g] == i:
+                        continue
+                    dx, dy = gx[b, g] - x[b, i], gy[b, g] - y[b, i]
+                    if dx * dx + dy * dy >= (radius[i] + goal_radius[g]) ** 2:
+                        continue
+                    lx, ly = dx * rx + dy * ry, dx * fx + dy * fy
+                    hw, hl = half_w[i], half_l[i]
+                    px, py = min(max(lx, -hw), hw), min(max(ly, -hl), hl)
+                    ex, ey = lx - px, ly - py
+                    dist = math.hypot(ex, ey)
+                    gr = goal_radius[g]
+                    if dist < 1e-9:
+                        if hw - abs(lx) <= hl - abs(ly):
+                            nlx, nly = (1.0 if lx >= 0 else -1.0), 0.0
+                            depth = hw - abs(lx) + gr
+                        else:
+                            nlx, nly = 0.0, (1.0 if ly >= 0 else -1.0)
+                            depth = hl - abs(ly) + gr
+                    else:
+                        nlx, nly = ex / dist, ey / dist
+                        depth = gr - dist
+                    if depth <= 0:
+                        continue
+                    c_n[m, 0] = nlx * rx + nly * fx
+                    c_n[m, 1] = nlx * ry + nly * fy
+                    c_d[m] = depth
+                    c_p[m, 0] = x[b, i] + px * rx + py * fx
+                    c_p[m, 1] = y[b, i] + px * ry + py * fy
+                    c_a[m], c_c[m] = i, n_robot + g
+                    m += 1
+            for a in range(n_goal):
+                for c in range(a + 1, n_goal):
+                    dx, dy = gx[b, c] - gx[b, a], gy[b, c] - gy[b, a]
+                    reach = goal_radius[a] + goal_radius[c]
+                    if dx * dx + dy * dy >= reach * reach:
+                        continue
+                    dist = math.hypot(dx, dy)
+                    if dist > 1e-12:
+                        nx, ny = dx / dist, dy / dist
+                    else:
+                        nx, ny = 1.0, 0.0
+                    c_n[m, 0], c_n[m, 1], c_d[m] = nx, ny, reach - dist
+                    c_p[m, 0] = gx[b, a] + nx * goal_radius[a]
+                    c_p[m, 1] = gy[b, a] + ny * goal_radius[a]
+                    c_a[m], c_c[m] = n_robot + a, n_robot + c
+                    m += 1
+            if m:
+                # Which wall each body stands against (before this step's pushes).
+                for q in range(k):
+                    if q < n_robot:
+                        hr = math.radians(heading[b, q])
+                        fx, fy = math.sin(hr), math.cos(hr)
+                        ex = half_l[q] * abs(fx) + half_w[q] * abs(fy)
+                        ey = half_l[q] * abs(fy) + half_w[q] * abs(fx)
+                        qx, qy = x[b, q], y[b, q]
+                    else:
+                        ex = ey = goal_radius[q - n_robot]
+                        qx, qy = gx[b, q - n_robot], gy[b, q - n_robot]
+                    edge = lim - 1e-4
+                    wall[q, 0] = 1 if qx + ex >= edge else (-1 if qx - ex <= -edge else 0)
+                    wall[q, 1] = 1 if qy + ey >= edge else (-1 if qy - ey <= -edge else 0)
+                acc[:] = 0.0
+                for e in range(m):
+                    pa, pc = c_a[e], c_c[e]
+                    nx, ny = c_n[e, 0], c_n[e, 1]
+                    props = np.empty((2, 7))
+                    for side in range(2):
+                        q = pa if side == 0 else pc
+                        if q < n_robot:
+                            props[side, 0] = 1.0 / mass[q]
+                            props[side, 1] = 1.0 / inertia[q]
+                            props[side, 2], props[side, 3] = x[b, q], y[b, q]
+                            props[side, 4], props[side, 5] = rvx[b, q], rvy[b, q]
+                            props[side, 6] = rw[b, q]
+                        else:
+                            g = q - n_robot
+                            props[side, 0] = 1.0 / goal_mass[g]
+                            props[side, 1] = 0.0
+                            props[side, 2], props[side, 3] = gx[b, g], gy[b, g]
+                            props[side, 4], props[side, 5] = gvx[b, g], gvy[b, g]
+                            props[side, 6] = 0.0
+                        # Against a wall and pushed toward it: it stands like the wall.
+                        dxs, dys = (-nx, -ny) if side == 0 else (nx, ny)
+                        held = (wall[q, 0] != 0 and dxs * wall[q, 0] > 1e-6) or (
+                            wall[q, 1] != 0 and dys * wall[q, 1] > 1e-6
+                        )
+                        if held:
+                            props[side, 0] = 0.0
+                            props[side, 1] = 0.0
+                    if props[0, 0] == 0.0 and props[1, 0] == 0.0:
+                        # Both held: both give way, by mass (as neither were held).
+                        for side in range(2):
+                            q = pa if side == 0 else pc
+                            props[side, 0] = 1.0 / (
+                                mass[q] if q < n_robot else goal_mass[q - n_robot]
+                            )
+                            props[side, 1] = 1.0 / inertia[q] if q < n_robot else 0.0
+                    lever = not math.isnan(c_p[e, 0])
+                    ax = c_p[e, 0] - props[0, 2] if lever else 0.0
+                    ay = c_p[e, 1] - props[0, 3] if lever else 0.0
+                    cx = c_p[e, 0] - props[1, 2] if lever else 0.0
+                    cy = c_p[e, 1] - props[1, 3] if lever else 0.0
+                    a_n, cc_n = ax * ny - ay * nx, cx * ny - cy * nx
+                    rel = (props[1, 4] + props[1, 6] * cy - props[0, 4] - props[0, 6] * ay) * nx + (
+                        props[1, 5] - props[1, 6] * cx - props[0, 5] + props[0, 6] * ax
+                    ) * ny
+                    inv_a, inv_c = props[0, 0], props[1, 0]
+                    ia, ic = props[0, 1], props[1, 1]
+                    eff = inv_a + inv_c + a_n * a_n * ia + cc_n * cc_n * ic
+                    j = -rel / eff if rel < 0 else 0.0
+                    share = share_rot * c_d[e] / eff
+                    move = share + (1.0 - share_rot) * c_d[e] / (inv_a + inv_c)
+                    acc[pa, 0] -= move * inv_a * nx
+                    acc[pa, 1] -= move * inv_a * ny
+                    acc[pc, 0] += move * inv_c * nx
+                    acc[pc, 1] += move * inv_c * ny
+                    acc[pa, 2] -= j * inv_a * nx
+                    acc[pa, 3] -= j * inv_a * ny
+                    acc[pc, 2] += j * inv_c * nx
+                    acc[pc, 3] += j * inv_c * ny
+                    acc[pa, 4] += j * a_n * ia
+                    acc[pc, 4] -= j * cc_n * ic
+                    acc[pa, 5] += share * a_n * ia
+                    acc[pc, 5] -= share * cc_n * ic
+                for i in range(n_robot):
+                    x[b, i] += acc[i, 0]
+                    y[b, i] += acc[i, 1]
+                    heading[b, i] += math.degrees(acc[i, 5])
+                    rvx[b, i] += acc[i, 2]
+                    rvy[b, i] += acc[i, 3]
+                    rw[b, i] += acc[i, 4]
+                for g in range(n_goal):
+                    if carrier[b, g] < 0:
+                        q = n_robot + g
+                        gx[b, g] += acc[q, 0]
+                        gy[b, g] += acc[q, 1]
+                        gvx[b, g] += acc[q, 2]
+                        gvy[b, g] += acc[q, 3]
+                _follow(b, x, y, heading, rvx, rvy, gx, gy, gvx, gvy, carried, offset)
+            _walls(
+                b, x, y, heading, rvx, rvy, rw, gx, gy, gvx, gvy, carried, carrier,
+                half_w, half_l, mass, inertia, radius, offset, goal_radius, lim, share_rot,
+            )  # fmt: skip
+            _follow(b, x, y, heading, rvx, rvy, gx, gy, gvx, gvy, carried, offset)
+
+
+@nb.njit(cache=True)
+def _walls(b, x, y, heading, rvx, rvy, rw, gx, gy, gvx, gvy, carried, carrier,
+           half_w, half_l, mass, inertia, radius, offset, goal_radius, lim, share_rot):  # fmt: skip
+    """The walls: a robot's deepest corner past one is stopped and moved out through mass and
+    inertia (share_rot of it), then every robot with the goal it carries, and every free goal,
+    is put inside."""
+    for i in range(x.shape[1]):
+        if max(abs(x[b, i]), abs(y[b, i])) + radius[i] <= lim:
+            continue
+        hr = math.radians(heading[b, i])
+        fx, fy = math.sin(hr), math.cos(hr)
+        rx, ry = fy, -fx
+        px_, py_ = np.empty(4), np.empty(4)
+        for q in range(4):
+            sa = 1.0 if q < 2 else -1.0
+            sb = 1.0 if q == 0 or q == 3 else -1.0
+            px_[q] = x[b, i] + sa * half_l[i] * fx + sb * half_w[i] * rx
+            py_[q] = y[b, i] + sa * half_l[i] * fy + sb * half_w[i] * ry
+        m, inert = mass[i], inertia[i]
+        turn = 0.0
+        for axis in range(2):
+            for side in (-1.0, 1.0):
+                best, depth = 0, -math.inf
+                for q in range(4):
+                    pen = side * (px_[q] if axis == 0 else py_[q]) - lim
+                    if pen > depth:
+                        best, depth = q, pen
+                if not depth > 0:
+                    continue
+                ax, ay = px_[best] - x[b, i], py_[best] - y[b, i]
+                nx, ny = (-side, 0.0) if axis == 0 else (0.0, -side)
+                rxn = ax * ny - ay * nx
+                eff = 1.0 / m + rxn * rxn / inert
+                u = (rvx[b, i] + rw[b, i] * ay) * nx + (rvy[b, i] - rw[b, i] * ax) * ny
+                if u < 0:
+                    j = -u / eff
+                    rvx[b, i] += j * nx / m
+                    rvy[b, i] += j * ny / m
+                    rw[b, i] -= rxn * j / inert
+                push = share_rot * depth / eff
+                x[b, i] += push * nx / m
+                y[b, i] += push * ny / m
+                turn -= rxn * push / inert
+                for q in range(4):
+                    px_[q] += push * nx / m
+                    py_[q] += push * ny / m
+        heading[b, i] += math.degrees(turn)
+    for i in range(x.shape[1]):
+        hr = math.radians(heading[b, i])
+        fx, fy = math.sin(hr), math.cos(hr)
+        ex = half_l[i] * abs(fx) + half_w[i] * abs(fy)
+        ey = half_l[i] * abs(fy) + half_w[i] * abs(fx)
+        lo_x, hi_x, lo_y, hi_y = x[b, i] - ex, x[b, i] + ex, y[b, i] - ey, y[b, i] + ey
+        g = carried[b, i]
+        if g >= 0:
+            cx, cy = _clamp_point(x[b, i], y[b, i], heading[b, i], offset[i, g])
+            r = goal_radius[g]
+            lo_x, hi_x = min(lo_x, cx - r), max(hi_x, cx + r)
+            lo_y, hi_y = min(lo_y, cy - r), max(hi_y, cy + r)
+        x[b, i] += max(0.0, -lim - lo_x) - max(0.0, hi_x - lim)
+        y[b, i] += max(0.0, -lim - lo_y) - max(0.0, hi_y - lim)
+    for g in range(gx.shape[1]):
+        if carrier[b, g] >= 0:
+            continue
+        gl = lim - goal_radius[g]
+        nx_, ny_ = min(max(gx[b, g], -gl), gl), min(max(gy[b, g], -gl), gl)
+        if nx_ != gx[b, g]:
+            gvx[b, g] = 0.0
+        if ny_ != gy[b, g]:
+            gvy[b, g] = 0.0
+        gx[b, g], gy[b, g] = nx_, ny_

@@ -1,21 +1,26 @@
-"""Training-fidelity physics and rules for a batch of matches, in numpy.
+"""Training-fidelity physics and rules for a batch of matches.
 
 Every array's first axis is the match (B), the second the robot (R, red first, as World lists
 them), the goal (G, the field file's order) or the ring (N). One step does for every match at
 once what sim.world.physics.World does for one in training fidelity:
 
-1. the commands pass the acceleration and speed limits (a non-finite command is a stop);
-2. `substeps` times: robots move at their commanded (v, w), free goals slide and slow (the
-   floor friction World models as damping), then contacts are resolved: robot against robot
-   (boxes, by the separating axis of least overlap, shared by mass), robot against goal (box
-   against disc: a free goal is pushed out and takes the robot's speed along the push; a
-   carried goal pushes back on both robots), goal against goal, and the walls;
+1. the commands pass the acceleration and speed limits (a non-finite command is a stop), and
+   each robot's velocity is set once for the step, as World sets its body's;
+2. `substeps` times (sim.fast.kernels.substeps, a compiled loop over the matches): robots move,
+   free goals slide and slow (Bullet's multibody drag, World's floor friction), then the
+   contacts: robot against robot (boxes: the axis of least overlap, the point where the faces
+   meet), robot against goal (box against disc), goal against goal, each an inelastic impulse
+   and a position correction through both bodies' masses and inertias; a goal in a clamp
+   pushes with its own mass without moving its robot (World puts it back in the clamp); a body
+   against a wall stands like the wall; the walls stop robots' corners and keep everything in;
 3. the clamps take and let go of goals, carried goals follow their clamps, intakes take the
-   rings their zones reach (nearest the bumper first), held rings move onto carried goals;
+   rings their zones reach (nearest the bumper first), held rings move onto carried goals, in
+   numpy, one array operation per rule;
 4. the rules: pins (sim.world.rules.pin_step) and the score (rules.ring_race_score).
 
-Where World asks PyBullet (contacts, the solver's pushes), this models them geometrically, so
-the two agree closely but not bit for bit; everything else (limits, clamp, intake, transfer,
+Where World asks PyBullet (contacts, the solver's pushes), this models them with the same
+masses, speeds and shapes, fitted to PyBullet's answers (docs/notes/2026-11-28-fast-backend.md),
+so the two agree closely but not bit for bit; everything else (limits, clamp, intake, transfer,
 the rules, the start's randomness) is the same arithmetic. The ring race only: the whole game's
 see-saws, tugs of war and fouls are not batched yet (ConfigError names what is not).
 """
@@ -31,6 +36,7 @@ from numpy.typing import NDArray
 from jetson.autonomy.geometry import AllianceName, wrap_heading
 from sim.config import RobotConfig, WorldConfig
 from sim.errors import ConfigError
+from sim.fast import kernels
 from sim.field import FieldSpec, load_field
 from sim.world import rules
 
@@ -124,6 +130,9 @@ class FastWorld:
         self.radius = np.array([rc.radius_m for rc in rcs])  # the footprint's bounding circle
         self.goal_radius = np.array([g.base_radius for g in self.field.goals])
         self.goal_mass = np.array([g.mass_kg for g in self.field.goals])
+        # Each robot's clamp point for each goal: its signed distance ahead of the centre.
+        offsets = self.half_l[:, None] + np.array([g.base_radius for g in self.field.goals]) + 0.005
+        self._offsets = offsets * np.where(self.front_clamp, 1.0, -1.0)[:, None]
         self.n_goals = len(self.field.goals)
         reds = [i for i, a in enumerate(self.alliances) if a == "red"]
         blues = [i for i, a in enumerate(self.alliances) if a == "blue"]
@@ -268,26 +277,21 @@ class FastWorld:
         on = np.ones((b, r), dtype=bool) if intake is None else np.asarray(intake, dtype=bool)
         self.intake_on = on.reshape(b, r)
         before = np.stack([self.x, self.y, self.heading], -1)
-        h = self.dt / self.substeps
         # As World sets each body's velocity once a control step (PyBullet keeps it in the
         # field frame through the substeps, where contacts change it).
         rad = np.radians(self.heading)
         self.rvx = self.v * np.sin(rad)
         self.rvy = self.v * np.cos(rad)
         self.rw = self.w.copy()
-        for _ in range(self.substeps):
-            self.x += self.rvx * h
-            self.y += self.rvy * h
-            self.heading += np.degrees(self.rw) * h
-            free = self.carrier < 0
-            speed = np.hypot(self.gvx, self.gvy)
-            damp = np.maximum(0.0, 1.0 - _GOAL_DAMPING * (1.0 + speed) * h)
-            self.gvx *= damp
-            self.gvy *= damp
-            self.gx += np.where(free, self.gvx, 0.0) * h
-            self.gy += np.where(free, self.gvy, 0.0) * h
-            self._follow_clamps()
-            self._contacts()
+        state = (
+            self.x, self.y, self.heading, self.rvx, self.rvy, self.rw,
+            self.gx, self.gy, self.gvx, self.gvy, self.carried, self.carrier,
+        )  # fmt: skip
+        kernels.substeps(
+            state, self.half_w, self.half_l, self.mass, self.radius, self._offsets,
+            self.goal_radius, self.goal_mass, self.field.half, self.dt / self.substeps,
+            self.substeps, _GOAL_DAMPING, _POSITION_SHARE,
+        )  # fmt: skip
         self.heading = np.asarray(wrap_heading(self.heading), dtype=np.float64)
         dx, dy = self.x - before[..., 0], self.y - before[..., 1]
         h0 = np.radians(before[..., 2])
@@ -330,360 +334,16 @@ class FastWorld:
         s, c = np.sin(rad), np.cos(rad)
         return np.stack([s, c], -1), np.stack([c, -s], -1)
 
-    def _box_overlap(
-        self, bi: I64, i: I64, j: I64, with_point: bool = False
-    ) -> tuple[F64, F64] | tuple[F64, F64, F64]:
-        """Robots i and j of matches bi (C,): the least overlap of their boxes over the four
-        separating axes (negative: the gap between them) and that axis (C, 2), pointing from
-        robot i to robot j; with_point, also where they touch (C, 2): the corner of the one box
-        deepest in the other's face (the middle of an edge lying flat against it)."""
-        rad_i = np.radians(self.heading[bi, i])
-        rad_j = np.radians(self.heading[bi, j])
-        fi = np.stack([np.sin(rad_i), np.cos(rad_i)], -1)
-        ri = np.stack([fi[:, 1], -fi[:, 0]], -1)
-        fj = np.stack([np.sin(rad_j), np.cos(rad_j)], -1)
-        rj = np.stack([fj[:, 1], -fj[:, 0]], -1)
-        d = np.stack([self.x[bi, j] - self.x[bi, i], self.y[bi, j] - self.y[bi, i]], -1)
-        axes = np.stack([fi, ri, fj, rj], 1)  # (C, 4, 2)
-
-        def reach(f: F64, r: F64, k: I64) -> F64:
-            along = np.abs(np.einsum("cad,cd->ca", axes, f))
-            across = np.abs(np.einsum("cad,cd->ca", axes, r))
-            return self.half_l[k][:, None] * along + self.half_w[k][:, None] * across
-
-        sep = np.einsum("cad,cd->ca", axes, d)
-        overlap = reach(fi, ri, i) + reach(fj, rj, j) - np.abs(sep)
-        best = np.argmin(overlap, axis=1)
-        rows = np.arange(len(bi))
-        sign = np.sign(sep[rows, best])
-        sign = np.where(sign == 0, 1.0, sign)
-        normal = axes[rows, best] * sign[:, None]
-        if not with_point:
-            return overlap[rows, best], normal
-
-        ci = np.stack([self.x[bi, i], self.y[bi, i]], -1)
-        cj = np.stack([self.x[bi, j], self.y[bi, j]], -1)
-        on_i = best < 2  # the reference face is i's (else j's); the other box's face meets it
-        ref_c = np.where(on_i[:, None], ci, cj)
-        inc_c = np.where(on_i[:, None], cj, ci)
-        n_ref = np.where(on_i[:, None], normal, -normal)  # out of the reference face
-        ref_f = np.where(on_i[:, None], fi, fj)
-        inc_f = np.where(on_i[:, None], fj, fi)
-        inc_r = np.where(on_i[:, None], rj, ri)
-        k_ref = np.where(on_i, i, j)
-        k_inc = np.where(on_i, j, i)
-        along_ref = np.abs(np.einsum("cd,cd->c", ref_f, n_ref)) > 0.5  # the face is a front/back
-        h_n = np.where(along_ref, self.half_l[k_ref], self.half_w[k_ref])
-        h_t = np.where(along_ref, self.half_w[k_ref], self.half_l[k_ref])
-        tangent = np.stack([-n_ref[:, 1], n_ref[:, 0]], -1)
-        # The incident face: the other box's face turned most against the reference normal.
-        a = np.einsum("cd,cd->c", inc_f, n_ref)
-        b = np.einsum("cd,cd->c", inc_r, n_ref)
-        use_f = np.abs(a) >= np.abs(b)
-        axis = np.where(use_f[:, None], inc_f, inc_r)
-        other = np.where(use_f[:, None], inc_r, inc_f)
-        h_axis = np.where(use_f, self.half_l[k_inc], self.half_w[k_inc])
-        h_other = np.where(use_f, self.half_w[k_inc], self.half_l[k_inc])
-        face = inc_c - (np.sign(np.where(use_f, a, b)) * h_axis)[:, None] * axis
-        ends = np.stack([face + h_other[:, None] * other, face - h_other[:, None] * other], 1)
-        # Clip the incident edge to the reference face's extent, keep what is inside it.
-        s = np.einsum("ckd,cd->ck", ends - ref_c[:, None], tangent)
-        ds = s[:, 1] - s[:, 0]
-        safe = np.where(np.abs(ds) < 1e-12, 1.0, ds)
-        t0 = np.clip((-h_t - s[:, 0]) / safe, 0.0, 1.0)
-        t1 = np.clip((h_t - s[:, 0]) / safe, 0.0, 1.0)
-        lo, hi = np.minimum(t0, t1), np.maximum(t0, t1)
-        lo = np.where(np.abs(ds) < 1e-12, 0.0, lo)
-        hi = np.where(np.abs(ds) < 1e-12, 1.0, hi)
-        p_lo = ends[:, 0] + lo[:, None] * (ends[:, 1] - ends[:, 0])
-        p_hi = ends[:, 0] + hi[:, None] * (ends[:, 1] - ends[:, 0])
-        depth_lo = h_n - np.einsum("cd,cd->c", p_lo - ref_c, n_ref)
-        depth_hi = h_n - np.einsum("cd,cd->c", p_hi - ref_c, n_ref)
-        w_lo, w_hi = np.maximum(depth_lo, 0.0), np.maximum(depth_hi, 0.0)
-        total = w_lo + w_hi
-        mix = np.where(total > 1e-12, w_hi / np.where(total > 1e-12, total, 1.0), 0.5)
-        point = p_lo + mix[:, None] * (p_hi - p_lo)
-        return overlap[rows, best], normal, point
+    def overlaps(self, pairs: NDArray[np.int64] | None = None) -> F64:
+        """(B, P): the least overlap of each robot pair's boxes (negative: the gap between
+        them); pairs (P, 2) of robot indices, default every pair."""
+        pairs = self._pairs if pairs is None else np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+        return kernels.pair_overlaps(self.x, self.y, self.heading, self.half_w, self.half_l, pairs)
 
     def _touching(self) -> Bool:
         """Red-blue pairs within pin_contact_m hull to hull (World._touching), (B, P_pin)."""
         pairs = np.array(self.pin_pairs, dtype=np.int64).reshape(-1, 2)
-        n_p = len(pairs)
-        bi = np.repeat(np.arange(self.n), n_p)
-        i, j = np.tile(pairs[:, 0], self.n), np.tile(pairs[:, 1], self.n)
-        least, _ = self._box_overlap(bi, i, j)
-        return (-least <= self.config.pin_contact_m).reshape(self.n, n_p)
-
-    def _contacts(self) -> None:
-        """Every contact of this substep at once: robot-robot boxes, robot-goal box-disc,
-        goal-goal discs (a bounding-circle test first, so only pairs that may touch are
-        worked out), each resolved by _resolve; then the walls."""
-        parts = [self._robot_robot_contacts()] if len(self._pairs) else []
-        if self.n_goals:
-            parts.append(self._robot_goal_contacts())
-            if self.n_goals > 1:
-                parts.append(self._goal_goal_contacts())
-        parts = [c for c in parts if len(c[0])]
-        if parts:
-            self._resolve(*(np.concatenate(k) for k in zip(*parts, strict=True)))
-        self._contain()
-
-    def _robot_robot_contacts(self) -> tuple[I64, F64, F64, I64, I64, F64]:
-        i, j = self._pairs[:, 0], self._pairs[:, 1]
-        reach = self.radius[i] + self.radius[j]
-        d2 = (self.x[:, j] - self.x[:, i]) ** 2 + (self.y[:, j] - self.y[:, i]) ** 2
-        bi, pi = np.nonzero(d2 < reach**2)
-        least, axis, point = self._box_overlap(bi, i[pi], j[pi], with_point=True)  # type: ignore[misc]
-        keep = least > 0
-        bi, pi = bi[keep], pi[keep]
-        return bi, axis[keep], least[keep], i[pi], j[pi], point[keep]
-
-    def _robot_goal_contacts(self) -> tuple[I64, F64, F64, I64, I64, F64]:
-        """Box against disc for the robots and goals that touch (not a robot and the goal in
-        its own clamp): the match, the normal from robot to goal, the depth, the bodies (robot
-        index; goal g as body R + g) and the contact point (the box's point nearest the
-        goal's centre)."""
-        r = self.n_robots
-        dx = self.gx[:, None, :] - self.x[:, :, None]  # (B, R, G)
-        dy = self.gy[:, None, :] - self.y[:, :, None]
-        reach = self.radius[:, None] + self.goal_radius[None]
-        near = (dx**2 + dy**2 < reach**2) & (
-            self.carrier[:, None, :] != np.arange(r)[None, :, None]
-        )
-        bi, ri, gi = np.nonzero(near)
-        dx, dy = dx[bi, ri, gi], dy[bi, ri, gi]
-        rad = np.radians(self.heading[bi, ri])
-        fx, fy = np.sin(rad), np.cos(rad)
-        rx, ry = fy, -fx
-        lx = dx * rx + dy * ry  # across (right)
-        ly = dx * fx + dy * fy  # along the heading
-        hw, hl = self.half_w[ri], self.half_l[ri]
-        px, py = np.clip(lx, -hw, hw), np.clip(ly, -hl, hl)
-        ex, ey = lx - px, ly - py
-        dist = np.hypot(ex, ey)
-        inside = dist < 1e-9
-        # A centre inside the box leaves across the nearer side.
-        side_x = hw - np.abs(lx) <= hl - np.abs(ly)
-        safe = np.maximum(dist, 1e-12)
-        nx = np.where(inside, np.where(side_x, np.where(lx >= 0, 1.0, -1.0), 0.0), ex / safe)
-        ny = np.where(inside, np.where(side_x, 0.0, np.where(ly >= 0, 1.0, -1.0)), ey / safe)
-        gr = self.goal_radius[gi]
-        depth = np.where(inside, np.where(side_x, hw - np.abs(lx), hl - np.abs(ly)) + gr, gr - dist)
-        keep = depth > 0
-        normal = np.stack([nx * rx + ny * fx, nx * ry + ny * fy], -1)
-        x0, y0 = self.x[bi, ri], self.y[bi, ri]
-        point = np.stack([x0 + px * rx + py * fx, y0 + px * ry + py * fy], -1)
-        return bi[keep], normal[keep], depth[keep], ri[keep], r + gi[keep], point[keep]
-
-    def _goal_goal_contacts(self) -> tuple[I64, F64, F64, I64, I64, F64]:
-        a, c = np.triu_indices(self.n_goals, 1)
-        dx = self.gx[:, c] - self.gx[:, a]
-        dy = self.gy[:, c] - self.gy[:, a]
-        reach = self.goal_radius[a] + self.goal_radius[c]
-        bi, pi = np.nonzero(dx**2 + dy**2 < reach**2)
-        dx, dy = dx[bi, pi], dy[bi, pi]
-        dist = np.hypot(dx, dy)
-        safe = np.maximum(dist, 1e-12)
-        normal = np.stack(
-            [np.where(dist > 1e-12, dx / safe, 1.0), np.where(dist > 1e-12, dy / safe, 0.0)], -1
-        )
-        ga, gc = a[pi], c[pi]
-        point = np.stack([self.gx[bi, ga], self.gy[bi, ga]], -1)
-        point += normal * self.goal_radius[ga][:, None]
-        r = self.n_robots
-        return bi, normal, reach[pi] - dist, r + ga, r + gc, point
-
-    def _resolve(
-        self, bi: I64, normal: F64, depth: F64, first: I64, second: I64, point: F64
-    ) -> None:
-        """Push every touching pair (C contacts: match bi, bodies first and second) apart by
-        mass and stop its approach at the contact point: an inelastic impulse through both
-        bodies' masses and, for robots, inertia (no point, NaN: through the masses alone).
-        Bodies: robots 0..R-1, goals R..R+G-1. A goal in a clamp pushes with its own mass at
-        its robot's speed and is put back in the clamp after (it never moves its robot), as
-        World's carried goal body is."""
-        r = self.n_robots
-        k = r + self.n_goals
-        ma, mc = first, second
-        robot_mass, robot_inertia = self._body_mass()
-
-        def body(m: I64) -> tuple[F64, F64, F64, F64, F64, F64, F64]:
-            """Mass, 1/inertia (0: a goal does not turn), position, velocity, turn rate."""
-            robot = m < r
-            ri, gi = np.where(robot, m, 0), np.where(robot, 0, m - r)
-            mass = np.where(robot, robot_mass[bi, ri], self.goal_mass[gi])
-            inv_i = np.where(robot, 1.0 / robot_inertia[bi, ri], 0.0)
-            x = np.where(robot, self.x[bi, ri], self.gx[bi, gi])
-            y = np.where(robot, self.y[bi, ri], self.gy[bi, gi])
-            vx = np.where(robot, self.rvx[bi, ri], self.gvx[bi, gi])
-            vy = np.where(robot, self.rvy[bi, ri], self.gvy[bi, gi])
-            w = np.where(robot, self.rw[bi, ri], 0.0)
-            return mass, inv_i, x, y, vx, vy, w
-
-        nx, ny = normal[:, 0], normal[:, 1]
-        lever = np.isfinite(point[:, 0])
-        m_a, i_a, x_a, y_a, vx_a, vy_a, w_a = body(ma)
-        m_c, i_c, x_c, y_c, vx_c, vy_c, w_c = body(mc)
-        # A body already against a wall does not give way toward it (the wall holds it, and
-        # its friction there keeps it from sliding along): it stands like the wall.
-        wall_x, wall_y = self._at_walls()
-        held_a = _into_wall(wall_x[bi, ma], wall_y[bi, ma], -nx, -ny)
-        held_c = _into_wall(wall_x[bi, mc], wall_y[bi, mc], nx, ny)
-        both = held_a & held_c
-        held_a &= ~both
-        held_c &= ~both
-        m_a = np.where(held_a, np.inf, m_a)
-        m_c = np.where(held_c, np.inf, m_c)
-        i_a = np.where(held_a, 0.0, i_a)
-        i_c = np.where(held_c, 0.0, i_c)
-        ax = np.where(lever, point[:, 0] - x_a, 0.0)
-        ay = np.where(lever, point[:, 1] - y_a, 0.0)
-        cx = np.where(lever, point[:, 0] - x_c, 0.0)
-        cy = np.where(lever, point[:, 1] - y_c, 0.0)
-        a_n, c_n = ax * ny - ay * nx, cx * ny - cy * nx
-        # Speeds at the contact (a clockwise turn w moves a point at arm (x, y) by w (y, -x)).
-        rel = (vx_c + w_c * cy - vx_a - w_a * ay) * nx + (vy_c - w_c * cx - vy_a + w_a * ax) * ny
-        inv_a, inv_c = 1.0 / m_a, 1.0 / m_c
-        eff = inv_a + inv_c + a_n**2 * i_a + c_n**2 * i_c
-        j = np.where(rel < 0, -rel / eff, 0.0)
-        # The overlap is undone in part the same way, through masses and inertias (turning as
-        # well as moving the bodies: Box2D's position solver), the rest by moving them apart.
-        share = _POSITION_SHARE * depth / eff
-        apart = (1.0 - _POSITION_SHARE) * depth / (inv_a + inv_c)
-        size = self.n * k
-        flat_a, flat_c = bi * k + ma, bi * k + mc
-
-        def total(values_a: F64, values_c: F64) -> F64:
-            return (
-                np.bincount(flat_a, values_a, size) + np.bincount(flat_c, values_c, size)
-            ).reshape(self.n, k)
-
-        move = share + apart
-        dx = total(-move * inv_a * nx, move * inv_c * nx)
-        dy = total(-move * inv_a * ny, move * inv_c * ny)
-        dvx = total(-j * inv_a * nx, j * inv_c * nx)
-        dvy = total(-j * inv_a * ny, j * inv_c * ny)
-        dturn = total(j * a_n * i_a, -j * c_n * i_c)
-        dturn_pos = total(share * a_n * i_a, -share * c_n * i_c)
-        self.x += dx[:, :r]
-        self.y += dy[:, :r]
-        self.heading += np.degrees(dturn_pos[:, :r])
-        self.rvx += dvx[:, :r]
-        self.rvy += dvy[:, :r]
-        self.rw += dturn[:, :r]
-        free = self.carrier < 0
-        self.gx += np.where(free, dx[:, r:], 0.0)
-        self.gy += np.where(free, dy[:, r:], 0.0)
-        self.gvx += np.where(free, dvx[:, r:], 0.0)
-        self.gvy += np.where(free, dvy[:, r:], 0.0)
-        self._follow_clamps()
-
-    def _at_walls(self) -> tuple[I64, I64]:
-        """Which wall each body (robots, then goals) touches: -1, 0 or +1 along x and y
-        (B, R + G) each."""
-        lim = self.field.half - 1e-4
-        fwd, right = self._axes()
-        ex = self.half_l * np.abs(fwd[..., 0]) + self.half_w * np.abs(right[..., 0])
-        ey = self.half_l * np.abs(fwd[..., 1]) + self.half_w * np.abs(right[..., 1])
-        x = np.concatenate([self.x, self.gx], 1)
-        y = np.concatenate([self.y, self.gy], 1)
-        rx = np.concatenate([ex, np.broadcast_to(self.goal_radius, self.gx.shape)], 1)
-        ry = np.concatenate([ey, np.broadcast_to(self.goal_radius, self.gy.shape)], 1)
-        wx = np.where(x + rx >= lim, 1, np.where(x - rx <= -lim, -1, 0))
-        wy = np.where(y + ry >= lim, 1, np.where(y - ry <= -lim, -1, 0))
-        return wx, wy
-
-    def _body_mass(self) -> tuple[F64, F64]:
-        """Each robot's mass and moment of inertia about its centre (a box), (B, R)."""
-        mass = np.broadcast_to(self.mass, (self.n, self.n_robots))
-        return mass, mass * ((2 * self.half_w) ** 2 + (2 * self.half_l) ** 2) / 12.0
-
-    def _wall_impulses(self) -> None:
-        """A robot meeting a wall: the wall takes out the speed of its deepest corner into it,
-        through the robot's mass and inertia, so a robot turning against a wall is stopped
-        turning as well as pushed (what PyBullet's contact does). The goal in its clamp is
-        only kept inside (_contain), as World does. Only robots whose bounding circle reaches
-        a wall are worked out."""
-        lim = self.field.half
-        near = np.maximum(np.abs(self.x), np.abs(self.y)) + self.radius > lim
-        bi, ri = np.nonzero(near)
-        if not len(bi):
-            return
-        rad = np.radians(self.heading[bi, ri])
-        fwd = np.stack([np.sin(rad), np.cos(rad)], -1)
-        right = np.stack([fwd[:, 1], -fwd[:, 0]], -1)
-        x, y = self.x[bi, ri], self.y[bi, ri]
-        centre = np.stack([x, y], -1)
-        sa = np.array([1.0, 1.0, -1.0, -1.0])[None, :, None]
-        sb = np.array([1.0, -1.0, -1.0, 1.0])[None, :, None]
-        hl = self.half_l[ri][:, None, None]
-        hw = self.half_w[ri][:, None, None]
-        pts = centre[:, None] + sa * hl * fwd[:, None] + sb * hw * right[:, None]  # (C, 4, 2)
-        mass, inertia = self._body_mass()
-        m, inert = mass[bi, ri], inertia[bi, ri]
-        vx, vy, w = self.rvx[bi, ri], self.rvy[bi, ri], self.rw[bi, ri]
-        rows = np.arange(len(bi))
-        turn = np.zeros(len(bi))  # radians clockwise, the position correction's
-        for axis in (0, 1):
-            for side in (-1.0, 1.0):
-                pen = side * pts[..., axis] - lim
-                k = np.argmax(pen, axis=1)
-                depth = pen[rows, k]
-                hit = depth > 0
-                if not hit.any():
-                    continue
-                px, py = pts[rows, k, 0] - x, pts[rows, k, 1] - y
-                nx, ny = (-side, 0.0) if axis == 0 else (0.0, -side)
-                rxn = px * ny - py * nx
-                eff = 1.0 / m + rxn**2 / inert
-                u = (vx + w * py) * nx + (vy - w * px) * ny
-                j = np.where(hit & (u < 0), -u / eff, 0.0)
-                vx = vx + j * nx / m
-                vy = vy + j * ny / m
-                w = w - rxn * j / inert
-                # Out of the wall through mass and inertia alike (the deepest corner leaves it).
-                push = np.where(hit, _POSITION_SHARE * depth / eff, 0.0)
-                x = x + push * nx / m
-                y = y + push * ny / m
-                turn -= rxn * push / inert
-                pts = pts + np.stack([push * nx / m, push * ny / m], -1)[:, None]
-        self.rvx[bi, ri] = vx
-        self.rvy[bi, ri] = vy
-        self.rw[bi, ri] = w
-        self.x[bi, ri] = x
-        self.y[bi, ri] = y
-        self.heading[bi, ri] += np.degrees(turn)
-
-    def _contain(self) -> None:
-        """Robots (with the goal each carries) and free goals inside the walls (World._contain)."""
-        self._wall_impulses()
-        lim = self.field.half
-        fwd, right = self._axes()
-        ex = self.half_l * np.abs(fwd[..., 0]) + self.half_w * np.abs(right[..., 0])
-        ey = self.half_l * np.abs(fwd[..., 1]) + self.half_w * np.abs(right[..., 1])
-        lo_x, hi_x = self.x - ex, self.x + ex
-        lo_y, hi_y = self.y - ey, self.y + ey
-        holding = self.carried >= 0
-        if holding.any():
-            gi = np.where(holding, self.carried, 0)
-            cx, cy = self.clamp_points(gi)
-            rad = self.goal_radius[gi]
-            lo_x = np.where(holding, np.minimum(lo_x, cx - rad), lo_x)
-            hi_x = np.where(holding, np.maximum(hi_x, cx + rad), hi_x)
-            lo_y = np.where(holding, np.minimum(lo_y, cy - rad), lo_y)
-            hi_y = np.where(holding, np.maximum(hi_y, cy + rad), hi_y)
-        sx = np.maximum(0.0, -lim - lo_x) - np.maximum(0.0, hi_x - lim)
-        sy = np.maximum(0.0, -lim - lo_y) - np.maximum(0.0, hi_y - lim)
-        self.x += sx
-        self.y += sy
-        free = self.carrier < 0
-        gl = lim - self.goal_radius
-        nx, ny = np.clip(self.gx, -gl, gl), np.clip(self.gy, -gl, gl)
-        self.gvx = np.where(free & (nx != self.gx), 0.0, self.gvx)
-        self.gvy = np.where(free & (ny != self.gy), 0.0, self.gvy)
-        self.gx = np.where(free, nx, self.gx)
-        self.gy = np.where(free, ny, self.gy)
-        self._follow_clamps()
+        return -self.overlaps(pairs) <= self.config.pin_contact_m
 
     # --- goals ------------------------------------------------------------------------------
 
@@ -855,8 +515,3 @@ class FastWorld:
         out = np.stack([x, y, hd], -1)
         # At the start only the first pose exists: World reads it.
         return np.where(late[..., None], out, np.where((self.steps == 0)[:, None, None], now, out))
-
-
-def _into_wall(wall_x: I64, wall_y: I64, dx: F64, dy: F64) -> Bool:
-    """Whether a push along (dx, dy) drives a body against the wall it touches."""
-    return ((wall_x != 0) & (dx * wall_x > 1e-6)) | ((wall_y != 0) & (dy * wall_y > 1e-6))

@@ -46,7 +46,7 @@ def test_rewards_are_the_components_and_truncation_bootstraps() -> None:
     assert not first.opponent_obs.any()  # no policy opponent: zeros
     forward = np.tile(np.float32([1.0, 0.0]), (16, 1))
     episodes, total = [], np.zeros(16)
-    for t in range(30):
+    for _ in range(30):
         res = fm.step(forward, np.zeros((16, 2), np.float32))
         total += res.rewards
         episodes += res.episodes
