@@ -150,9 +150,9 @@ class FastMatches:
             which = np.flatnonzero(done)
             if truncated.any():
                 final = self.obs[rows, me].copy()
-            episodes = [
-                self._stats(int(k), bool(pinned[k] and self.config.end_on_pin)) for k in which
-            ]
+            red, blue = self.world.totals()
+            by_pin = pinned & self.config.end_on_pin
+            episodes = [self._stats(int(k), bool(by_pin[k]), red, blue) for k in which]
             self._start(which)
             self.obs[which] = self.observer.reset(which)[which]
         result = self._result(rewards.astype(np.float32), done, final, episodes)
@@ -238,46 +238,55 @@ class FastMatches:
             float(getattr(self._rewards[False], name) or 0.0),
         )
 
+    def _paid(self, name: str) -> bool:
+        """Whether either of this run's rewards pays RewardConfig weight `name`."""
+        return any(getattr(r, name) for r in self._rewards.values())
+
     def _potential_now(self) -> dict[str, F64]:
-        """The learner's shaping potentials now, (B,) each (MatchCore._shapings)."""
+        """The learner's shaping potentials now, (B,) each (MatchCore._shapings); a shaping
+        neither reward pays is 0 and not worked out."""
         w = self.world
         rows = np.arange(self.n)
         me = self.learner
-        out: dict[str, F64] = {}
-        rad = np.radians(w.heading)
-        front = np.stack(
-            [w.x + w.half_l * np.sin(rad), w.y + w.half_l * np.cos(rad)], -1
-        )  # (B, R, 2)
-        rings = ring_potential(front, w.room, w.ring_xy, w.ring_floor)[rows, me]
-        out["approach"] = np.where(self._reward_config("approach") != 0, rings, 0.0)
-        g = w.n_goals
-        if g:
-            offsets = w.half_l[:, None] + w.goal_radius[None] + 0.005  # (R, G)
-            sign = np.where(w.front_clamp, 1.0, -1.0)[:, None]
-            cx = w.x[..., None] + sign * offsets * np.sin(rad)[..., None]
-            cy = w.y[..., None] + sign * offsets * np.cos(rad)[..., None]
-            clamp = np.stack([cx, cy], -1)  # (B, R, G, 2)
+        zero = np.zeros(self.n)
+        out = {"approach": zero, "goal_approach": zero, "park": zero}
+        # The learner only: (B, 1, ...) batches of sim.rewards' functions.
+        x, y = w.x[rows, me][:, None], w.y[rows, me][:, None]
+        rad = np.radians(w.heading[rows, me])[:, None]
+        length = w.half_l[me][:, None]
+        if self._paid("approach"):
+            front = np.stack([x + length * np.sin(rad), y + length * np.cos(rad)], -1)
+            rings = ring_potential(front, w.room[rows, me][:, None], w.ring_xy, w.ring_floor)
+            out["approach"] = np.where(self._reward_config("approach") != 0, rings[:, 0], 0.0)
+        if self._paid("goal_approach") and w.n_goals:
+            offsets = w._offsets[me]  # (B, G): signed, behind the back for a back clamp
+            cx = x + offsets * np.sin(rad)
+            cy = y + offsets * np.cos(rad)
+            clamp = np.stack([cx, cy], -1)[:, None]  # (B, 1, G, 2)
             goals = np.stack([w.gx, w.gy], -1)
             allowed = np.array(
-                [[s.alliance in (None, a) for s in w.field.goals] for a in w.alliances]
-            )  # (R, G)
-            eligible = allowed[None] & (w.carrier < 0)[:, None, :]
-            pot = goal_potential(clamp, goals, eligible, w.carried >= 0)[rows, me]
-        else:
-            pot = np.zeros(self.n)
-        out["goal_approach"] = np.where(self._reward_config("goal_approach") != 0, pot, 0.0)
-        park_from = self._reward_config("park_from_s")
-        margin = self._reward_config("park_margin_m")[:, None, None]  # by match's reward
-        active = (self._reward_config("park") != 0) & (w.time_s >= w.match_length_s - park_from)
-        plats = [w.field.platform(a) for a in w.alliances]
-        centre = np.array([p.center for p in plats])
-        half = np.maximum(np.array([p.size for p in plats])[None] / 2 - margin, 0.0)  # (B, R, 2)
-        xy = np.stack([w.x, w.y], -1)
-        park = park_potential(xy, centre, half, np.broadcast_to(active[:, None], xy.shape[:2]))
-        out["park"] = park[rows, me]
+                [[s.alliance in (None, a) for s in w.field.goals] for a in ("red", "blue")]
+            )  # (2, G): by the learner's side
+            eligible = (allowed[me] & (w.carrier < 0))[:, None, :]
+            holding = (w.carried[rows, me] >= 0)[:, None]
+            pot = goal_potential(clamp, goals, eligible, holding)[:, 0]
+            out["goal_approach"] = np.where(self._reward_config("goal_approach") != 0, pot, 0.0)
+        if self._paid("park"):
+            park_from = self._reward_config("park_from_s")
+            margin = self._reward_config("park_margin_m")[:, None, None]  # by match's reward
+            active = (self._reward_config("park") != 0) & (w.time_s >= w.match_length_s - park_from)
+            plats = [w.field.platform(a) for a in ("red", "blue")]
+            centre = np.array([p.center for p in plats])[me][:, None]  # (B, 1, 2)
+            size = np.array([p.size for p in plats])[me][:, None]
+            half = np.maximum(size / 2 - margin, 0.0)
+            xy = np.stack([x, y], -1)
+            out["park"] = park_potential(xy, centre, half, active[:, None])[:, 0]
         return out
 
     def _margin_now(self) -> F64:
+        """The learner alliance's lead in match score (0 when no reward pays it)."""
+        if not self._paid("score"):
+            return np.zeros(self.n)
         red, blue = self.world.totals()
         margin = (red - blue).astype(np.float64)
         return np.where(self.learner == 0, margin, -margin)
@@ -368,10 +377,12 @@ class FastMatches:
 
     # --- results ----------------------------------------------------------------------------
 
-    def _stats(self, k: int, by_pin: bool) -> EpisodeStats:
+    def _stats(
+        self, k: int, by_pin: bool, red: NDArray[np.int64], blue: NDArray[np.int64]
+    ) -> EpisodeStats:
+        """Match k's statistics (red, blue: every match's score now)."""
         w = self.world
         me = int(self.learner[k])
-        red, blue = w.totals()
         mine, theirs = (red[k], blue[k]) if me == 0 else (blue[k], red[k])
         kind = self.kinds[k]
         fill = self.fill_time[k]
