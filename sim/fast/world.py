@@ -130,7 +130,8 @@ class FastWorld:
         self.radius = np.array([rc.radius_m for rc in rcs])  # the footprint's bounding circle
         self.goal_radius = np.array([g.base_radius for g in self.field.goals])
         self.goal_mass = np.array([g.mass_kg for g in self.field.goals])
-        # Each robot's clamp point for each goal: its signed distance ahead of the centre.
+        # Each robot's clamp point for each goal (World.clamp_offset): its signed distance ahead
+        # of the robot's centre, negative behind a back clamp.
         offsets = self.half_l[:, None] + np.array([g.base_radius for g in self.field.goals]) + 0.005
         self._offsets = offsets * np.where(self.front_clamp, 1.0, -1.0)[:, None]
         self.n_goals = len(self.field.goals)
@@ -328,12 +329,6 @@ class FastWorld:
 
     # --- contacts ---------------------------------------------------------------------------
 
-    def _axes(self) -> tuple[F64, F64]:
-        """Each robot's forward and right unit vectors, (B, R, 2)."""
-        rad = np.radians(self.heading)
-        s, c = np.sin(rad), np.cos(rad)
-        return np.stack([s, c], -1), np.stack([c, -s], -1)
-
     def overlaps(self, pairs: NDArray[np.int64] | None = None) -> F64:
         """(B, P): the least overlap of each robot pair's boxes (negative: the gap between
         them); pairs (P, 2) of robot indices, default every pair."""
@@ -347,13 +342,9 @@ class FastWorld:
 
     # --- goals ------------------------------------------------------------------------------
 
-    def clamp_offsets(self, goal: I64) -> F64:
-        """Robot centre to the centre of goal `goal` (B, R) in its clamp (World.clamp_offset)."""
-        return self.half_l + self.goal_radius[goal] + 0.005
-
     def clamp_points(self, goal: I64) -> tuple[F64, F64]:
         """Where goal `goal` (B, R) sits in each robot's clamp (World.clamp_point)."""
-        back = self.clamp_offsets(goal) * np.where(self.front_clamp, 1.0, -1.0)
+        back = self._offsets[np.arange(self.n_robots)[None], goal]
         rad = np.radians(self.heading)
         return self.x + back * np.sin(rad), self.y + back * np.cos(rad)
 
