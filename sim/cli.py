@@ -489,9 +489,9 @@ def build_parser() -> argparse.ArgumentParser:
         choices=("pybullet", "fast"),
         default=None,
         help="where the matches run (overrides the config's backend): pybullet, the twin's "
-        "training fidelity on worker processes; fast, thousands of matches at once in numpy "
-        "(sim/fast/; [fast] envs and steps_per_env size it). A config the fast backend cannot "
-        "run yet is refused with what it lacks",
+        "training fidelity on worker processes; fast, thousands of matches at once in one "
+        "process (numpy and compiled loops, sim/fast/; [fast] envs and steps_per_env size it). "
+        "A config the fast backend cannot run yet is refused with what it lacks",
     )
     p.add_argument(
         "--workers",
