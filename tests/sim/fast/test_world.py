@@ -133,3 +133,32 @@ def test_a_non_finite_command_stops_the_robot_and_an_ended_match_stands_still() 
     x = fast.x.copy()
     fast.step(np.full((2, 1), 0.6), np.zeros((2, 1)))
     assert np.array_equal(fast.x, x) and np.allclose(fast.time_s, 1.0)
+
+
+def test_intake_and_pushed_rings_are_the_twins_arithmetic() -> None:
+    """Robots at rest with rings scattered at their fronts and under them: one step takes and
+    shoves the same rings to the same places in both worlds."""
+    cfg = WorldConfig(push_rings=True, blue=())
+    rng = np.random.default_rng(4)
+    fast = FastWorld(cfg, 1)
+    with World(cfg) as w:
+        for trial in range(12):
+            w.reset(np.random.default_rng(trial))
+            fast.reset([trial])
+            # Clear of every goal, so nothing moves the robot in the step.
+            x = rng.choice([-1, 1]) * rng.uniform(0.45, 0.8)
+            y, h = rng.uniform(-0.4, 0.4), rng.uniform(0, 360)
+            w.place_robot(0, x, y, h)
+            fast.x[0, 0], fast.y[0, 0], fast.heading[0, 0] = x, y, h
+            n = len(w.ring_xy)
+            near = np.array([x, y]) + rng.uniform(-0.35, 0.35, (n, 2))
+            w.set_floor_rings(near)
+            fast.ring_xy[0, : len(near)] = near
+            fast.ring_floor[0] = False
+            fast.ring_floor[0, : len(near)] = True
+            w.step([DriveCommand(0.0, 0.0)])
+            fast.step(np.zeros((1, 1)), np.zeros((1, 1)))
+            assert fast.collected[0, 0] == w.robots[0].collected > 0
+            floor = w.ring_state == 0
+            assert np.array_equal(fast.ring_floor[0, :n], floor[: len(near)])
+            assert np.allclose(fast.ring_xy[0, :n][floor], w.ring_xy[floor], atol=1e-9)
