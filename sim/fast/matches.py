@@ -69,6 +69,11 @@ class FastMatches:
         self.spec: ObservationSpec = config.observation or derived_spec(
             self.world.match_length_s, [rc.ring_capacity for rc in self.world.robot_configs]
         )
+        if abs(self.spec.match_length_s - self.world.match_length_s) > 1e-9:
+            raise ConfigError(
+                f"observation.match_length_s is {self.spec.match_length_s} but the match lasts "
+                f"{self.world.match_length_s} s: set them equal (as MatchCore asks)"
+            )
         self.observer = FastObserver(
             self.world,
             self.spec,
@@ -248,8 +253,7 @@ class FastMatches:
         w = self.world
         rows = np.arange(self.n)
         me = self.learner
-        zero = np.zeros(self.n)
-        out = {"approach": zero, "goal_approach": zero, "park": zero}
+        out = {name: np.zeros(self.n) for name in ("approach", "goal_approach", "park")}
         # The learner only: (B, 1, ...) batches of sim.rewards' functions.
         x, y = w.x[rows, me][:, None], w.y[rows, me][:, None]
         rad = np.radians(w.heading[rows, me])[:, None]
