@@ -252,6 +252,53 @@ def skill_command(
     return DriveCommand(v, w, intake, clamp)
 
 
+def goal_start(
+    rng: np.random.Generator,
+    goals: list[tuple[float, float]],
+    offsets: list[float],
+    half: float,
+) -> tuple[float, float, float] | None:
+    """A start with the robot's back to one of `goals` (its clamp `offsets[k]` from the robot's
+    centre): the goal drawn, then up to 20 tries of a direction away from it (turned up to 30
+    degrees) and a gap of 0.05-0.5 m, the first that keeps the centre within `half` of the
+    field's middle. (x, y, heading), or None when there is no goal or no try fits
+    (EnvConfig.goal_start_share; MatchCore and sim.fast draw it alike)."""
+    if not goals:
+        return None
+    k = int(rng.integers(len(goals)))
+    gx, gy = goals[k]
+    for _ in range(20):  # a direction that keeps the robot inside the walls
+        # Facing away from the goal (its back toward it), then turned a little, moved off.
+        away = float(rng.uniform(0.0, 360.0))
+        heading = away + float(rng.uniform(-30.0, 30.0))
+        f = heading_vector(away)
+        d = offsets[k] + float(rng.uniform(0.05, 0.5))
+        x, y = gx + d * float(f[0]), gy + d * float(f[1])
+        if abs(x) < half and abs(y) < half:
+            return x, y, heading
+    return None
+
+
+def midgame_start(
+    rng: np.random.Generator,
+    floor: np.ndarray,
+    robots: list[tuple[int | None, int]],
+    at_goal: Callable[[int, np.random.Generator], None],
+) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The draws of a start some seconds in (EnvConfig.midgame_start_share): a random 20-60 %
+    of the floor rings `floor` gone; robot by robot (capacity, room), up to a full intake of
+    them in its intake (an intake that never fills: up to 10), then at_goal(robot, rng) puts
+    its back to one of its goals. Returns the rings gone and each robot's share of them."""
+    gone = rng.permutation(floor)[: int(len(floor) * rng.uniform(0.2, 0.6))]
+    taken, shares = 0, []
+    for index, (cap, room) in enumerate(robots):
+        k = min(int(rng.integers(0, (cap if cap is not None else 10) + 1)), room)
+        shares.append(gone[taken : taken + k])
+        taken += len(shares[-1])
+        at_goal(index, rng)
+    return gone, shares
+
+
 class MatchCore:
     def __init__(self, config: EnvConfig, world_config: WorldConfig | None = None, client=None):
         self.config = config
@@ -369,24 +416,18 @@ class MatchCore:
         return [s.reset(self.frame(i)) for i, s in enumerate(self.stacks)]
 
     def _start_midgame(self, rng: np.random.Generator) -> None:
-        """The field as it might be some seconds in: part of the rings gone (some of them in
-        the robots' intakes, counted as collected before the match's rewards start), every
-        robot with its back to one of its goals."""
+        """The field as it might be some seconds in (midgame_start): part of the rings gone
+        (some of them in the robots' intakes, counted as collected before the match's rewards
+        start), every robot with its back to one of its goals."""
         w = self.world
         floor = np.flatnonzero(w.ring_state == RING_FLOOR)
-        gone = rng.permutation(floor)[: int(len(floor) * rng.uniform(0.2, 0.6))]
-        taken = 0
-        for r in w.robots:
-            cap = r.config.ring_capacity
-            # An intake that never fills starts with as many as a 10-ring one could hold.
-            k = min(int(rng.integers(0, (cap if cap is not None else 10) + 1)), r.room)
-            mine = gone[taken : taken + k]
+        robots = [(r.config.ring_capacity, r.room) for r in w.robots]
+        gone, taken = midgame_start(rng, floor, robots, self._start_at_goal)
+        for r, mine in zip(w.robots, taken, strict=True):
             w.ring_state[mine] = RING_HELD
             w.ring_owner[mine] = r.index
             r.held += len(mine)
             r.collected += len(mine)
-            taken += len(mine)
-            self._start_at_goal(r.index, rng)
         left = np.setdiff1d(floor, gone)
         w.set_floor_rings(w.ring_xy[left])
 
@@ -394,20 +435,14 @@ class MatchCore:
         w = self.world
         r = w.robots[index]
         mine = [g for g in w.goals if g.spec.alliance == r.alliance]
-        if not mine:
-            return
-        g = mine[int(rng.integers(len(mine)))]
-        half = w.field.half - r.config.radius_m
-        for _ in range(20):  # a direction that keeps the robot inside the walls
-            # Facing away from the goal (its back toward it), then turned a little, moved off.
-            away = float(rng.uniform(0.0, 360.0))
-            heading = away + float(rng.uniform(-30.0, 30.0))
-            f = heading_vector(away)
-            d = w.clamp_offset(r, g) + float(rng.uniform(0.05, 0.5))
-            x, y = g.x + d * float(f[0]), g.y + d * float(f[1])
-            if abs(x) < half and abs(y) < half:
-                w.place_robot(index, x, y, heading)
-                return
+        pose = goal_start(
+            rng,
+            [(g.x, g.y) for g in mine],
+            [w.clamp_offset(r, g) for g in mine],
+            w.field.half - r.config.radius_m,
+        )
+        if pose is not None:
+            w.place_robot(index, *pose)
 
     def view(self, index: int) -> RobotView:
         w = self.world

@@ -8,10 +8,11 @@ Every slot is one 1v1 match of one FastWorld; `rollout.n_envs` slots, all steppe
 learner's side is drawn per match as VecMatches draws it (learner_side), from the same per-match
 generator np.random.default_rng((seed, slot, match number)), which then starts the world as
 World.reset would. Rewards are MatchCore's components (sim.match.REWARD_COMPONENTS) for the
-learner, the shaping potentials from sim.rewards. Opponents: "policy" (the caller's actions),
-"random" and "idle"; the planner, the scripted chaser and "none" need per-match Python and stay
-on the PyBullet backend for now, as do teachers, skills, memories and the start curricula
-(ConfigError names what is missing).
+learner, the shaping potentials from sim.rewards; the start curricula (goal_start_share,
+midgame_start_share) are drawn as MatchCore draws them. Opponents: "policy" (the caller's
+actions), "random" and "idle"; the planner, the scripted chaser and "none" need per-match Python
+and stay on the PyBullet backend for now, as do teachers, skills and memories (ConfigError names
+what is missing).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from jetson.autonomy.spec import ObservationSpec
 from sim.errors import ConfigError
 from sim.fast.observe import FastObserver, unsupported_spec
 from sim.fast.world import FastWorld, unsupported
-from sim.match import REWARD_COMPONENTS, EnvConfig, derived_spec
+from sim.match import REWARD_COMPONENTS, EnvConfig, derived_spec, goal_start, midgame_start
 from sim.rewards import goal_potential, park_potential, ring_potential
 from sim.training.rollout import EpisodeStats, RolloutConfig, StepResult, advice_size
 from sim.world import rules
@@ -41,9 +42,6 @@ def fast_unsupported(config: EnvConfig, teacher: str = "none") -> list[str]:
         out.append("[env.skills] (a skill policy)")
     if config.action_intake or config.action_clamp:
         out.append("intake or clamp actions")
-    for name in ("goal_start_share", "midgame_start_share"):
-        if getattr(config, name) > 0:
-            out.append(f"env.{name}")
     if teacher != "none":
         out.append(f"imitation.teacher = {teacher!r}")
     if config.observation is not None:
@@ -194,6 +192,7 @@ class FastMatches:
             self.uncapped[k] = uncapped
             if uncapped:
                 self.world.room_cap[k] = 1 << 30
+            self._curricula(int(k), rng)
         self.steps[which] = 0
         self.total[which] = 0.0
         self.totals[which] = 0.0
@@ -206,6 +205,41 @@ class FastMatches:
             self._potentials[name] = old
         margin = self._margin_now()
         self._margin[which] = margin[which]
+
+    def _curricula(self, k: int, rng: np.random.Generator) -> None:
+        """Match k's start curricula, drawn as MatchCore.reset draws them: some seconds in
+        (midgame_start_share), or robots with their backs to their goals (goal_start_share)."""
+        cfg = self.config
+        w = self.world
+        if cfg.midgame_start_share > 0 and rng.random() < cfg.midgame_start_share:
+            floor = np.flatnonzero(w.ring_floor[k])
+            robots = [
+                (None if w.room_cap[k, i] >= 1 << 30 else int(w.room_cap[k, i]), int(w.room[k, i]))
+                for i in range(w.n_robots)
+            ]
+            gone, taken = midgame_start(rng, floor, robots, lambda i, r: self._at_goal(k, i, r))
+            for i, mine in enumerate(taken):
+                w.held[k, i] += len(mine)
+                w.collected[k, i] += len(mine)
+            w.ring_floor[k, gone] = False
+        elif cfg.goal_start_share > 0:
+            for i in range(w.n_robots):
+                if rng.random() < cfg.goal_start_share:
+                    self._at_goal(k, i, rng)
+
+    def _at_goal(self, k: int, i: int, rng: np.random.Generator) -> None:
+        """Robot i of match k with its back to one of its alliance's goals (goal_start)."""
+        w = self.world
+        alliance = w.alliances[i]
+        mine = [g for g, spec in enumerate(w.field.goals) if spec.alliance == alliance]
+        pose = goal_start(
+            rng,
+            [(float(w.gx[k, g]), float(w.gy[k, g])) for g in mine],
+            [abs(float(w._offsets[i, g])) for g in mine],
+            w.field.half - float(w.radius[i]),
+        )
+        if pose is not None:
+            w.place_robot(k, i, *pose)
 
     def _drive(self, actions: F64) -> tuple[F64, F64, NDArray[np.bool_]]:
         """Drive actions (B, 2) of the robots they are for -> (linear, angular, intake); a

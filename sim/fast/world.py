@@ -250,6 +250,20 @@ class FastWorld:
         self.prev_time[which] = 0.0
         return rngs
 
+    def place_robot(self, k: int, i: int, x: float, y: float, heading_deg: float) -> None:
+        """Teleport robot i of match k (at rest; the goal in its clamp follows), as
+        World.place_robot does."""
+        self.x[k, i], self.y[k, i] = float(x), float(y)
+        self.heading[k, i] = float(wrap_heading(heading_deg))
+        self.v[k, i] = self.w[k, i] = self.measured_v[k, i] = self.measured_w[k, i] = 0.0
+        self.prev_pose[k, i] = (self.x[k, i], self.y[k, i], self.heading[k, i])
+        g = int(self.carried[k, i])
+        if g >= 0:
+            back = float(self._offsets[i, g])
+            rad = np.radians(self.heading[k, i])
+            self.gx[k, g] = self.x[k, i] + back * np.sin(rad)
+            self.gy[k, g] = self.y[k, i] + back * np.cos(rad)
+
     # --- stepping ---------------------------------------------------------------------------
 
     def step(

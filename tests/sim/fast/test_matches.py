@@ -109,3 +109,29 @@ def test_the_trainer_runs_on_the_fast_backend(tmp_path: Path) -> None:
     assert result.episodes >= 64  # matches of 48 steps ended and started again
     assert (tmp_path / "run" / "checkpoints" / "latest.pt").is_file()
     assert result.history[-1]["charts/steps_per_s"] > 0
+
+
+@pytest.mark.parametrize("curriculum", ["goal_start_share", "midgame_start_share"])
+def test_the_start_curricula_start_as_matchcore_starts(curriculum: str) -> None:
+    from sim.match import MatchCore
+
+    env = make_config({**ENV, curriculum: 1.0, "uncapped_share": 0.5})
+    fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=6), seed=11)
+    fm.set_kinds([("idle", -1)] * 6)
+    fm.reset()
+    core = MatchCore(env)
+    try:
+        for k in range(6):
+            rng = np.random.default_rng((11, k, 0))
+            rng.random()  # the learner's side, drawn first as _Slot draws it
+            core.reset(rng)
+            w = core.world
+            xyh = np.array([(r.x, r.y, r.heading) for r in w.robots])
+            fast = np.stack([fm.world.x[k], fm.world.y[k], fm.world.heading[k]], -1)
+            assert np.allclose(xyh, fast)
+            assert [r.collected for r in w.robots] == list(fm.world.collected[k])
+            assert [r.held for r in w.robots] == list(fm.world.held[k])
+            assert fm.uncapped[k] == core.uncapped
+            assert int((w.ring_state == 0).sum()) == int(fm.world.ring_floor[k].sum())
+    finally:
+        core.close()
