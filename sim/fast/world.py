@@ -271,15 +271,18 @@ class FastWorld:
         linear: F64,
         angular: F64,
         intake: Bool | None = None,
-        clamp: NDArray[np.int8] | None = None,
+        clamp: NDArray[np.int8] | F64 | None = None,
     ) -> FastEvents:
         """One control step of every match. linear (m/s), angular (rad/s clockwise): (B, R);
         intake (B, R) runs the intake (default on); clamp (B, R): 1 grab, 0 release, -1 leave
         it to the auto clamp (default -1). A match already over does not move."""
         b, r = self.n, self.n_robots
         live = ~self.over
-        lin = np.asarray(linear, dtype=np.float64).reshape(b, r)
-        ang = np.asarray(angular, dtype=np.float64).reshape(b, r)
+        # Every input is checked before anything moves: a bad one leaves the world as it was.
+        lin = _commands(linear, "linear", b, r)
+        ang = _commands(angular, "angular", b, r)
+        on = np.ones((b, r), dtype=bool) if intake is None else _commands(intake, "intake", b, r)
+        want = np.full((b, r), -1.0) if clamp is None else _commands(clamp, "clamp", b, r)
         bad = ~(np.isfinite(lin) & np.isfinite(ang)) | ~live[:, None]
         lin = np.where(bad, 0.0, np.clip(lin, -self.max_v, self.max_v))
         ang = np.where(bad, 0.0, np.clip(ang, -self.max_w, self.max_w))
@@ -289,8 +292,7 @@ class FastWorld:
         self.w[~live] = 0.0
         self.gvx[~live] = 0.0
         self.gvy[~live] = 0.0
-        on = np.ones((b, r), dtype=bool) if intake is None else np.asarray(intake, dtype=bool)
-        self.intake_on = on.reshape(b, r)
+        self.intake_on = on.astype(bool)
         before = np.stack([self.x, self.y, self.heading], -1)
         # As World sets each body's velocity once a control step (PyBullet keeps it in the
         # field frame through the substeps, where contacts change it).
@@ -324,8 +326,7 @@ class FastWorld:
             pins=np.zeros((b, len(self.pin_pairs)), dtype=bool),
             match_over=self.over.copy(),
         )
-        want = np.full((b, r), -1, dtype=np.int8) if clamp is None else np.asarray(clamp)
-        self._clamp(want.reshape(b, r), live, events)
+        self._clamp(want, live, events)
         self._follow_clamps()
         self._intake(live, events)
         if self.config.push_rings:
@@ -375,7 +376,7 @@ class FastWorld:
         self.gvx[bi, g] = self.rvx[bi, ri]
         self.gvy[bi, g] = self.rvy[bi, ri]
 
-    def _clamp(self, want: NDArray[np.int8], live: Bool, events: FastEvents) -> None:
+    def _clamp(self, want: F64, live: Bool, events: FastEvents) -> None:
         """World._clamp for every match, robot by robot in index order (a goal the first
         robot takes is gone for the second)."""
         auto = self.config.auto_clamp
@@ -520,3 +521,14 @@ class FastWorld:
         out = np.stack([x, y, hd], -1)
         # At the start only the first pose exists: World reads it.
         return np.where(late[..., None], out, np.where((self.steps == 0)[:, None, None], now, out))
+
+
+def _commands(value: object, name: str, matches: int, robots: int) -> F64:
+    """A (matches, robots) command array, or a ValueError naming the shape it must have."""
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.shape != (matches, robots):
+        raise ValueError(
+            f"FastWorld.step: {name} must have shape ({matches}, {robots}) (matches, robots), "
+            f"got {arr.shape}"
+        )
+    return arr

@@ -162,3 +162,13 @@ def test_intake_and_pushed_rings_are_the_twins_arithmetic() -> None:
             floor = w.ring_state == 0
             assert np.array_equal(fast.ring_floor[0, :n], floor[: len(near)])
             assert np.allclose(fast.ring_xy[0, :n][floor], w.ring_xy[floor], atol=1e-9)
+
+
+def test_commands_of_the_wrong_shape_are_refused_by_name() -> None:
+    fast = FastWorld(WorldConfig(), 3)
+    fast.reset(range(3))
+    with pytest.raises(ValueError, match=r"linear must have shape \(3, 2\)"):
+        fast.step(np.zeros((2, 3)), np.zeros((3, 2)))
+    with pytest.raises(ValueError, match="clamp must have shape"):
+        fast.step(np.zeros((3, 2)), np.zeros((3, 2)), clamp=np.zeros(3))
+    assert not fast.steps.any()  # nothing moved
