@@ -257,6 +257,12 @@ class FastMatches:
         return self.world.max_w[self.learner]
 
     def _opponents(self, actions: F64) -> tuple[F64, F64, NDArray[np.bool_]]:
+        """The opponents' (linear, angular, intake): the caller's actions for a policy
+        opponent, uniform random ones, or a stop (idle)."""
+        if actions.shape != (self.n, self.config.action_size):
+            raise ValueError(
+                f"opponent actions must have shape ({self.n}, {self.config.action_size})"
+            )
         kinds = np.array(self.kinds)
         random = self._player_rng.uniform(-1.0, 1.0, actions.shape)
         a = np.where((kinds == "random")[:, None], random, actions)

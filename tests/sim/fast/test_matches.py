@@ -135,3 +135,14 @@ def test_the_start_curricula_start_as_matchcore_starts(curriculum: str) -> None:
             assert int((w.ring_state == 0).sum()) == int(fm.world.ring_floor[k].sum())
     finally:
         core.close()
+
+
+def test_actions_of_the_wrong_shape_are_refused_before_anything_moves() -> None:
+    fm = FastMatches(make_config(ENV), RolloutConfig(workers=0, envs_per_worker=4), seed=2)
+    fm.set_kinds([("policy", 1)] * 4)
+    fm.reset()
+    with pytest.raises(ValueError, match="opponent actions must have shape"):
+        fm.step(np.zeros((4, 2), np.float32), np.zeros((4, 3), np.float32))
+    with pytest.raises(ValueError, match="actions must have shape"):
+        fm.step(np.zeros((2, 2), np.float32), np.zeros((4, 2), np.float32))
+    assert not fm.world.steps.any() and not fm.steps.any()
