@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from jetson.autonomy.camera import project_points, robot_to_camera_rotation
+from jetson.autonomy.geometry import heading_vector
 from sim.config import CameraConfig
 
 FloatArray = NDArray[np.float64]
@@ -64,31 +65,13 @@ class CameraPose:
 
 def camera_pose(robot_xy: tuple[float, float], heading_deg: float, cam: CameraConfig) -> CameraPose:
     """The camera pose of a robot at robot_xy with the given GPS heading."""
-    pos, rot = camera_poses(np.asarray(robot_xy, dtype=np.float64), np.asarray(heading_deg), cam)
-    return CameraPose(pos, rot)
-
-
-def camera_poses(
-    robot_xy: FloatArray, heading_deg: FloatArray, cam: CameraConfig
-) -> tuple[FloatArray, FloatArray]:
-    """Camera poses of robots at robot_xy (..., 2) with headings (...): optical centres
-    (..., 3) and the rotations (..., 3, 3) taking field-frame vectors into the optical frame."""
-    h = np.radians(np.asarray(heading_deg, dtype=np.float64))
-    fwd = np.stack([np.sin(h), np.cos(h)], -1)
-    right = np.stack([fwd[..., 1], -fwd[..., 0]], -1)
+    fwd = heading_vector(heading_deg)
+    right = np.array([fwd[1], -fwd[0]])
     pos_xy = np.asarray(robot_xy, dtype=np.float64) + cam.forward_m * fwd + cam.right_m * right
-    pos = np.concatenate([pos_xy, np.full((*pos_xy.shape[:-1], 1), cam.height_m)], -1)
     # Field -> robot (x right, y forward, z up), then robot -> optical.
-    zero = np.zeros(h.shape)
-    field_to_robot = np.stack(
-        [
-            np.stack([right[..., 0], right[..., 1], zero], -1),
-            np.stack([fwd[..., 0], fwd[..., 1], zero], -1),
-            np.stack([zero, zero, zero + 1.0], -1),
-        ],
-        -2,
-    )
-    return pos, robot_to_camera_rotation(cam.tilt_deg) @ field_to_robot
+    field_to_robot = np.array([[right[0], right[1], 0.0], [fwd[0], fwd[1], 0.0], [0.0, 0.0, 1.0]])
+    rot = robot_to_camera_rotation(cam.tilt_deg) @ field_to_robot
+    return CameraPose(np.array([pos_xy[0], pos_xy[1], cam.height_m]), rot)
 
 
 def in_frustum(
@@ -98,34 +81,17 @@ def in_frustum(
 
     Returns the mask, the pixel coordinates (N, 2) and the optical-frame points (N, 3).
     """
-    return frustum(points_xyz, pose.position, pose.rotation, cam)
-
-
-def frustum(
-    points_xyz: FloatArray, position: FloatArray, rotation: FloatArray, cam: CameraConfig
-) -> tuple[NDArray[np.bool_], FloatArray, FloatArray]:
-    """in_frustum for points (..., 3), each seen from its own camera: position (..., 3) and
-    rotation (..., 3, 3), broadcast against the points (one camera for all, or one each)."""
-    rel = np.asarray(points_xyz, dtype=np.float64) - position
-    x, y, z = rel[..., 0], rel[..., 1], rel[..., 2]
-    # rotation @ rel, written out: a broadcast matmul of 3x3s is several times slower.
-    pc = np.stack(
-        [
-            rotation[..., k, 0] * x + rotation[..., k, 1] * y + rotation[..., k, 2] * z
-            for k in range(3)
-        ],
-        -1,
-    )
+    pc = pose.to_camera(points_xyz)
     uv, z = project_points(pc, cam.fx, cam.fy, cam.cx, cam.cy)
-    dist = np.sqrt((pc**2).sum(-1))
+    dist = np.linalg.norm(pc, axis=-1)
     with np.errstate(invalid="ignore"):
         mask = (
             (z > cam.near_m)
             & (dist <= cam.max_range_m)
-            & (uv[..., 0] >= 0)
-            & (uv[..., 0] < cam.width)
-            & (uv[..., 1] >= 0)
-            & (uv[..., 1] < cam.height)
+            & (uv[:, 0] >= 0)
+            & (uv[:, 0] < cam.width)
+            & (uv[:, 1] >= 0)
+            & (uv[:, 1] < cam.height)
         )
     return mask, uv, pc
 
@@ -143,12 +109,7 @@ def _slab_interval(aa: FloatArray, da: FloatArray, h: FloatArray) -> tuple[Float
 
 
 def _blocked(
-    t0: FloatArray,
-    t1: FloatArray,
-    z0: float | FloatArray,
-    dz: FloatArray,
-    height: FloatArray,
-    t_max: float,
+    t0: FloatArray, t1: FloatArray, z0: float, dz: FloatArray, height: FloatArray, t_max: float
 ) -> NDArray[np.bool_]:
     """Does the segment z(t) = z0 + t dz, t in (0, t_max), dip below `height` while inside?"""
     lo = np.maximum(t0, 0.0)
@@ -187,69 +148,36 @@ def occluded(
 def _boxes_blocked(
     c: FloatArray, d: FloatArray, dz: FloatArray, obstacles: Obstacles, t_max: float
 ) -> NDArray[np.bool_]:
-    """Which sight lines from c along d (N, 2), dz (N,) a box crosses below its height."""
-    o = obstacles
-    return boxes_blocked(
-        c[None], d, dz, o.box_xy[None], o.box_heading[None], o.box_half[None], o.box_height[None],
-        t_max,
-    )  # fmt: skip
-
-
-def boxes_blocked(
-    c: FloatArray,
-    d: FloatArray,
-    dz: FloatArray,
-    xy: FloatArray,
-    heading: FloatArray,
-    half: FloatArray,
-    height: FloatArray,
-    t_max: float,
-) -> NDArray[np.bool_]:
-    """Which of N sight lines (from cameras c (K, 3) along d (N, 2), dz (N,)) one of M boxes
-    crosses below its height: each box's slabs in its own axes, x across (right of its
-    heading), y along its heading. K is 1 (one camera, one set of boxes for every line) or N
-    (each line its own camera and boxes): xy (K, M, 2), heading (K, M), half (K, M, 2),
-    height (K, M)."""
-    h = np.radians(heading)
+    """Which sight lines from c along d (N, 2), dz (N,) a box crosses below its height: each
+    box's slabs in its own axes, x across (right of its heading), y along its heading."""
+    h = np.radians(obstacles.box_heading)
     s, co = np.sin(h), np.cos(h)
-    rel = c[:, None, :2] - xy  # (K, M, 2)
+    rel = c[:2] - obstacles.box_xy  # (M, 2)
     dx, dy = d[:, None, 0], d[:, None, 1]  # (N, 1)
-    lo_x, hi_x = _slab_interval(rel[..., 0] * co - rel[..., 1] * s, dx * co - dy * s, half[..., 0])
-    lo_y, hi_y = _slab_interval(rel[..., 0] * s + rel[..., 1] * co, dx * s + dy * co, half[..., 1])
+    lo_x, hi_x = _slab_interval(
+        rel[:, 0] * co - rel[:, 1] * s, dx * co[None] - dy * s[None], obstacles.box_half[:, 0]
+    )
+    lo_y, hi_y = _slab_interval(
+        rel[:, 0] * s + rel[:, 1] * co, dx * s[None] + dy * co[None], obstacles.box_half[:, 1]
+    )
     t0, t1 = np.maximum(lo_x, lo_y), np.minimum(hi_x, hi_y)  # (N, M)
-    return _blocked(t0, t1, c[:, None, 2], dz[:, None], height, t_max).any(axis=1)
+    return _blocked(t0, t1, c[2], dz[:, None], obstacles.box_height[None], t_max).any(axis=1)
 
 
 def _discs_blocked(
     c: FloatArray, d: FloatArray, dz: FloatArray, obstacles: Obstacles, t_max: float
 ) -> NDArray[np.bool_]:
     """Which sight lines from c along d (N, 2), dz (N,) a disc crosses below its height."""
-    o = obstacles
-    return discs_blocked(
-        c[None], d, dz, o.disc_xy[None], o.disc_radius[None], o.disc_height[None], t_max
-    )
-
-
-def discs_blocked(
-    c: FloatArray,
-    d: FloatArray,
-    dz: FloatArray,
-    xy: FloatArray,
-    radius: FloatArray,
-    height: FloatArray,
-    t_max: float,
-) -> NDArray[np.bool_]:
-    """boxes_blocked for M discs: xy (K, M, 2), radius (K, M), height (K, M)."""
-    rel = c[:, None, :2] - xy  # (K, M, 2)
+    rel = c[:2] - obstacles.disc_xy  # (M, 2)
     qa = np.einsum("ij,ij->i", d, d)[:, None]  # (N, 1)
-    qb = 2.0 * (d[:, None, 0] * rel[..., 0] + d[:, None, 1] * rel[..., 1])  # (N, M)
-    qc = (rel**2).sum(-1) - radius**2  # (K, M)
+    qb = 2.0 * (d @ rel.T)  # (N, M)
+    qc = np.einsum("ij,ij->i", rel, rel)[None] - obstacles.disc_radius[None] ** 2
     disc = qb * qb - 4 * qa * qc
     ok = (disc >= 0) & (qa > _EPS)
     root = np.sqrt(np.where(ok, disc, 0.0))
     t0 = np.where(ok, (-qb - root) / (2 * qa), np.inf)
     t1 = np.where(ok, (-qb + root) / (2 * qa), -np.inf)
-    return _blocked(t0, t1, c[:, None, 2], dz[:, None], height, t_max).any(axis=1)
+    return _blocked(t0, t1, c[2], dz[:, None], obstacles.disc_height[None], t_max).any(axis=1)
 
 
 def visible(

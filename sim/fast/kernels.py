@@ -1,8 +1,8 @@
-"""Compiled loops (numba) for the batched backend's hottest question: which rings each camera
-sees.
+"""Compiled loops (numba) for the batched backend's hot spots: which rings each camera sees, and
+the physics' substeps.
 
-sim.visibility answers it for the twin in numpy: the frustum (sim.visibility.frustum) and the
-prism occlusion (boxes_blocked, discs_blocked). For thousands of robots at once, numpy's
+sim.visibility answers it for the twin in numpy, one camera at a time: the frustum
+(in_frustum) and the prism occlusion (occluded). For thousands of robots at once, numpy's
 temporaries cost fourteen times what a loop over matches in parallel does (measured:
 docs/notes/2026-11-28-fast-backend.md), so `visible_rings` is that same arithmetic, step for step,
 compiled. tests/sim/fast/test_observe.py holds it to the twin's answer, ring for ring.

@@ -80,6 +80,10 @@ class FastMatches:
             rng=np.random.default_rng((seed, 1 << 20)),
         )
         self._player_rng = np.random.default_rng((seed, 1 << 21))
+        # Which goals score for red (row 0) and blue (row 1): the learner's row by its side.
+        self._scores_for = np.array(
+            [[g.alliance in (None, a) for g in self.world.field.goals] for a in ("red", "blue")]
+        ).reshape(2, -1)
         self.kinds = ["idle"] * n
         self.tags = [-1] * n
         self._pending: dict[int, tuple[str, int]] = {}
@@ -248,13 +252,8 @@ class FastMatches:
             raise ValueError(f"actions must have shape ({self.n}, {self.config.action_size})")
         ok = np.isfinite(actions).all(axis=1)
         a = np.clip(np.where(ok[:, None], actions, 0.0), -1.0, 1.0)
-        return a[:, 0] * self._max_v(), a[:, 1] * self._max_w(), ok
-
-    def _max_v(self) -> F64:
-        return self.world.max_v[self.learner]
-
-    def _max_w(self) -> F64:
-        return self.world.max_w[self.learner]
+        w = self.world
+        return a[:, 0] * w.max_v[self.learner], a[:, 1] * w.max_w[self.learner], ok
 
     def _opponents(self, actions: F64) -> tuple[F64, F64, NDArray[np.bool_]]:
         """The opponents' (linear, angular, intake): the caller's actions for a policy
@@ -308,10 +307,7 @@ class FastMatches:
             cy = y + offsets * np.cos(rad)
             clamp = np.stack([cx, cy], -1)[:, None]  # (B, 1, G, 2)
             goals = np.stack([w.gx, w.gy], -1)
-            allowed = np.array(
-                [[s.alliance in (None, a) for s in w.field.goals] for a in ("red", "blue")]
-            )  # (2, G): by the learner's side
-            eligible = (allowed[me] & (w.carrier < 0))[:, None, :]
+            eligible = (self._scores_for[me] & (w.carrier < 0))[:, None, :]
             holding = (w.carried[rows, me] >= 0)[:, None]
             pot = goal_potential(clamp, goals, eligible, holding)[:, 0]
             out["goal_approach"] = np.where(self._reward_config("goal_approach") != 0, pot, 0.0)
@@ -363,10 +359,7 @@ class FastMatches:
         if w.n_goals:
             ok = clamped >= 0
             g = np.where(ok, clamped, 0)
-            allowed = np.array(
-                [[s.alliance in (None, a) for a in ("red", "blue")] for s in w.field.goals]
-            )
-            scores = allowed[g, me] & ok
+            scores = self._scores_for[me, g] & ok
             comp[:, col["clamp"]] = np.where(scores, self._reward_config("clamp"), 0.0)
         margin = self._margin_now()
         comp[:, col["score"]] = self._reward_config("score") * (margin - self._margin)
@@ -395,10 +388,7 @@ class FastMatches:
         """Goals counting for the learner's alliance in its own zone (MatchCore.goals_counting)."""
         w = self.world
         me = self.learner
-        allowed = np.array(
-            [[s.alliance in (None, a) for a in ("red", "blue")] for s in w.field.goals]
-        )
-        mine = allowed[:, me].T  # (B, G)
+        mine = self._scores_for[me]  # (B, G)
         if self.config.reward.goal_zone == "home":
             owner, _, _ = rules.ring_race_owners(
                 w.field,

@@ -39,6 +39,7 @@ from sim.errors import ConfigError
 from sim.fast import kernels
 from sim.field import FieldSpec, load_field
 from sim.world import rules
+from sim.world.start import floor_rings, robot_starts
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -132,7 +133,7 @@ class FastWorld:
         self.goal_mass = np.array([g.mass_kg for g in self.field.goals])
         # Each robot's clamp point for each goal (World.clamp_offset): its signed distance ahead
         # of the robot's centre, negative behind a back clamp.
-        offsets = self.half_l[:, None] + np.array([g.base_radius for g in self.field.goals]) + 0.005
+        offsets = self.half_l[:, None] + self.goal_radius[None] + 0.005
         self._offsets = offsets * np.where(self.front_clamp, 1.0, -1.0)[:, None]
         self.n_goals = len(self.field.goals)
         reds = [i for i, a in enumerate(self.alliances) if a == "red"]
@@ -140,9 +141,6 @@ class FastWorld:
         self.pin_pairs: list[tuple[int, int]] = [(a, b) for a in reds for b in blues]
         pairs = [(i, j) for i in range(self.n_robots) for j in range(i + 1, self.n_robots)]
         self._pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
-        self._pin_index = np.array(
-            [pairs.index(p) for p in self.pin_pairs], dtype=np.int64
-        ).reshape(-1)
         self.ring_radius = self.field.ring.radius
         self.ring_z = self.field.ring.thickness / 2
         self._allocate()
@@ -208,26 +206,11 @@ class FastWorld:
         rngs = [
             s if isinstance(s, np.random.Generator) else np.random.default_rng(s) for s in seeds
         ]
-        starts = [f.start(a, name) for a, name in self.lineup]
-        base_rings = f.ring_positions
-        spots = f.match_load_spots[: f.ring.match_loads_per_alliance] if cfg.match_loads else None
-        lim = f.half - f.ring.radius
         preload = f.ring.preloads_per_robot if cfg.preloads else 0
         for k, rng in zip(which, rngs, strict=True):
-            for i, st in enumerate(starts):
-                jit = cfg.start_jitter_m
-                x = st.position[0] + (rng.uniform(-jit, jit) if jit > 0 else 0.0)
-                y = st.position[1] + (rng.uniform(-jit, jit) if jit > 0 else 0.0)
-                hj = cfg.start_jitter_deg
-                h = float(wrap_heading(st.heading + (rng.uniform(-hj, hj) if hj > 0 else 0)))
-                self.x[k, i], self.y[k, i], self.heading[k, i] = x, y, h
-            xy = base_rings.copy()
-            if cfg.ring_jitter_m > 0:
-                xy += rng.uniform(-cfg.ring_jitter_m, cfg.ring_jitter_m, xy.shape)
-                np.clip(xy, -lim, lim, out=xy)
-            if spots is not None:
-                xy = np.concatenate([xy, spots, -spots])
-            self.ring_xy[k] = xy
+            poses = robot_starts(f, cfg, self.lineup, rng)
+            self.x[k], self.y[k], self.heading[k] = np.array(poses).reshape(-1, 3).T
+            self.ring_xy[k] = floor_rings(f, cfg, rng)
         which = np.asarray(which, dtype=np.int64)
         for name in ("v", "w", "measured_v", "measured_w", "transfer", "pin_timers"):
             getattr(self, name)[which] = 0.0

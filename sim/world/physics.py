@@ -52,6 +52,7 @@ from sim.config import RobotConfig, WorldConfig
 from sim.errors import WorldError
 from sim.field import FieldSpec, load_field
 from sim.world import rules, seesaw
+from sim.world.start import floor_rings, robot_starts
 from sim.world.state import (
     POST_RADIUS,
     RING_FLOOR,
@@ -373,16 +374,13 @@ class World:
         cfg = self.config
         self.robots = []
         counts = {"red": 0, "blue": 0}
-        for index, (alliance, name) in enumerate(self.lineup):
+        poses = robot_starts(self.field, cfg, self.lineup, rng)
+        for index, ((alliance, name), (x, y, heading)) in enumerate(
+            zip(self.lineup, poses, strict=True)
+        ):
             rc = cfg.robots[name]
             slot = counts[alliance]
             counts[alliance] += 1
-            start = self.field.start(alliance, name)
-            jit = cfg.start_jitter_m
-            x = start.position[0] + (rng.uniform(-jit, jit) if jit > 0 else 0.0)
-            y = start.position[1] + (rng.uniform(-jit, jit) if jit > 0 else 0.0)
-            hj = cfg.start_jitter_deg
-            heading = float(wrap_heading(start.heading + (rng.uniform(-hj, hj) if hj > 0 else 0)))
             half = (rc.width_m / 2, rc.length_m / 2, rc.height_m / 2)
             col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=cid)
             alliance_rgb = (200, 40, 45) if alliance == "red" else (30, 80, 190)
@@ -428,14 +426,7 @@ class World:
     def _build_rings(self, rng: np.random.Generator) -> None:
         f = self.field
         cfg = self.config
-        xy = [f.ring_positions.copy()]
-        if cfg.ring_jitter_m > 0:
-            xy[0] += rng.uniform(-cfg.ring_jitter_m, cfg.ring_jitter_m, xy[0].shape)
-            np.clip(xy[0], -f.half + f.ring.radius, f.half - f.ring.radius, out=xy[0])
-        if cfg.match_loads:
-            spots = f.match_load_spots[: f.ring.match_loads_per_alliance]
-            xy += [spots, -spots]
-        floor_xy = np.concatenate(xy) if xy else np.zeros((0, 2))
+        floor_xy = floor_rings(f, cfg, rng)
         n_floor = len(floor_xy)
         preload = f.ring.preloads_per_robot if cfg.preloads else 0
         n = n_floor + preload * len(self.robots)
