@@ -11,22 +11,44 @@ World.reset would. Rewards are MatchCore's components (sim.match.REWARD_COMPONEN
 learner, the shaping potentials from sim.rewards; the start curricula (goal_start_share,
 midgame_start_share) are drawn as MatchCore draws them. Opponents: "policy" (the caller's
 actions), "random" and "idle"; the planner, the scripted chaser and "none" need per-match Python
-and stay on the PyBullet backend for now, as do teachers, skills and memories (ConfigError names
-what is missing).
+and stay on the PyBullet backend for now, as do the planner teacher, skills and the goal memory
+(ConfigError names what is missing). The ring memory and route slots are batched
+(sim.fast.memory). The route teacher is jetson.autonomy.skills' controller, one per match as
+VecMatches keeps it: a Python call per match and step, which costs about what stepping the
+batch does at a few hundred matches and far more at thousands (it suits capped.toml's 16).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from numpy.typing import NDArray
 
+from jetson.autonomy.skills import SkillDriver
 from jetson.autonomy.spec import ObservationSpec
 from sim.errors import ConfigError
 from sim.fast.observe import FastObserver, unsupported_spec
 from sim.fast.world import FastWorld, unsupported
-from sim.match import REWARD_COMPONENTS, EnvConfig, derived_spec, goal_start, midgame_start
+from sim.match import (
+    REWARD_COMPONENTS,
+    EnvConfig,
+    derived_spec,
+    goal_start,
+    midgame_start,
+    skill_settings,
+    with_prior,
+)
 from sim.rewards import goal_potential, park_potential, ring_potential
-from sim.training.rollout import EpisodeStats, RolloutConfig, StepResult, advice_size
+from sim.training.rollout import (
+    ROUTE_ACTION,
+    ROUTE_SKILL,
+    EpisodeStats,
+    RolloutConfig,
+    StepResult,
+    advice_size,
+    drive_label,
+)
 from sim.world import rules
 
 FAST_OPPONENTS = ("policy", "random", "idle")
@@ -42,7 +64,7 @@ def fast_unsupported(config: EnvConfig, teacher: str = "none") -> list[str]:
         out.append("[env.skills] (a skill policy)")
     if config.action_intake or config.action_clamp:
         out.append("intake or clamp actions")
-    if teacher != "none":
+    if teacher not in ("none", "route"):
         out.append(f"imitation.teacher = {teacher!r}")
     if config.observation is not None:
         out += [f"observation.{name}" for name in unsupported_spec(config.observation)]
@@ -64,8 +86,12 @@ class FastMatches:
         n = rollout.n_envs
         self.n = n
         self.world = FastWorld(config.world, n)
-        self.spec: ObservationSpec = config.observation or derived_spec(
-            self.world.match_length_s, [rc.ring_capacity for rc in self.world.robot_configs]
+        self.spec: ObservationSpec = with_prior(
+            config.observation
+            or derived_spec(
+                self.world.match_length_s, [rc.ring_capacity for rc in self.world.robot_configs]
+            ),
+            self.world,  # type: ignore[arg-type]  # the prior needs only the field
         )
         if abs(self.spec.match_length_s - self.world.match_length_s) > 1e-9:
             raise ConfigError(
@@ -105,6 +131,9 @@ class FastMatches:
         self._potentials: dict[str, F64] = {}
         self._margin = np.zeros(n)
         self.obs = np.zeros((n, 2, self.spec.size), np.float32)
+        # The route teacher: the route skill's controller of each match's learner.
+        self._route_teacher = teacher == "route"
+        self._routers: list[SkillDriver | None] = [None] * n
 
     # --- VecMatches' interface ---------------------------------------------------------------
 
@@ -191,12 +220,17 @@ class FastMatches:
             rngs.append(rng)
         rngs = self.world.reset_matches(which, rngs)
         share = self.config.uncapped_share
+        w = self.world
         for k, rng in zip(which, rngs, strict=True):
             uncapped = share > 0 and rng.random() < share
             self.uncapped[k] = uncapped
             if uncapped:
                 self.world.room_cap[k] = 1 << 30
             self._curricula(int(k), rng)
+            if self._route_teacher:
+                i = int(self.learner[k])
+                settings = skill_settings(w.field, w.alliances[i], w.robot_configs[i])
+                self._routers[k] = SkillDriver(replace(ROUTE_SKILL, **settings), self.spec)
         self.steps[which] = 0
         self.total[which] = 0.0
         self.totals[which] = 0.0
@@ -439,6 +473,19 @@ class FastMatches:
             ended_by_pin=by_pin,
         )
 
+    def _advice(self, mine: NDArray[np.float32]) -> NDArray[np.float32]:
+        """The teacher's label for each learner observation (VecMatches' advice): what the
+        route skill drives (linear, angular in action units); NaN without a teacher."""
+        out = np.full((self.n, advice_size(self.config)), np.nan, np.float32)
+        if not self._route_teacher:
+            return out
+        rcs = self.world.robot_configs
+        for k, driver in enumerate(self._routers):
+            assert driver is not None
+            rc = rcs[int(self.learner[k])]
+            out[k] = drive_label(*driver.command(mine[k], ROUTE_ACTION), rc)
+        return out
+
     def _result(
         self,
         rewards: NDArray[np.float32],
@@ -458,7 +505,7 @@ class FastMatches:
             np.zeros(self.n, bool),
             final if final is not None else np.zeros_like(mine),
             episodes,
-            np.full((self.n, advice_size(self.config)), np.nan, np.float32),
+            self._advice(mine),
             np.ones(self.n, bool),
             self.uncapped.copy(),
         )

@@ -11,8 +11,9 @@ latency and Gaussian noise), then the frame: the time, the pose in the alliance 
 rings held, the nearest other robots and the nearest seen rings in the robot frame, each with
 the spec's noise; FrameStack's newest-first stack. Without noise a frame equals build_frame's
 value for value (tested).
-Specs with memories or route slots (ring_memory, goal_memory, route_slots) are not batched yet:
-ConfigError says so.
+With spec.ring_memory the ring slots hold the seen and the remembered rings and the route slots
+the route's first stops, from every robot's ring memory (sim.fast.memory, RingMemory batched).
+The goal memory is not batched yet: ConfigError says so.
 """
 
 from __future__ import annotations
@@ -26,7 +27,9 @@ from jetson.autonomy.spec import SEEN, ObservationSpec
 from sim.config import CameraConfig
 from sim.errors import ConfigError
 from sim.fast.kernels import nearest_seen, visible_rings
+from sim.fast.memory import FastRingMemory, unsupported_memory
 from sim.fast.world import FastWorld
+from sim.match import memory_camera
 from sim.world.state import POST_RADIUS
 
 F32 = NDArray[np.float32]
@@ -36,11 +39,8 @@ Bool = NDArray[np.bool_]
 
 def unsupported_spec(spec: ObservationSpec) -> list[str]:
     """What of `spec` the batched observation does not build (empty: all of it)."""
-    out = []
-    for name in ("ring_memory", "goal_memory", "route_slots"):
-        if getattr(spec, name):
-            out.append(name)
-    return out
+    out = ["goal_memory"] if spec.goal_memory else []
+    return out + unsupported_memory(spec)
 
 
 class FastObserver:
@@ -76,6 +76,11 @@ class FastObserver:
         self._discs = np.stack([self._disc_radius, self._disc_height], -1).reshape(-1, 2)
         self._cam = np.array([_camera_row(rc.camera) for rc in rcs]).reshape(-1, 14)
         self._blue = np.array([a == "blue" for a in world.alliances])
+        self.memory: FastRingMemory | None = None
+        if spec.ring_memory:
+            ring_z = world.field.ring.thickness / 2
+            cams = [memory_camera(rc.camera, ring_z) for rc in rcs]
+            self.memory = FastRingMemory(world, spec, cams)
 
     # --- what the cameras see ---------------------------------------------------------------
 
@@ -105,8 +110,12 @@ class FastObserver:
         pose[..., 2] = (pose[..., 2] + noise[..., 2] * sd_h) % 360.0
         return pose
 
-    def frames(self, visible: Bool | None = None, pose: F64 | None = None) -> F32:
-        """Every robot's frame now, (B, R, spec.frame_size) (build_frame's layout)."""
+    def frames(
+        self, visible: Bool | None = None, pose: F64 | None = None, rows: Bool | None = None
+    ) -> F32:
+        """Every robot's frame now, (B, R, spec.frame_size) (build_frame's layout). With a
+        ring memory this is the control step's one look: it feeds the memories of the matches
+        in `rows` (B,) (default all), and only their frames are complete."""
         w = self.world
         spec = self.spec
         visible = self.visible() if visible is None else visible
@@ -142,22 +151,39 @@ class FastObserver:
             count = min(spec.n_other_robots, w.n_robots - 1)
             order = np.argsort(d2, axis=-1, kind="stable")[..., :count]
             near = np.take_along_axis(local, order[..., None], -2)
-            self._write(out, len(spec.scalars), near, np.ones(near.shape[:-1], dtype=bool))
-        near, seen = nearest_seen(w.x, w.y, w.heading, w.ring_xy, visible, spec.n_rings)
-        ok = np.arange(spec.n_rings) < seen[..., None]
-        self._write(out, spec.ring_offset, near, ok)
+            self._write(out, len(spec.scalars), near, np.full(near.shape[:-1], SEEN))
+        if self.memory is None:
+            near, seen = nearest_seen(w.x, w.y, w.heading, w.ring_xy, visible, spec.n_rings)
+            ok = np.where(np.arange(spec.n_rings) < seen[..., None], SEEN, 0.0)
+            self._write(out, spec.ring_offset, near, ok)
+            return out
+        active = np.ones(w.n, dtype=bool) if rows is None else rows
+        slots = self.memory.observe(active, pose, visible)
+        self._write(out, spec.ring_offset, slots.rings, slots.ring_ok)
+        if spec.route_slots:
+            route = slots.route
+            if noisy and spec.relative_noise > 0:
+                rel = spec.relative_noise
+                route = route * (1.0 + self.rng.uniform(-rel, rel, route.shape))
+            filled = np.arange(spec.route_slots) < slots.route_count[..., None]
+            block = np.zeros((*route.shape[:-1], 3), dtype=np.float32)
+            block[..., :2] = np.where(filled[..., None], route / unit, 0.0)
+            block[..., 2] = filled
+            lo = spec.route_offset
+            out[..., lo : lo + 3 * spec.route_slots] = block.reshape((*out.shape[:2], -1))
         return out
 
-    def _write(self, out: F32, offset: int, near: F64, ok: Bool) -> None:
-        """Slots (B, R, k, 2 robot-frame points, nearest first; ok: filled) into out[offset:]
-        as (x, y, 1) triples, with the spec's relative noise (build_frame's _fill_slots)."""
+    def _write(self, out: F32, offset: int, near: F64, ok: F64) -> None:
+        """Slots (B, R, k, 2 robot-frame points, nearest first; ok: the slot's ok value, 0 for
+        an empty one) into out[offset:] as (x, y, ok) triples, with the spec's relative noise
+        (build_frame's _fill_slots)."""
         if self.obs_noise and self.spec.relative_noise > 0:
             rel = self.spec.relative_noise
             near = near * (1.0 + self.rng.uniform(-rel, rel, near.shape))
         count = near.shape[-2]
         block = np.zeros((*near.shape[:-1], 3), dtype=np.float32)
-        block[..., :2] = np.where(ok[..., None], near / self.spec.length_unit_m, 0.0)
-        block[..., 2] = np.where(ok, SEEN, 0.0)
+        block[..., :2] = np.where(ok[..., None] > 0, near / self.spec.length_unit_m, 0.0)
+        block[..., 2] = ok
         out[..., offset : offset + 3 * count] = block.reshape((*out.shape[:2], 3 * count))
 
     # --- the stack --------------------------------------------------------------------------
@@ -165,20 +191,26 @@ class FastObserver:
     def reset(self, which: NDArray[np.int64] | None = None) -> F32:
         """Start the stacks of matches `which` (default all) from their frames now; returns
         every robot's stacked observation (B, R, spec.size)."""
-        frame = self.frames()
         rows = np.arange(self.world.n) if which is None else np.asarray(which)
+        active = np.zeros(self.world.n, dtype=bool)
+        active[rows] = True
+        if self.memory is not None:
+            self.memory.reset(rows)
+        frame = self.frames(rows=active)
         self.stack[rows] = frame[rows][:, :, None, :]
         return self.observation()
 
     def push(self, keep: Bool | None = None) -> F32:
         """Push every match's frame now (newest first); matches where keep is False start
-        their stack anew (a match just reset)."""
+        their stack (and ring memories) anew (a match just reset)."""
+        fresh = np.zeros(0, dtype=np.int64) if keep is None else np.flatnonzero(~keep)
+        if self.memory is not None and len(fresh):
+            self.memory.reset(fresh)
         frame = self.frames()
         self.stack[:, :, 1:] = self.stack[:, :, :-1].copy()
         self.stack[:, :, 0] = frame
-        if keep is not None and not keep.all():
-            rows = np.flatnonzero(~keep)
-            self.stack[rows] = frame[rows][:, :, None, :]
+        if len(fresh):
+            self.stack[fresh] = frame[fresh][:, :, None, :]
         return self.observation()
 
     def observation(self) -> F32:

@@ -86,7 +86,7 @@ def check_route_teacher(config: EnvConfig) -> None:
         )
 
 
-def _drive_label(linear: float, angular: float, robot: RobotConfig) -> np.ndarray:
+def drive_label(linear: float, angular: float, robot: RobotConfig) -> np.ndarray:
     """(linear m/s, angular rad/s) in a drive policy's action units, clipped to [-1, 1]."""
     drive = (linear / robot.max_linear_mps, angular / robot.max_angular_rad_s)
     return np.clip(np.asarray(drive, np.float32), -1.0, 1.0)
@@ -354,7 +354,7 @@ class _Slot:
         skills = self.config.skills
         rc = self.core.world.robots[self.learner].config
         if self._router is not None:
-            return _drive_label(*self._router.command(self.obs[self.learner], ROUTE_ACTION), rc)
+            return drive_label(*self._router.command(self.obs[self.learner], ROUTE_ACTION), rc)
         if self.teacher is None:
             return np.full(advice_size(self.config), np.nan, np.float32)
         command = self.teacher.act(self.core, self.learner)
@@ -370,7 +370,7 @@ class _Slot:
             label = np.full(skills.n_options, -1.0, np.float32)
             label[k] = 1.0
             return label
-        return _drive_label(command.linear, command.angular, rc)
+        return drive_label(command.linear, command.angular, rc)
 
     def close(self) -> None:
         for core in self._cores.values():

@@ -91,7 +91,7 @@ def test_pete_sim_train_refuses_a_config_the_fast_backend_cannot_run(
     code = main(["train", "--config", "default", "--backend", "fast", "--run-dir", str(tmp_path)])
     assert code == 2
     err = capsys.readouterr().err
-    assert "--backend fast" in err and "ring_memory" in err
+    assert "--backend fast" in err and "goal_memory" in err
     assert not any(tmp_path.iterdir())  # refused before the run folder was written
 
 
@@ -146,3 +146,34 @@ def test_actions_of_the_wrong_shape_are_refused_before_anything_moves() -> None:
     with pytest.raises(ValueError, match="actions must have shape"):
         fm.step(np.zeros((2, 2), np.float32), np.zeros((4, 2), np.float32))
     assert not fm.world.steps.any() and not fm.steps.any()
+
+
+def test_the_route_teacher_drives_its_learner_to_the_rings_it_remembers() -> None:
+    """capped.toml's game on the fast backend: the ring memory and route slots in the learner's
+    observation, the route skill's labels as advice. Following the advice fills the intake;
+    standing still collects nothing."""
+    env = load_config("capped").env_config()
+    n = 8
+    fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=n), seed=3, teacher="route")
+    fm.set_kinds([("idle", -1)] * n)
+    step = fm.reset()
+    assert step.advice is not None and np.isfinite(step.advice).all()
+    spec = fm.spec
+    assert spec.route_slots == 1 and len(spec.prior_rings) > 0
+    route_ok = step.learner_obs[:, spec.route_offset + 2]
+    assert (route_ok == 1.0).all()  # every learner has a first stop from the start
+    rings = np.zeros(n)
+    for _ in range(96):
+        advice = step.advice
+        assert np.abs(advice).max() <= 1.0
+        step = fm.step(advice, np.zeros((n, 2)))
+        for e in step.episodes:
+            rings[e.slot] = e.rings
+    assert np.median(rings) >= 9  # the route fills a 10-ring intake in the 8 s match (3 s)
+    idle = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=n), seed=3)
+    idle.set_kinds([("idle", -1)] * n)
+    idle.reset()
+    for _ in range(96):
+        step = idle.step(np.zeros((n, 2)), np.zeros((n, 2)))
+        assert step.advice is not None and np.isnan(step.advice).all()  # no teacher, no advice
+    assert all(e.rings == 0 for e in step.episodes)

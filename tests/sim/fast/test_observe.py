@@ -4,13 +4,11 @@ noise, the spec's noise within its bounds, and the stack newest first."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from jetson.autonomy.geometry import field_to_robot
 from jetson.autonomy.observation import RobotView, build_frame
 from jetson.autonomy.spec import ObservationSpec
 from sim.config import WorldConfig
-from sim.errors import ConfigError
 from sim.fast.observe import FastObserver
 from sim.fast.view import match_view
 from sim.fast.world import FastWorld
@@ -84,9 +82,3 @@ def test_noise_stays_within_the_spec_and_the_stack_is_newest_first() -> None:
     f = spec.frame_size
     assert np.array_equal(stacked[..., f : 2 * f], first[..., :f])
     assert stacked[0, 0, 0] > first[0, 0, 0]  # the clock moved on in the newest frame
-
-
-def test_a_spec_with_memories_is_refused_by_name() -> None:
-    world = FastWorld(WorldConfig(), 1)
-    with pytest.raises(ConfigError, match="ring_memory"):
-        FastObserver(world, ObservationSpec(version=2, ring_memory=True))

@@ -1,0 +1,434 @@
+"""Every robot's ring memory and route slots in a FastWorld, batched.
+
+    memory = FastRingMemory(world, spec)
+    memory.reset(rows)                          # matches `rows` start from the prior layout
+    slots = memory.observe(active, pose, visible)
+
+jetson.autonomy.ring_memory.RingMemory is the robot's memory: the simulator and the Jetson keep
+one per robot. This is the same memory for thousands of robots at once, compiled (numba): each
+step it places the rings the camera sees from the robot's GPS pose, forgets a remembered ring
+whose place the camera looks at without seeing it (memory_view "cone" or "camera") or that
+the robot stands on, merges fresh sightings with what it knew, plans the route (the tour of
+jetson.autonomy.route: the cheapest first stops, a nearest-neighbour tour, 2-opt with the first
+stop fixed, the current target kept unless another tour is cheaper by switch_margin_m) and
+returns the frame's ring slots (seen and remembered, nearest first) and route slots. It is the
+same arithmetic step for step, so a frame built from it equals build_frame's on RingMemory's
+view value for value (tests/sim/fast/test_memory.py); the tests are what keep the two equal.
+Not batched yet: memory_forget_intake and memory_push (ConfigError names them).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+
+from jetson.autonomy.camera import MemoryCamera, robot_to_camera_rotation
+from jetson.autonomy.spec import REMEMBERED, SEEN, ObservationSpec
+from sim.errors import ConfigError
+from sim.fast.world import FastWorld
+
+F64 = NDArray[np.float64]
+Bool = NDArray[np.bool_]
+
+
+def unsupported_memory(spec: ObservationSpec) -> list[str]:
+    """What of `spec`'s ring memory the batched memory does not keep (empty: all of it)."""
+    if not spec.ring_memory:
+        return []
+    return [n for n in ("memory_forget_intake", "memory_push") if getattr(spec, n)]
+
+
+@dataclass
+class MemorySlots:
+    """What the memory adds to every robot's frame: the ring slots (seen first, then
+    remembered, nearest first; ok: SEEN, REMEMBERED or 0 for an empty slot) and the route's
+    first stops in tour order, all in each robot's frame."""
+
+    rings: F64  # (B, R, n_rings, 2)
+    ring_ok: F64  # (B, R, n_rings)
+    route: F64  # (B, R, route_slots, 2)
+    route_count: NDArray[np.int64]  # (B, R)
+
+
+class FastRingMemory:
+    """The ring memory of every robot of every match (module docstring)."""
+
+    def __init__(
+        self, world: FastWorld, spec: ObservationSpec, cameras: list[MemoryCamera] | None = None
+    ) -> None:
+        missing = unsupported_memory(spec)
+        if missing:
+            raise ConfigError(
+                "the fast backend's ring memory does not keep these yet: " + ", ".join(missing)
+            )
+        if not spec.prior_rings:
+            raise ConfigError("the ring memory needs spec.prior_rings (sim.match.with_prior)")
+        use_camera = spec.memory_view == "camera"
+        if use_camera and (cameras is None or len(cameras) != world.n_robots):
+            raise ConfigError("memory_view 'camera' needs one MemoryCamera per robot")
+        self.world = world
+        self.spec = spec
+        self.prior = np.asarray(spec.prior_rings, dtype=np.float64).reshape(-1, 2)
+        n_rings = world.ring_xy.shape[1]
+        # Room for the prior and two sightings of every ring: a ring seen away from where it is
+        # remembered is known twice only until its old place is looked at.
+        self.capacity = len(self.prior) + 2 * n_rings + 8
+        shape = (world.n, world.n_robots)
+        self.known = np.zeros((*shape, self.capacity, 2))
+        self.count = np.zeros(shape, dtype=np.int64)
+        self.target = np.zeros((*shape, 2))
+        self.has_target = np.zeros(shape, dtype=bool)
+        self.overflow = np.zeros(shape, dtype=np.int64)  # sightings dropped for want of room
+        self._blue = np.array([a == "blue" for a in world.alliances])
+        self._view = np.array(
+            [
+                1.0 if use_camera else 0.0,
+                spec.memory_fov_deg,
+                spec.memory_near_m,
+                spec.memory_far_m,
+                spec.memory_merge_m,
+                spec.memory_forget_m,
+            ]
+        )
+        cams = cameras if use_camera and cameras is not None else []
+        self._cam = np.array([_camera_row(c) for c in cams]).reshape(len(cams), 19)
+        if not use_camera:
+            self._cam = np.zeros((world.n_robots, 19))
+        t = spec.tour
+        self._tour = np.array([t.candidates, t.turn_cost_m_per_rad, t.switch_margin_m])
+        self.reset()
+
+    def reset(self, rows: NDArray[np.int64] | None = None) -> None:
+        """Matches `rows` (default all) back to the field's starting layout: new matches."""
+        rows = np.arange(self.world.n) if rows is None else np.asarray(rows)
+        p = len(self.prior)
+        self.known[rows, :, :p] = self.prior
+        self.count[rows] = p
+        self.has_target[rows] = False
+        self.overflow[rows] = 0
+
+    def observe(self, active: Bool, pose: F64, visible: Bool) -> MemorySlots:
+        """Feed the matches where `active` (B,) with what each robot's camera sees now
+        (visible (B, R, N) floor rings; pose (B, R, 3): the GPS field-frame pose the memory
+        places them from) and return every robot's slots (rows not active: zeros)."""
+        w = self.world
+        s = self.spec
+        fills = w.room_cap < (1 << 30)
+        rings, ok, route, n_route = _memory_step(
+            self.known, self.count, self.target, self.has_target, self.overflow,
+            np.asarray(active, dtype=np.bool_), w.x, w.y, w.heading, pose, self._blue,
+            w.ring_xy, visible, w.held, fills, self._view, self._cam, self._tour,
+            s.n_rings, s.route_slots, s.ring_capacity_norm, SEEN, REMEMBERED,
+        )  # fmt: skip
+        return MemorySlots(rings, ok, route, n_route)
+
+
+def _camera_row(cam: MemoryCamera) -> list[float]:
+    """A MemoryCamera as _memory_step reads it: mount, ring height, rotation, intrinsics."""
+    rot = robot_to_camera_rotation(cam.tilt_deg).reshape(-1).tolist()
+    return [
+        cam.right_m, cam.forward_m, cam.ring_z_m - cam.height_m, *rot,
+        cam.fx, cam.fy, cam.cx, cam.cy, float(cam.width), float(cam.height), cam.near_m,
+    ]  # fmt: skip
+
+
+# --- the compiled step -----------------------------------------------------------------------
+# RingMemory.observe, _with_route and _with_remembered, route.tour and two_opt, and build_frame's
+# slot order, for one robot at a time, every match in parallel. Each expression is written as
+# the numpy one it stands for evaluates it (the same operations in the same order), so the
+# floats come out the same.
+
+
+@nb.njit(cache=True, parallel=True)
+def _memory_step(
+    known, count, target, has_target, overflow, active, x, y, heading, gps, blue, ring_xy,
+    seen, held, fills, view, cam, tour_cfg, ring_slots, route_slots, cap_norm, seen_ok,
+    remembered_ok,
+):  # fmt: skip
+    n_match, n_robot = x.shape
+    n_ring = ring_xy.shape[1]
+    cap = known.shape[2]
+    rings_out = np.zeros((n_match, n_robot, ring_slots, 2))
+    ok_out = np.zeros((n_match, n_robot, ring_slots))
+    route_out = np.zeros((n_match, n_robot, route_slots, 2))
+    route_n = np.zeros((n_match, n_robot), dtype=np.int64)
+    merge = view[4]
+    for b in nb.prange(n_match):
+        if not active[b]:
+            continue
+        local_seen = np.empty((n_ring, 2))
+        field_seen = np.empty((n_ring, 2))
+        gone = np.empty(cap, dtype=np.bool_)
+        for i in range(n_robot):
+            # The GPS pose in the alliance frame (to_alliance_frame: blue sees the field turned).
+            px, py, ph = gps[b, i, 0], gps[b, i, 1], gps[b, i, 2]
+            if blue[i]:
+                px, py = -px, -py
+                ph = (ph + 180.0) % 360.0
+                if ph >= 360.0:
+                    ph = 0.0
+            hr = math.radians(ph)
+            s, c = math.sin(hr), math.cos(hr)
+            # The rings seen, in the robot's frame from its true pose (sensors.rings_in_robot_
+            # frame), placed on the field from the GPS pose (robot_to_field).
+            th = math.radians(heading[b, i])
+            ts, tc = math.sin(th), math.cos(th)
+            ns = 0
+            for n in range(n_ring):
+                if seen[b, i, n]:
+                    dx = ring_xy[b, n, 0] - x[b, i]
+                    dy = ring_xy[b, n, 1] - y[b, i]
+                    lx = dx * tc - dy * ts
+                    ly = dx * ts + dy * tc
+                    local_seen[ns, 0] = lx
+                    local_seen[ns, 1] = ly
+                    field_seen[ns, 0] = (lx * c + ly * s) + px
+                    field_seen[ns, 1] = (-lx * s + ly * c) + py
+                    ns += 1
+            k_n = count[b, i]
+            kn = known[b, i]
+            if k_n > 0:
+                for k in range(k_n):
+                    dx = kn[k, 0] - px
+                    dy = kn[k, 1] - py
+                    lx = dx * c - dy * s
+                    ly = dx * s + dy * c
+                    taken = math.hypot(lx, ly) <= view[5]
+                    if view[0] > 0.5:
+                        in_view = _in_picture(cam, i, lx, ly, view[3])
+                    else:
+                        dist = math.hypot(lx, ly)
+                        bearing = math.degrees(abs(math.atan2(lx, ly)))
+                        in_view = bearing <= view[1] / 2 and dist >= view[2] and dist <= view[3]
+                    matched = False
+                    for j in range(ns):
+                        ex = kn[k, 0] - field_seen[j, 0]
+                        ey = kn[k, 1] - field_seen[j, 1]
+                        if math.sqrt(ex * ex + ey * ey) <= merge:
+                            matched = True
+                            break
+                    gone[k] = (in_view and not matched) or taken
+                k_n = _compact(kn, k_n, gone)
+            added = 0
+            if ns > 0:
+                if k_n > 0:
+                    for k in range(k_n):
+                        stale = False
+                        for j in range(ns):
+                            ex = field_seen[j, 0] - kn[k, 0]
+                            ey = field_seen[j, 1] - kn[k, 1]
+                            if math.sqrt(ex * ex + ey * ey) <= merge:
+                                stale = True
+                                break
+                        gone[k] = stale
+                    k_n = _compact(kn, k_n, gone)
+                for j in range(ns):
+                    if k_n < cap:
+                        kn[k_n, 0] = field_seen[j, 0]
+                        kn[k_n, 1] = field_seen[j, 1]
+                        k_n += 1
+                        added += 1
+                    else:
+                        overflow[b, i] += 1
+            count[b, i] = k_n
+            if route_slots > 0:
+                room = max(1, cap_norm - held[b, i] * (1 if fills[b, i] else 0))
+                order = _route(
+                    kn, k_n, target, has_target, b, i, px, py, s, c, room, tour_cfg, merge
+                )
+                m = min(route_slots, len(order))
+                for j in range(m):
+                    dx = kn[order[j], 0] - px
+                    dy = kn[order[j], 1] - py
+                    route_out[b, i, j, 0] = dx * c - dy * s
+                    route_out[b, i, j, 1] = dx * s + dy * c
+                route_n[b, i] = m
+            # build_frame's ring slots: the seen rings, then the remembered ones (known but
+            # not this step's sightings), nearest first, equal distances in that order.
+            d2 = np.empty(ring_slots)
+            filled = 0
+            for q in range(ns + k_n - added):
+                if q < ns:
+                    lx, ly, okv = local_seen[q, 0], local_seen[q, 1], seen_ok
+                else:
+                    k = q - ns
+                    dx = kn[k, 0] - px
+                    dy = kn[k, 1] - py
+                    lx, ly, okv = dx * c - dy * s, dx * s + dy * c, remembered_ok
+                dist = lx * lx + ly * ly
+                if filled == ring_slots and not dist < d2[filled - 1]:
+                    continue
+                j = min(filled, ring_slots - 1)
+                while j > 0 and dist < d2[j - 1]:
+                    if j < ring_slots:
+                        d2[j] = d2[j - 1]
+                        rings_out[b, i, j, 0] = rings_out[b, i, j - 1, 0]
+                        rings_out[b, i, j, 1] = rings_out[b, i, j - 1, 1]
+                        ok_out[b, i, j] = ok_out[b, i, j - 1]
+                    j -= 1
+                d2[j] = dist
+                rings_out[b, i, j, 0] = lx
+                rings_out[b, i, j, 1] = ly
+                ok_out[b, i, j] = okv
+                filled = min(filled + 1, ring_slots)
+    return rings_out, ok_out, route_out, route_n
+
+
+@nb.njit(cache=True, inline="always")
+def _in_picture(cam, i, lx, ly, far):
+    """MemoryCamera.locate for one ring at robot-frame (lx, ly), and within `far` of the lens."""
+    r0 = lx - cam[i, 0]
+    r1 = ly - cam[i, 1]
+    r2 = cam[i, 2]
+    o0 = cam[i, 3] * r0 + cam[i, 4] * r1 + cam[i, 5] * r2
+    o1 = cam[i, 6] * r0 + cam[i, 7] * r1 + cam[i, 8] * r2
+    z = cam[i, 9] * r0 + cam[i, 10] * r1 + cam[i, 11] * r2
+    if not z > cam[i, 18]:
+        return False
+    u = cam[i, 12] * o0 / z + cam[i, 14]
+    v = cam[i, 13] * o1 / z + cam[i, 15]
+    inside = u >= 0 and u < cam[i, 16] and v >= 0 and v < cam[i, 17]
+    return inside and math.sqrt(r0 * r0 + r1 * r1 + r2 * r2) <= far
+
+
+@nb.njit(cache=True, inline="always")
+def _compact(kn, k_n, gone):
+    """Drop the rows of kn[:k_n] marked gone, keeping the others' order; the new count."""
+    m = 0
+    for k in range(k_n):
+        if not gone[k]:
+            kn[m, 0] = kn[k, 0]
+            kn[m, 1] = kn[k, 1]
+            m += 1
+    return m
+
+
+@nb.njit(cache=True)
+def _route(kn, k_n, target, has_target, b, i, px, py, s, c, room, tour_cfg, merge):
+    """RingMemory._with_route for one robot: the tour's stops (indices into kn), first stop
+    first, and the robot's target updated to the first stop."""
+    current = -1
+    if has_target[b, i] and k_n > 0:
+        best_d = np.inf
+        for k in range(k_n):
+            ex = kn[k, 0] - target[b, i, 0]
+            ey = kn[k, 1] - target[b, i, 1]
+            d = math.sqrt(ex * ex + ey * ey)
+            if d < best_d:
+                best_d, current = d, k
+        if not best_d <= merge:
+            current = -1
+    order = _tour(kn, k_n, px, py, s, c, room, tour_cfg, current)
+    if len(order):
+        target[b, i, 0] = kn[order[0], 0]
+        target[b, i, 1] = kn[order[0], 1]
+        has_target[b, i] = True
+    else:
+        has_target[b, i] = False
+    return order
+
+
+@nb.njit(cache=True)
+def _tour(kn, k_n, px, py, s, c, stops, tour_cfg, current):
+    """jetson.autonomy.route.tour over kn[:k_n] from the pose (px, py; heading's sin, cos)."""
+    if k_n == 0 or stops < 1:
+        return np.zeros(0, dtype=np.int64)
+    cost = np.empty(k_n)
+    for k in range(k_n):
+        dx = kn[k, 0] - px
+        dy = kn[k, 1] - py
+        lx = dx * c - dy * s
+        ly = dx * s + dy * c
+        cost[k] = math.hypot(lx, ly) + tour_cfg[1] * abs(math.atan2(lx, ly))
+    n_cand = min(int(tour_cfg[0]), k_n)
+    cand = np.argsort(cost, kind="mergesort")[:n_cand]
+    stops = min(stops, n_cand)
+    pair = np.empty((n_cand, n_cand))
+    for a in range(n_cand):
+        for d in range(n_cand):
+            ex = kn[cand[a], 0] - kn[cand[d], 0]
+            ey = kn[cand[a], 1] - kn[cand[d], 1]
+            pair[a, d] = math.sqrt(ex * ex + ey * ey)
+    start = cost[cand]
+    best_cost = np.inf
+    best = np.zeros(1, dtype=np.int64)
+    for first in range(n_cand):
+        total, order = _tour_from(first, start, pair, stops)
+        if total < best_cost:
+            best_cost, best = total, order
+    if current >= 0 and cand[best[0]] != current:
+        k = -1
+        for j in range(n_cand):
+            if cand[j] == current:
+                k = j
+                break
+        if k >= 0:
+            total, order = _tour_from(k, start, pair, stops)
+            if total <= best_cost + tour_cfg[2]:
+                # The current target first, then the best tour's stops (it may not be one).
+                moved = np.empty(len(best) + 1, dtype=np.int64)
+                moved[0] = k
+                m = 1
+                for j in best:
+                    if j != k:
+                        moved[m] = j
+                        m += 1
+                best = moved[:m]
+    out = np.empty(len(best), dtype=np.int64)
+    for j in range(len(best)):
+        out[j] = cand[best[j]]
+    return out
+
+
+@nb.njit(cache=True)
+def _tour_from(first, start, pair, stops):
+    """route._tour_from: a nearest-neighbour tour from `first`, 2-opt with it fixed; its cost."""
+    n = pair.shape[0]
+    used = np.zeros(n, dtype=np.bool_)
+    order = np.empty(stops, dtype=np.int64)
+    order[0] = first
+    used[first] = True
+    m = 1
+    while m < stops:
+        nxt, low = -1, np.inf
+        for j in range(n):
+            if not used[j] and pair[order[m - 1], j] < low:
+                nxt, low = j, pair[order[m - 1], j]
+        if nxt < 0:
+            break
+        order[m] = nxt
+        used[nxt] = True
+        m += 1
+    order = _two_opt(order[:m], pair)
+    legs = 0.0
+    for j in range(m - 1):
+        legs += pair[order[j], order[j + 1]]
+    return start[first] + legs, order
+
+
+@nb.njit(cache=True)
+def _two_opt(order, pair):
+    """route.two_opt with the first stop fixed."""
+    best = order.copy()
+    n = len(best)
+    improved = True
+    while improved:
+        improved = False
+        for i in range(1, n - 1):
+            a = best[i - 1]
+            for k in range(i + 1, n):
+                b, cpt = best[i], best[k]
+                before = pair[a, b]
+                after = pair[a, cpt]
+                if k + 1 < n:
+                    d = best[k + 1]
+                    before += pair[cpt, d]
+                    after += pair[b, d]
+                if after < before - 1e-9:
+                    best[i : k + 1] = best[i : k + 1][::-1].copy()
+                    improved = True
+    return best

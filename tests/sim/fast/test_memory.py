@@ -1,0 +1,133 @@
+"""The batched ring memory against the robot's own (jetson.autonomy.ring_memory.RingMemory, one
+per robot, fed the same sightings from the same GPS poses): the frames built from them equal,
+value for value, ring slots and route slots, through forgetting, merging and the route's
+target switches."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from jetson.autonomy.geometry import field_to_robot
+from jetson.autonomy.observation import RobotView, build_frame
+from jetson.autonomy.ring_memory import RingMemory
+from jetson.autonomy.spec import REMEMBERED, ObservationSpec
+from sim.config import WorldConfig
+from sim.errors import ConfigError
+from sim.fast.observe import FastObserver
+from sim.fast.view import match_view
+from sim.fast.world import FastWorld
+from sim.match import memory_camera
+from sim.world import sensors
+
+WORLD = WorldConfig(
+    red=("24in", "15in"),
+    blue=("24in", "15in"),
+    start_jitter_m=0.1,
+    start_jitter_deg=45.0,
+    ring_jitter_m=0.03,
+)
+
+
+def _prior(world: FastWorld) -> tuple[tuple[float, float], ...]:
+    return tuple((float(x), float(y)) for x, y in np.round(world.field.ring_positions, 4))
+
+
+def _view(world: FastWorld, k: int, i: int, pose: np.ndarray) -> RobotView:
+    """What MatchCore.view gives robot i of match k: the rings seen in its true frame, the GPS
+    pose `pose[k, i]`."""
+    v = match_view(world, k)
+    r = v.robots[i]
+    rings = sensors.visible_rings(v, i)
+    seen = sensors.rings_in_robot_frame(v, i, rings) if len(rings) else np.zeros((0, 2))
+    pts = np.array([(o.x, o.y) for o in v.robots if o.index != i]).reshape(-1, 2)
+    return RobotView(
+        x=float(pose[k, i, 0]),
+        y=float(pose[k, i, 1]),
+        heading_deg=float(pose[k, i, 2]),
+        alliance=r.alliance,
+        time_s=v.time_s,
+        rings_robot_xy=seen,
+        rings_held=r.held,
+        others_robot_xy=field_to_robot(pts, r.xy, r.heading),
+        intake_fills=r.config.ring_capacity is not None,
+    )
+
+
+@pytest.mark.parametrize("memory_view", ["cone", "camera"])
+def test_frames_with_the_memory_equal_ringmemory_value_for_value(memory_view: str) -> None:
+    n = 4
+    world = FastWorld(WORLD, n)
+    world.reset(range(n))
+    spec = ObservationSpec(
+        version=5,
+        n_stack=0,
+        n_other_robots=1,
+        ring_memory=True,
+        route_slots=2,
+        prior_rings=_prior(world),
+        memory_view=memory_view,
+    )
+    obs = FastObserver(world, spec, obs_noise=False, gps_noise=True, rng=np.random.default_rng(3))
+    z = world.field.ring.thickness / 2
+    memories = [
+        [RingMemory(spec, memory_camera(rc.camera, z)) for rc in world.robot_configs]
+        for _ in range(n)
+    ]
+    rng = np.random.default_rng(0)
+    remembered = switched = 0
+    targets = {}
+    for t in range(150):
+        if t:
+            world.step(rng.uniform(-0.3, 1.0, (n, 4)), rng.uniform(-2.0, 2.0, (n, 4)))
+        pose = obs.pose()  # the GPS with its noise: both memories place rings from it
+        frames = obs.frames(obs.visible(), pose)
+        for k in range(n):
+            for i in range(4):
+                ref = build_frame(spec, memories[k][i].observe(_view(world, k, i, pose)))
+                assert np.allclose(frames[k, i], ref, atol=1e-6), (t, k, i)
+                remembered += int((ref[spec.ring_offset + 2 :: 3] == REMEMBERED).sum())
+                target = memories[k][i].target
+                if target is not None:
+                    old = targets.get((k, i))
+                    switched += old is not None and not np.array_equal(old, target)
+                    targets[(k, i)] = target.copy()
+    assert obs.memory is not None and not obs.memory.overflow.any()
+    assert remembered > 1000  # the memory, not only what is in view, filled the slots
+    assert switched > 20  # the route moved on from ring to ring
+
+
+def test_a_reset_match_starts_from_the_prior_and_other_matches_keep_theirs() -> None:
+    world = FastWorld(WORLD, 2)
+    world.reset(range(2))
+    spec = ObservationSpec(version=5, n_stack=1, ring_memory=True, prior_rings=_prior(world))
+    obs = FastObserver(world, spec, obs_noise=False, gps_noise=False)
+    obs.reset()
+    memory = obs.memory
+    assert memory is not None
+    for _ in range(40):  # drive forward: rings are taken and seen, the memories change
+        world.step(np.full((2, 4), 0.8), np.zeros((2, 4)))
+        obs.push()
+    changed = memory.known[1, 0, : memory.count[1, 0]].copy()
+    assert not np.array_equal(changed[: len(spec.prior_rings)], np.array(spec.prior_rings))
+    world.reset_matches(np.array([0]), [np.random.default_rng(5)])
+    obs.reset(np.array([0]))
+    # Match 0 starts anew from the prior and one look; match 1's memory is as it was.
+    assert np.array_equal(memory.known[1, 0, : memory.count[1, 0]], changed)
+    assert memory.count[0, 0] >= len(spec.prior_rings) - 4
+
+
+def test_memory_features_not_batched_are_refused_by_name() -> None:
+    world = FastWorld(WorldConfig(), 1)
+    prior = _prior(world)
+    with pytest.raises(ConfigError, match="goal_memory"):
+        FastObserver(world, ObservationSpec(version=3, goal_memory=True))
+    spec = ObservationSpec(
+        version=5,
+        ring_memory=True,
+        prior_rings=prior,
+        memory_forget_intake=True,
+        memory_intake_zone=(-0.1, 0.1, 0.1, 0.3),
+    )
+    with pytest.raises(ConfigError, match="memory_forget_intake"):
+        FastObserver(world, spec)
