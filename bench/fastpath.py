@@ -3,7 +3,7 @@ fidelity in one run.
 
     python -m bench.fastpath [--matches 8192] [--steps 120] [--processes 2] [--seeds 40]
                              [--ppo-steps N] [--transfer-steps N] [--skip-ppo]
-                             [--skip-transfer] [--skip-agreement]
+                             [--skip-transfer] [--skip-agreement] [--skip-competence]
 
 Rows:
   speed       robot control steps per second with every robot's observation built, the ring
@@ -31,9 +31,15 @@ Rows:
               fidelity and in high fidelity (--transfer-matches, --transfer-high-matches);
               target: high fidelity keeps >= 95 % of the fast backend's points
               (fast_policy_high_fidelity_score_ratio).
-  competence  bench.train's competence row and default.toml's retraining on the fast path:
-              their configs need the ring and goal memories, the route, skills and the planner,
-              which the fast backend does not run yet: not measured, targets unmet.
+  competence  bench.train's competence row on the fast path: sim/configs/capped.toml trained
+              from scratch on the fast backend (its ring memory, route slot and route teacher
+              batched; the planner's quarter of the opponents plays the pool there), checked
+              every --competence-every steps as bench.train checks it (20 matches against the
+              planner in PyBullet's training fidelity); the training wall time until the check
+              passes, evaluation excluded (target <= 10 s), beside the same row on PyBullet
+              (--skip-competence-pybullet leaves it out). default.toml's retraining needs the
+              goal memory, skills and the planner as teacher and opponent, which the fast
+              backend does not run yet: not measured, its target unmet.
 Results: bench/results/fastpath.json (RESULTS.md). A GPU is never needed (numpy on the CPU).
 """
 
@@ -333,6 +339,31 @@ def agreement_rows(result: Result, args: argparse.Namespace) -> None:
     )
 
 
+def competence_rows(result: Result, args: argparse.Namespace) -> None:
+    from bench.train import run_competence
+
+    backends = ["fast"] + ([] if args.skip_competence_pybullet else ["pybullet"])
+    walls = {}
+    for backend in backends:
+        with tempfile.TemporaryDirectory() as tmp:
+            r = run_competence(
+                "capped", args.competence_every, None, Path(tmp) / "run", backend=backend
+            )
+        found = r["found"]
+        key = "fast_competence" if backend == "fast" else "pybullet_competence"
+        result.add(f"{key}_reached", float(bool(found)))
+        result.add(f"{key}_eval_overhead_s", round(r["eval_s"], 1))
+        if found:
+            walls[backend] = found["wall_s"]
+            result.add(f"{key}_wall_s", round(found["wall_s"], 1))
+            result.add(f"{key}_env_steps", found["step"])
+        else:
+            result.add(f"{key}_env_steps_tried", r["steps"])
+        print(f"competence ({backend}): {found or 'not reached in ' + str(r['steps']) + ' steps'}")
+    if len(walls) == 2:
+        result.add("competence_wall_speedup", round(walls["pybullet"] / walls["fast"], 2))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m bench.fastpath", description=__doc__)
     parser.add_argument("--matches", type=int, default=8192, help="fast matches at once, 1v1")
@@ -349,6 +380,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--skip-ppo", action="store_true")
     parser.add_argument("--skip-transfer", action="store_true")
     parser.add_argument("--skip-agreement", action="store_true")
+    parser.add_argument("--skip-competence", action="store_true")
+    parser.add_argument("--skip-competence-pybullet", action="store_true")
+    parser.add_argument(
+        "--competence-every", type=int, default=8192, help="steps between competence checks"
+    )
     parser.add_argument("--name", default="fastpath", help="result file name")
     args = parser.parse_args(argv)
     result = Result(args.name)
@@ -361,6 +397,8 @@ def main(argv: list[str] | None = None) -> int:
         transfer_rows(result, args)
     if not args.skip_agreement:
         agreement_rows(result, args)
+    if not args.skip_competence:
+        competence_rows(result, args)
     result.target("fast_game_2v2_robot_steps_per_s", 200_000, ">=")
     result.target("fast_ppo_steps_per_s", 50_000, ">=")
     result.target("fast_competence_wall_s", 10.0, "<=")

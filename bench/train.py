@@ -98,17 +98,25 @@ def competence_check(agent: Any, spec: Any, seed: int = EVAL_SEED) -> dict[str, 
 
 
 def run_competence(
-    config: str, eval_every: int, max_steps: int | None, out: Path, teacher: bool = True
+    config: str,
+    eval_every: int,
+    max_steps: int | None,
+    out: Path,
+    teacher: bool = True,
+    backend: str | None = None,
 ) -> dict[str, Any]:
     """Train `config` from scratch, checking every `eval_every` steps; its own total_steps (and
     so its learning-rate schedule) unless max_steps says otherwise. teacher=False drops the
-    config's [imitation] teacher."""
+    config's [imitation] teacher. backend overrides the config's ("fast": sim.fast, as the
+    config's [fast] table sets it); the checks play PyBullet's training fidelity either way."""
     from sim.training.config import ImitationConfig, load_config
     from sim.training.trainer import Progress, train
 
     cfg = load_config(config)
     if not teacher:
         cfg = replace(cfg, imitation=ImitationConfig())
+    if backend is not None:
+        cfg = replace(cfg, backend=backend)
     steps = max_steps or cfg.total_steps
     cfg = replace(
         cfg,
