@@ -86,13 +86,16 @@ class FastMatches:
         n = rollout.n_envs
         self.n = n
         self.world = FastWorld(config.world, n)
-        self.spec: ObservationSpec = with_prior(
-            config.observation
-            or derived_spec(
-                self.world.match_length_s, [rc.ring_capacity for rc in self.world.robot_configs]
-            ),
-            self.world,  # type: ignore[arg-type]  # the prior needs only the field
+        spec = config.observation or derived_spec(
+            self.world.match_length_s, [rc.ring_capacity for rc in self.world.robot_configs]
         )
+        if spec.goal_memory and spec.goal_clamp_offset_m <= 0:
+            # with_prior's clamp offset (World.clamp_offset of the first robot and goal), from
+            # the fast world's own, so that with_prior needs nothing but the field.
+            offset = abs(float(self.world._offsets[0, 0])) if self.world.n_goals else 0.0
+            offset = offset or self.world.robot_configs[0].length_m / 2
+            spec = replace(spec, goal_clamp_offset_m=round(offset, 4))
+        self.spec: ObservationSpec = with_prior(spec, self.world)  # type: ignore[arg-type]
         if abs(self.spec.match_length_s - self.world.match_length_s) > 1e-9:
             raise ConfigError(
                 f"observation.match_length_s is {self.spec.match_length_s} but the match lasts "

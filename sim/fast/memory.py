@@ -15,6 +15,11 @@ returns the frame's ring slots (seen and remembered, nearest first) and route sl
 same arithmetic step for step, so a frame built from it equals build_frame's on RingMemory's
 view value for value (tests/sim/fast/test_memory.py); the tests are what keep the two equal.
 Not batched yet: memory_forget_intake and memory_push (ConfigError names them).
+
+FastGoalMemory is jetson.autonomy.goal_memory.GoalMemory batched the same way: dead reckoning
+of the goals from the prior layout and the clamp (the goal nearest the clamp point leaves the
+slots when the clamp closes, comes back at the clamp point when it opens, and a goal whose
+place the robot drives over is forgotten).
 """
 
 from __future__ import annotations
@@ -125,6 +130,51 @@ class FastRingMemory:
             s.n_rings, s.route_slots, s.ring_capacity_norm, SEEN, REMEMBERED,
         )  # fmt: skip
         return MemorySlots(rings, ok, route, n_route)
+
+
+class FastGoalMemory:
+    """The goal memory of every robot of every match (module docstring)."""
+
+    def __init__(self, world: FastWorld, spec: ObservationSpec) -> None:
+        if not spec.prior_goals or spec.goal_clamp_offset_m <= 0:
+            raise ConfigError(
+                "the goal memory needs spec.prior_goals and goal_clamp_offset_m "
+                "(sim.match.with_prior)"
+            )
+        self.world = world
+        self.spec = spec
+        self.prior = np.asarray(spec.prior_goals, dtype=np.float64).reshape(-1, 2)
+        # Room for the prior and a goal put down after every one clamped: far more than a match
+        # makes before the robot drives over (and so forgets) the old places.
+        self.capacity = len(self.prior) + 16
+        shape = (world.n, world.n_robots)
+        self.known = np.zeros((*shape, self.capacity, 2))
+        self.count = np.zeros(shape, dtype=np.int64)
+        self.holding = np.zeros(shape, dtype=bool)
+        self.overflow = np.zeros(shape, dtype=np.int64)
+        self._blue = np.array([a == "blue" for a in world.alliances])
+        self.reset()
+
+    def reset(self, rows: NDArray[np.int64] | None = None) -> None:
+        """Matches `rows` (default all) back to the field's starting layout."""
+        rows = np.arange(self.world.n) if rows is None else np.asarray(rows)
+        p = len(self.prior)
+        self.known[rows, :, :p] = self.prior
+        self.count[rows] = p
+        self.holding[rows] = False
+        self.overflow[rows] = 0
+
+    def observe(self, active: Bool, pose: F64) -> tuple[F64, NDArray[np.int64]]:
+        """Feed the matches where `active` with each robot's clamp and GPS pose; returns the
+        nearest spec.n_goals remembered goals in each robot's frame, nearest first
+        (B, R, n_goals, 2), and how many slots are filled (B, R)."""
+        s = self.spec
+        clamped = self.world.carried >= 0
+        return _goal_step(
+            self.known, self.count, self.holding, self.overflow,
+            np.asarray(active, dtype=np.bool_), pose, self._blue, clamped,
+            s.goal_clamp_offset_m, s.goal_forget_m, s.n_goals,
+        )  # fmt: skip
 
 
 def _camera_row(cam: MemoryCamera) -> list[float]:
@@ -432,3 +482,79 @@ def _two_opt(order, pair):
                     best[i : k + 1] = best[i : k + 1][::-1].copy()
                     improved = True
     return best
+
+
+@nb.njit(cache=True, parallel=True)
+def _goal_step(
+    known, count, holding, overflow, active, gps, blue, clamped, offset, forget, slots
+):  # fmt: skip
+    """GoalMemory.observe for every robot of the active matches, and the goal slots."""
+    n_match, n_robot = clamped.shape
+    cap = known.shape[2]
+    out = np.zeros((n_match, n_robot, slots, 2))
+    filled = np.zeros((n_match, n_robot), dtype=np.int64)
+    for b in nb.prange(n_match):
+        if not active[b]:
+            continue
+        keep = np.empty(cap, dtype=np.bool_)
+        d2 = np.empty(slots)
+        for i in range(n_robot):
+            px, py, ph = gps[b, i, 0], gps[b, i, 1], gps[b, i, 2]
+            if blue[i]:
+                px, py = -px, -py
+                ph = (ph + 180.0) % 360.0
+                if ph >= 360.0:
+                    ph = 0.0
+            hr = math.radians(ph)
+            s, c = math.sin(hr), math.cos(hr)
+            cx = px - offset * s
+            cy = py - offset * c
+            kn = known[b, i]
+            k_n = count[b, i]
+            if clamped[b, i] and not holding[b, i]:
+                if k_n > 0:
+                    best, best_d = 0, np.inf
+                    for k in range(k_n):
+                        d = math.hypot(kn[k, 0] - cx, kn[k, 1] - cy)
+                        if d < best_d:
+                            best, best_d = k, d
+                    if best_d <= 2 * forget + offset:
+                        for k in range(best, k_n - 1):
+                            kn[k, 0] = kn[k + 1, 0]
+                            kn[k, 1] = kn[k + 1, 1]
+                        k_n -= 1
+            elif holding[b, i] and not clamped[b, i]:
+                if k_n < cap:
+                    kn[k_n, 0] = cx
+                    kn[k_n, 1] = cy
+                    k_n += 1
+                else:
+                    overflow[b, i] += 1
+            holding[b, i] = clamped[b, i]
+            for k in range(k_n):
+                keep[k] = not math.hypot(kn[k, 0] - px, kn[k, 1] - py) <= forget
+            k_n = _compact(kn, k_n, ~keep)
+            count[b, i] = k_n
+            # build_frame's goal slots: nearest first, equal distances in memory order.
+            m = 0
+            for k in range(k_n):
+                dx = kn[k, 0] - px
+                dy = kn[k, 1] - py
+                lx = dx * c - dy * s
+                ly = dx * s + dy * c
+                dist = lx * lx + ly * ly
+                if m == slots and not dist < d2[m - 1]:
+                    continue
+                j = min(m, slots - 1)
+                while j > 0 and dist < d2[j - 1]:
+                    if j < slots:
+                        d2[j] = d2[j - 1]
+                        out[b, i, j, 0] = out[b, i, j - 1, 0]
+                        out[b, i, j, 1] = out[b, i, j - 1, 1]
+                    j -= 1
+                d2[j] = dist
+                out[b, i, j, 0] = lx
+                out[b, i, j, 1] = ly
+                m = min(m + 1, slots)
+            filled[b, i] = m
+    return out, filled

@@ -12,8 +12,9 @@ rings held, the nearest other robots and the nearest seen rings in the robot fra
 the spec's noise; FrameStack's newest-first stack. Without noise a frame equals build_frame's
 value for value (tested).
 With spec.ring_memory the ring slots hold the seen and the remembered rings and the route slots
-the route's first stops, from every robot's ring memory (sim.fast.memory, RingMemory batched).
-The goal memory is not batched yet: ConfigError says so.
+the route's first stops, from every robot's ring memory; with spec.goal_memory the goal slots
+and the clamp flag come from every robot's goal memory (sim.fast.memory: RingMemory and
+GoalMemory batched).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from jetson.autonomy.spec import SEEN, ObservationSpec
 from sim.config import CameraConfig
 from sim.errors import ConfigError
 from sim.fast.kernels import nearest_seen, visible_rings
-from sim.fast.memory import FastRingMemory, unsupported_memory
+from sim.fast.memory import FastGoalMemory, FastRingMemory, unsupported_memory
 from sim.fast.world import FastWorld
 from sim.match import memory_camera
 from sim.world.state import POST_RADIUS
@@ -39,8 +40,7 @@ Bool = NDArray[np.bool_]
 
 def unsupported_spec(spec: ObservationSpec) -> list[str]:
     """What of `spec` the batched observation does not build (empty: all of it)."""
-    out = ["goal_memory"] if spec.goal_memory else []
-    return out + unsupported_memory(spec)
+    return unsupported_memory(spec)
 
 
 class FastObserver:
@@ -81,6 +81,7 @@ class FastObserver:
             ring_z = world.field.ring.thickness / 2
             cams = [memory_camera(rc.camera, ring_z) for rc in rcs]
             self.memory = FastRingMemory(world, spec, cams)
+        self.goal_memory = FastGoalMemory(world, spec) if spec.goal_memory else None
 
     # --- what the cameras see ---------------------------------------------------------------
 
@@ -152,12 +153,17 @@ class FastObserver:
             order = np.argsort(d2, axis=-1, kind="stable")[..., :count]
             near = np.take_along_axis(local, order[..., None], -2)
             self._write(out, len(spec.scalars), near, np.full(near.shape[:-1], SEEN))
+        active = np.ones(w.n, dtype=bool) if rows is None else rows
+        if self.goal_memory is not None:
+            out[..., spec.scalar_index("clamped")] = w.carried >= 0
+            goals, count = self.goal_memory.observe(active, pose)
+            ok = np.where(np.arange(spec.n_goals) < count[..., None], SEEN, 0.0)
+            self._write(out, spec.goal_offset, goals, ok, noise=False)
         if self.memory is None:
             near, seen = nearest_seen(w.x, w.y, w.heading, w.ring_xy, visible, spec.n_rings)
             ok = np.where(np.arange(spec.n_rings) < seen[..., None], SEEN, 0.0)
             self._write(out, spec.ring_offset, near, ok)
             return out
-        active = np.ones(w.n, dtype=bool) if rows is None else rows
         slots = self.memory.observe(active, pose, visible)
         self._write(out, spec.ring_offset, slots.rings, slots.ring_ok)
         if spec.route_slots:
@@ -173,11 +179,11 @@ class FastObserver:
             out[..., lo : lo + 3 * spec.route_slots] = block.reshape((*out.shape[:2], -1))
         return out
 
-    def _write(self, out: F32, offset: int, near: F64, ok: F64) -> None:
+    def _write(self, out: F32, offset: int, near: F64, ok: F64, noise: bool = True) -> None:
         """Slots (B, R, k, 2 robot-frame points, nearest first; ok: the slot's ok value, 0 for
         an empty one) into out[offset:] as (x, y, ok) triples, with the spec's relative noise
-        (build_frame's _fill_slots)."""
-        if self.obs_noise and self.spec.relative_noise > 0:
+        unless noise is False (build_frame's _fill_slots)."""
+        if noise and self.obs_noise and self.spec.relative_noise > 0:
             rel = self.spec.relative_noise
             near = near * (1.0 + self.rng.uniform(-rel, rel, near.shape))
         count = near.shape[-2]
@@ -194,8 +200,9 @@ class FastObserver:
         rows = np.arange(self.world.n) if which is None else np.asarray(which)
         active = np.zeros(self.world.n, dtype=bool)
         active[rows] = True
-        if self.memory is not None:
-            self.memory.reset(rows)
+        for memory in (self.memory, self.goal_memory):
+            if memory is not None:
+                memory.reset(rows)
         frame = self.frames(rows=active)
         self.stack[rows] = frame[rows][:, :, None, :]
         return self.observation()
@@ -204,8 +211,9 @@ class FastObserver:
         """Push every match's frame now (newest first); matches where keep is False start
         their stack (and ring memories) anew (a match just reset)."""
         fresh = np.zeros(0, dtype=np.int64) if keep is None else np.flatnonzero(~keep)
-        if self.memory is not None and len(fresh):
-            self.memory.reset(fresh)
+        for memory in (self.memory, self.goal_memory):
+            if memory is not None and len(fresh):
+                memory.reset(fresh)
         frame = self.frames()
         self.stack[:, :, 1:] = self.stack[:, :, :-1].copy()
         self.stack[:, :, 0] = frame

@@ -91,7 +91,7 @@ def test_pete_sim_train_refuses_a_config_the_fast_backend_cannot_run(
     code = main(["train", "--config", "default", "--backend", "fast", "--run-dir", str(tmp_path)])
     assert code == 2
     err = capsys.readouterr().err
-    assert "--backend fast" in err and "goal_memory" in err
+    assert "--backend fast" in err and "skill policy" in err
     assert not any(tmp_path.iterdir())  # refused before the run folder was written
 
 

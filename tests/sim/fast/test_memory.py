@@ -1,7 +1,7 @@
-"""The batched ring memory against the robot's own (jetson.autonomy.ring_memory.RingMemory, one
-per robot, fed the same sightings from the same GPS poses): the frames built from them equal,
-value for value, ring slots and route slots, through forgetting, merging and the route's
-target switches."""
+"""The batched memories against the robot's own (jetson.autonomy.ring_memory.RingMemory and
+goal_memory.GoalMemory, one per robot, fed the same sightings, clamp and GPS poses): the frames
+built from them equal, value for value, ring, route and goal slots, through forgetting, merging,
+the route's target switches and goals clamped and put down."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from jetson.autonomy.geometry import field_to_robot
+from jetson.autonomy.goal_memory import GoalMemory
 from jetson.autonomy.observation import RobotView, build_frame
 from jetson.autonomy.ring_memory import RingMemory
 from jetson.autonomy.spec import REMEMBERED, ObservationSpec
@@ -50,6 +51,7 @@ def _view(world: FastWorld, k: int, i: int, pose: np.ndarray) -> RobotView:
         rings_robot_xy=seen,
         rings_held=r.held,
         others_robot_xy=field_to_robot(pts, r.xy, r.heading),
+        goal_clamped=r.carried_goal is not None,
         intake_fills=r.config.ring_capacity is not None,
     )
 
@@ -59,6 +61,7 @@ def test_frames_with_the_memory_equal_ringmemory_value_for_value(memory_view: st
     n = 4
     world = FastWorld(WORLD, n)
     world.reset(range(n))
+    goals = [g.position for g in world.field.goals if g.alliance in (None, "red")]
     spec = ObservationSpec(
         version=5,
         n_stack=0,
@@ -67,6 +70,9 @@ def test_frames_with_the_memory_equal_ringmemory_value_for_value(memory_view: st
         route_slots=2,
         prior_rings=_prior(world),
         memory_view=memory_view,
+        goal_memory=True,
+        prior_goals=tuple((float(x), float(y)) for x, y in np.round(goals, 4)),
+        goal_clamp_offset_m=round(abs(float(world._offsets[0, 0])), 4),
     )
     obs = FastObserver(world, spec, obs_noise=False, gps_noise=True, rng=np.random.default_rng(3))
     z = world.field.ring.thickness / 2
@@ -74,17 +80,27 @@ def test_frames_with_the_memory_equal_ringmemory_value_for_value(memory_view: st
         [RingMemory(spec, memory_camera(rc.camera, z)) for rc in world.robot_configs]
         for _ in range(n)
     ]
+    goal_memories = [[GoalMemory(spec) for _ in range(4)] for _ in range(n)]
     rng = np.random.default_rng(0)
-    remembered = switched = 0
+    remembered = switched = clamps = toggles = 0
     targets = {}
     for t in range(150):
         if t:
-            world.step(rng.uniform(-0.3, 1.0, (n, 4)), rng.uniform(-2.0, 2.0, (n, 4)))
+            # Drive mostly backwards now and then, the clamp open at times: goals are clamped,
+            # carried and put down again.
+            back = -1.0 if (t // 25) % 2 else 1.0
+            linear = back * rng.uniform(-0.3, 1.0, (n, 4))
+            clamp = np.where(rng.random((n, 4)) < 0.05, 0, -1)  # release now and then, else auto
+            world.step(linear, rng.uniform(-2.0, 2.0, (n, 4)), clamp=clamp)
+            clamps += int((world.carried >= 0).sum())
         pose = obs.pose()  # the GPS with its noise: both memories place rings from it
         frames = obs.frames(obs.visible(), pose)
         for k in range(n):
             for i in range(4):
-                ref = build_frame(spec, memories[k][i].observe(_view(world, k, i, pose)))
+                view = memories[k][i].observe(_view(world, k, i, pose))
+                was = goal_memories[k][i].holding
+                ref = build_frame(spec, goal_memories[k][i].observe(view))
+                toggles += was != goal_memories[k][i].holding
                 assert np.allclose(frames[k, i], ref, atol=1e-6), (t, k, i)
                 remembered += int((ref[spec.ring_offset + 2 :: 3] == REMEMBERED).sum())
                 target = memories[k][i].target
@@ -93,6 +109,8 @@ def test_frames_with_the_memory_equal_ringmemory_value_for_value(memory_view: st
                     switched += old is not None and not np.array_equal(old, target)
                     targets[(k, i)] = target.copy()
     assert obs.memory is not None and not obs.memory.overflow.any()
+    # Goals were clamped (leaving the goal slots) and put down (coming back) several times.
+    assert clamps > 50 and toggles >= 4, (clamps, toggles)
     assert remembered > 1000  # the memory, not only what is in view, filled the slots
     assert switched > 20  # the route moved on from ring to ring
 
@@ -120,8 +138,8 @@ def test_a_reset_match_starts_from_the_prior_and_other_matches_keep_theirs() -> 
 def test_memory_features_not_batched_are_refused_by_name() -> None:
     world = FastWorld(WorldConfig(), 1)
     prior = _prior(world)
-    with pytest.raises(ConfigError, match="goal_memory"):
-        FastObserver(world, ObservationSpec(version=3, goal_memory=True))
+    with pytest.raises(ConfigError, match="goal_clamp_offset_m"):
+        FastObserver(world, ObservationSpec(version=3, goal_memory=True))  # no prior given
     spec = ObservationSpec(
         version=5,
         ring_memory=True,
