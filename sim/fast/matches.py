@@ -11,8 +11,8 @@ World.reset would. Rewards are MatchCore's components (sim.match.REWARD_COMPONEN
 learner, the shaping potentials from sim.rewards; the start curricula (goal_start_share,
 midgame_start_share) are drawn as MatchCore draws them. Opponents: "policy" (the caller's
 actions), "random" and "idle"; the planner, the scripted chaser and "none" need per-match Python
-and stay on the PyBullet backend for now, as do the planner teacher, skills and the goal memory
-(ConfigError names what is missing). The ring memory and route slots are batched
+and stay on the PyBullet backend for now, as do the planner teacher and skills (ConfigError
+names what is missing). The ring and goal memories and the route slots are batched
 (sim.fast.memory). The route teacher is jetson.autonomy.skills' controller, one per match as
 VecMatches keeps it: a Python call per match and step, which costs about what stepping the
 batch does at a few hundred matches and far more at thousands (it suits capped.toml's 16).
