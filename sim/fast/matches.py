@@ -110,9 +110,7 @@ class FastMatches:
         )
         self._player_rng = np.random.default_rng((seed, 1 << 21))
         # Which goals score for red (row 0) and blue (row 1): the learner's row by its side.
-        self._scores_for = np.array(
-            [[g.alliance in (None, a) for g in self.world.field.goals] for a in ("red", "blue")]
-        ).reshape(2, -1)
+        self._scores_for = self.world.field.goal_may_score.T
         self.kinds = ["idle"] * n
         self.tags = [-1] * n
         self._pending: dict[int, tuple[str, int]] = {}

@@ -39,6 +39,7 @@ from sim.errors import ConfigError
 from sim.fast import kernels
 from sim.field import FieldSpec, load_field
 from sim.world import rules
+from sim.world.sensors import interpolate_pose
 from sim.world.start import floor_rings, robot_starts
 
 F64 = NDArray[np.float64]
@@ -129,7 +130,7 @@ class FastWorld:
         )
         self.front_clamp = np.array([rc.clamp == "front" for rc in rcs])
         self.radius = np.array([rc.radius_m for rc in rcs])  # the footprint's bounding circle
-        self.goal_radius = np.array([g.base_radius for g in self.field.goals])
+        self.goal_radius = self.field.goal_base_radii.copy()
         self.goal_mass = np.array([g.mass_kg for g in self.field.goals])
         # Each robot's clamp point for each goal (World.clamp_offset): its signed distance ahead
         # of the robot's centre, negative behind a back clamp.
@@ -497,11 +498,7 @@ class FastWorld:
         a = np.where(span > 0, (t - self.prev_time[:, None]) / np.where(span > 0, span, 1.0), 1.0)
         a = np.clip(a, 0.0, 1.0)
         prev = self.prev_pose
-        dh = (now[..., 2] - prev[..., 2] + 180.0) % 360.0 - 180.0
-        x = prev[..., 0] + a * (now[..., 0] - prev[..., 0])
-        y = prev[..., 1] + a * (now[..., 1] - prev[..., 1])
-        hd = prev[..., 2] + a * dh
-        out = np.stack([x, y, hd], -1)
+        out = np.stack(interpolate_pose(a, *np.moveaxis(prev, -1, 0), *np.moveaxis(now, -1, 0)), -1)
         # At the start only the first pose exists: World reads it.
         return np.where(late[..., None], out, np.where((self.steps == 0)[:, None, None], now, out))
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import tomllib
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -207,6 +208,22 @@ class FieldSpec:
     def half(self) -> float:
         """Half the field width: the observation's length unit."""
         return self.size / 2.0
+
+    @cached_property
+    def goal_may_score(self) -> np.ndarray:
+        """(G, 2) bool: whether each goal may score for red (column 0) and for blue (1): a
+        neutral goal for both, an alliance goal for its own alliance only."""
+        rows = [(g.alliance in (None, "red"), g.alliance in (None, "blue")) for g in self.goals]
+        out = np.array(rows, dtype=bool).reshape(-1, 2)
+        out.setflags(write=False)  # one array for every caller: nobody may change it
+        return out
+
+    @cached_property
+    def goal_base_radii(self) -> np.ndarray:
+        """(G,): each goal's base radius, metres."""
+        out = np.array([g.base_radius for g in self.goals], dtype=np.float64)
+        out.setflags(write=False)
+        return out
 
     def platform(self, alliance: AllianceName) -> PlatformSpec:
         for p in self.platforms:

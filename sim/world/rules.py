@@ -166,18 +166,15 @@ def ring_race_owners(
         carrier = np.where(carried, goal_carrier, 0)
         carrier_red = team[carrier]
         carrier_up = np.take_along_axis(elevated, carrier, axis=1) & carried
-        allowed = np.array(
-            [[s.alliance in (None, "red"), s.alliance in (None, "blue")] for s in field.goals],
-            dtype=bool,
-        ).reshape(-1, 2)
+        allowed = field.goal_may_score
         may = np.where(carrier_red, allowed[None, :, 0], allowed[None, :, 1])
         goal_up = carrier_up & may
         owner = np.where(goal_up, np.where(carrier_red, 1, 2), 0)
-    margin = np.array([s.base_radius for s in field.goals])[None]
+    margin = field.goal_base_radii[None]
     for alliance, zone in field.home_zones.items():
         code = 1 if alliance == "red" else 2
         inside = zone.contains(goal_xy, margin=margin)  # type: ignore[arg-type]
-        ok = np.array([s.alliance in (None, alliance) for s in field.goals], dtype=bool)
+        ok = field.goal_may_score[:, code - 1]
         owner = np.where((owner == 0) & inside & ok[None], code, owner)
     return owner, goal_up, elevated
 
@@ -202,8 +199,9 @@ def ring_race_score(
     out = {}
     for alliance in ALLIANCES:
         code = 1 if alliance == "red" else 2
-        own = np.array([s.alliance == alliance for s in field.goals], dtype=bool)
-        neutral = np.array([s.alliance is None for s in field.goals], dtype=bool)
+        may = field.goal_may_score
+        neutral = may[:, 0] & may[:, 1]
+        own = may[:, code - 1] & ~neutral
         counts = own[None] | (neutral[None] & (owner == code))
         rings = (goal_rings * counts).sum(axis=1)
         in_zone = ((owner == code) & ~goal_up).sum(axis=1)

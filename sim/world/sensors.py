@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pybullet as p
@@ -35,6 +36,16 @@ from sim.visibility import (
 from sim.world.state import POST_RADIUS, RING_FLOOR, GpsReading, WorldState
 
 
+def interpolate_pose(
+    a: Any, x0: Any, y0: Any, h0: Any, x1: Any, y1: Any, h1: Any
+) -> tuple[Any, Any, Any]:
+    """The pose `a` of the way from (x0, y0, h0) to (x1, y1, h1), the heading (degrees) turning
+    the shorter way; floats or arrays alike. The GPS's latency: sensors.gps for one robot,
+    sim.fast.world for every robot of a batch."""
+    dh = (h1 - h0 + 180.0) % 360.0 - 180.0
+    return x0 + a * (x1 - x0), y0 + a * (y1 - y0), h0 + a * dh
+
+
 def gps(world: WorldState, index: int, rng: np.random.Generator | None = None) -> GpsReading:
     """The GPS reading of robot `index`: its pose `latency_s` ago, plus noise when rng."""
     r = world.robots[index]
@@ -47,8 +58,7 @@ def gps(world: WorldState, index: int, rng: np.random.Generator | None = None) -
         for (t0, x0, y0, h0), (t1, x1, y1, h1) in zip(list(hist)[:-1], list(hist)[1:], strict=True):
             if t0 <= t <= t1:
                 a = (t - t0) / (t1 - t0) if t1 > t0 else 1.0
-                dh = (h1 - h0 + 180.0) % 360.0 - 180.0
-                x, y, h = x0 + a * (x1 - x0), y0 + a * (y1 - y0), h0 + a * dh
+                x, y, h = interpolate_pose(a, x0, y0, h0, x1, y1, h1)
                 break
     if rng is not None:
         x += rng.normal(0.0, gcfg.noise_xy_m)
