@@ -133,6 +133,28 @@ def visible_rings(
     return out
 
 
+@nb.njit(cache=True, inline="always")
+def insert_nearest(d2, xy, ok, filled, dist, x, y, okv):
+    """Put the point (x, y), squared distance `dist`, ok value `okv`, into nearest-first slots
+    (d2, xy, ok: len(d2) of them, `filled` in use) after every slot not farther, so equal
+    distances keep their arrival order (build_frame's stable sort); returns the slots filled."""
+    slots = d2.shape[0]
+    if slots == 0 or (filled == slots and not dist < d2[filled - 1]):
+        return filled
+    j = min(filled, slots - 1)
+    while j > 0 and dist < d2[j - 1]:
+        d2[j] = d2[j - 1]
+        xy[j, 0] = xy[j - 1, 0]
+        xy[j, 1] = xy[j - 1, 1]
+        ok[j] = ok[j - 1]
+        j -= 1
+    d2[j] = dist
+    xy[j, 0] = x
+    xy[j, 1] = y
+    ok[j] = okv
+    return min(filled + 1, slots)
+
+
 @nb.njit(cache=True, parallel=True)
 def nearest_seen(
     x: NDArray[np.float64],
@@ -151,6 +173,7 @@ def nearest_seen(
     count = np.zeros((n_match, n_robot), dtype=np.int64)
     for b in nb.prange(n_match):
         d2 = np.empty(slots)
+        ok = np.empty(slots)
         for i in range(n_robot):
             h = math.radians(heading[b, i])
             s, co = math.sin(h), math.cos(h)
@@ -162,21 +185,7 @@ def nearest_seen(
                 py = ring_xy[b, n, 1] - y[b, i]
                 lx = px * co - py * s
                 ly = px * s + py * co
-                dist = lx * lx + ly * ly
-                if k == slots and not dist < d2[k - 1]:
-                    continue
-                # Insert after every slot not farther (equal distances keep ring order).
-                j = min(k, slots - 1)
-                while j > 0 and dist < d2[j - 1]:
-                    if j < slots:
-                        d2[j] = d2[j - 1]
-                        out[b, i, j, 0] = out[b, i, j - 1, 0]
-                        out[b, i, j, 1] = out[b, i, j - 1, 1]
-                    j -= 1
-                d2[j] = dist
-                out[b, i, j, 0] = lx
-                out[b, i, j, 1] = ly
-                k = min(k + 1, slots)
+                k = insert_nearest(d2, out[b, i], ok, k, lx * lx + ly * ly, lx, ly, 1.0)
             count[b, i] = k
     return out, count
 

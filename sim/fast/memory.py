@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 from jetson.autonomy.camera import MemoryCamera, robot_to_camera_rotation
 from jetson.autonomy.spec import REMEMBERED, SEEN, ObservationSpec
 from sim.errors import ConfigError
+from sim.fast.kernels import insert_nearest
 from sim.fast.world import FastWorld
 
 F64 = NDArray[np.float64]
@@ -59,7 +60,34 @@ class MemorySlots:
     route_count: NDArray[np.int64]  # (B, R)
 
 
-class FastRingMemory:
+class _Known:
+    """What both memories keep per robot: the places they know (alliance frame, up to
+    `capacity` of them, the first `count` in use), starting from `prior`."""
+
+    def __init__(self, world: FastWorld, prior: F64, capacity: int) -> None:
+        self.world = world
+        self.prior = prior
+        self.capacity = capacity
+        shape = (world.n, world.n_robots)
+        self.known = np.zeros((*shape, capacity, 2))
+        self.count = np.zeros(shape, dtype=np.int64)
+        self.overflow = np.zeros(shape, dtype=np.int64)  # places dropped for want of room
+        self._blue = np.array([a == "blue" for a in world.alliances])
+
+    def reset(self, rows: NDArray[np.int64] | None = None) -> None:
+        """Matches `rows` (default all) back to the field's starting layout: new matches."""
+        rows = np.arange(self.world.n) if rows is None else np.asarray(rows)
+        p = len(self.prior)
+        self.known[rows, :, :p] = self.prior
+        self.count[rows] = p
+        self.overflow[rows] = 0
+        self._restart(rows)
+
+    def _restart(self, rows: NDArray[np.int64]) -> None:
+        """The rest of a memory's state back to a match's start."""
+
+
+class FastRingMemory(_Known):
     """The ring memory of every robot of every match (module docstring)."""
 
     def __init__(
@@ -75,20 +103,14 @@ class FastRingMemory:
         use_camera = spec.memory_view == "camera"
         if use_camera and (cameras is None or len(cameras) != world.n_robots):
             raise ConfigError("memory_view 'camera' needs one MemoryCamera per robot")
-        self.world = world
         self.spec = spec
-        self.prior = np.asarray(spec.prior_rings, dtype=np.float64).reshape(-1, 2)
-        n_rings = world.ring_xy.shape[1]
+        prior = np.asarray(spec.prior_rings, dtype=np.float64).reshape(-1, 2)
         # Room for the prior and two sightings of every ring: a ring seen away from where it is
         # remembered is known twice only until its old place is looked at.
-        self.capacity = len(self.prior) + 2 * n_rings + 8
+        super().__init__(world, prior, len(prior) + 2 * world.ring_xy.shape[1] + 8)
         shape = (world.n, world.n_robots)
-        self.known = np.zeros((*shape, self.capacity, 2))
-        self.count = np.zeros(shape, dtype=np.int64)
-        self.target = np.zeros((*shape, 2))
+        self.target = np.zeros((*shape, 2))  # the route's first stop
         self.has_target = np.zeros(shape, dtype=bool)
-        self.overflow = np.zeros(shape, dtype=np.int64)  # sightings dropped for want of room
-        self._blue = np.array([a == "blue" for a in world.alliances])
         self._view = np.array(
             [
                 1.0 if use_camera else 0.0,
@@ -107,14 +129,8 @@ class FastRingMemory:
         self._tour = np.array([t.candidates, t.turn_cost_m_per_rad, t.switch_margin_m])
         self.reset()
 
-    def reset(self, rows: NDArray[np.int64] | None = None) -> None:
-        """Matches `rows` (default all) back to the field's starting layout: new matches."""
-        rows = np.arange(self.world.n) if rows is None else np.asarray(rows)
-        p = len(self.prior)
-        self.known[rows, :, :p] = self.prior
-        self.count[rows] = p
+    def _restart(self, rows: NDArray[np.int64]) -> None:
         self.has_target[rows] = False
-        self.overflow[rows] = 0
 
     def observe(self, active: Bool, pose: F64, visible: Bool) -> MemorySlots:
         """Feed the matches where `active` (B,) with what each robot's camera sees now
@@ -132,7 +148,7 @@ class FastRingMemory:
         return MemorySlots(rings, ok, route, n_route)
 
 
-class FastGoalMemory:
+class FastGoalMemory(_Known):
     """The goal memory of every robot of every match (module docstring)."""
 
     def __init__(self, world: FastWorld, spec: ObservationSpec) -> None:
@@ -141,28 +157,16 @@ class FastGoalMemory:
                 "the goal memory needs spec.prior_goals and goal_clamp_offset_m "
                 "(sim.match.with_prior)"
             )
-        self.world = world
         self.spec = spec
-        self.prior = np.asarray(spec.prior_goals, dtype=np.float64).reshape(-1, 2)
+        prior = np.asarray(spec.prior_goals, dtype=np.float64).reshape(-1, 2)
         # Room for the prior and a goal put down after every one clamped: far more than a match
         # makes before the robot drives over (and so forgets) the old places.
-        self.capacity = len(self.prior) + 16
-        shape = (world.n, world.n_robots)
-        self.known = np.zeros((*shape, self.capacity, 2))
-        self.count = np.zeros(shape, dtype=np.int64)
-        self.holding = np.zeros(shape, dtype=bool)
-        self.overflow = np.zeros(shape, dtype=np.int64)
-        self._blue = np.array([a == "blue" for a in world.alliances])
+        super().__init__(world, prior, len(prior) + 16)
+        self.holding = np.zeros((world.n, world.n_robots), dtype=bool)
         self.reset()
 
-    def reset(self, rows: NDArray[np.int64] | None = None) -> None:
-        """Matches `rows` (default all) back to the field's starting layout."""
-        rows = np.arange(self.world.n) if rows is None else np.asarray(rows)
-        p = len(self.prior)
-        self.known[rows, :, :p] = self.prior
-        self.count[rows] = p
+    def _restart(self, rows: NDArray[np.int64]) -> None:
         self.holding[rows] = False
-        self.overflow[rows] = 0
 
     def observe(self, active: Bool, pose: F64) -> tuple[F64, NDArray[np.int64]]:
         """Feed the matches where `active` with each robot's clamp and GPS pose; returns the
@@ -309,22 +313,9 @@ def _memory_step(
                     dx = kn[k, 0] - px
                     dy = kn[k, 1] - py
                     lx, ly, okv = dx * c - dy * s, dx * s + dy * c, remembered_ok
-                dist = lx * lx + ly * ly
-                if filled == ring_slots and not dist < d2[filled - 1]:
-                    continue
-                j = min(filled, ring_slots - 1)
-                while j > 0 and dist < d2[j - 1]:
-                    if j < ring_slots:
-                        d2[j] = d2[j - 1]
-                        rings_out[b, i, j, 0] = rings_out[b, i, j - 1, 0]
-                        rings_out[b, i, j, 1] = rings_out[b, i, j - 1, 1]
-                        ok_out[b, i, j] = ok_out[b, i, j - 1]
-                    j -= 1
-                d2[j] = dist
-                rings_out[b, i, j, 0] = lx
-                rings_out[b, i, j, 1] = ly
-                ok_out[b, i, j] = okv
-                filled = min(filled + 1, ring_slots)
+                filled = insert_nearest(
+                    d2, rings_out[b, i], ok_out[b, i], filled, lx * lx + ly * ly, lx, ly, okv
+                )
     return rings_out, ok_out, route_out, route_n
 
 
@@ -498,6 +489,7 @@ def _goal_step(
             continue
         keep = np.empty(cap, dtype=np.bool_)
         d2 = np.empty(slots)
+        ok = np.empty(slots)
         for i in range(n_robot):
             px, py, ph = gps[b, i, 0], gps[b, i, 1], gps[b, i, 2]
             if blue[i]:
@@ -542,19 +534,6 @@ def _goal_step(
                 dy = kn[k, 1] - py
                 lx = dx * c - dy * s
                 ly = dx * s + dy * c
-                dist = lx * lx + ly * ly
-                if m == slots and not dist < d2[m - 1]:
-                    continue
-                j = min(m, slots - 1)
-                while j > 0 and dist < d2[j - 1]:
-                    if j < slots:
-                        d2[j] = d2[j - 1]
-                        out[b, i, j, 0] = out[b, i, j - 1, 0]
-                        out[b, i, j, 1] = out[b, i, j - 1, 1]
-                    j -= 1
-                d2[j] = dist
-                out[b, i, j, 0] = lx
-                out[b, i, j, 1] = ly
-                m = min(m + 1, slots)
+                m = insert_nearest(d2, out[b, i], ok, m, lx * lx + ly * ly, lx, ly, 1.0)
             filled[b, i] = m
     return out, filled

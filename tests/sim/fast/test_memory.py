@@ -20,14 +20,7 @@ from sim.fast.view import match_view
 from sim.fast.world import FastWorld
 from sim.match import memory_camera
 from sim.world import sensors
-
-WORLD = WorldConfig(
-    red=("24in", "15in"),
-    blue=("24in", "15in"),
-    start_jitter_m=0.1,
-    start_jitter_deg=45.0,
-    ring_jitter_m=0.03,
-)
+from tests.sim.fast.worlds import RING_RACE_2V2
 
 
 def _prior(world: FastWorld) -> tuple[tuple[float, float], ...]:
@@ -59,7 +52,7 @@ def _view(world: FastWorld, k: int, i: int, pose: np.ndarray) -> RobotView:
 @pytest.mark.parametrize("memory_view", ["cone", "camera"])
 def test_frames_with_the_memory_equal_ringmemory_value_for_value(memory_view: str) -> None:
     n = 4
-    world = FastWorld(WORLD, n)
+    world = FastWorld(RING_RACE_2V2, n)
     world.reset(range(n))
     goals = [g.position for g in world.field.goals if g.alliance in (None, "red")]
     spec = ObservationSpec(
@@ -116,7 +109,7 @@ def test_frames_with_the_memory_equal_ringmemory_value_for_value(memory_view: st
 
 
 def test_a_reset_match_starts_from_the_prior_and_other_matches_keep_theirs() -> None:
-    world = FastWorld(WORLD, 2)
+    world = FastWorld(RING_RACE_2V2, 2)
     world.reset(range(2))
     spec = ObservationSpec(version=5, n_stack=1, ring_memory=True, prior_rings=_prior(world))
     obs = FastObserver(world, spec, obs_noise=False, gps_noise=False)

@@ -13,14 +13,7 @@ from sim.fast.observe import FastObserver
 from sim.fast.view import match_view
 from sim.fast.world import FastWorld
 from sim.world import sensors
-
-WORLD = WorldConfig(
-    red=("24in", "15in"),
-    blue=("24in", "15in"),
-    start_jitter_m=0.1,
-    start_jitter_deg=45.0,
-    ring_jitter_m=0.03,
-)
+from tests.sim.fast.worlds import RING_RACE_2V2
 
 
 def _reference(world: FastWorld, spec: ObservationSpec, k: int, i: int) -> np.ndarray:
@@ -46,7 +39,7 @@ def _reference(world: FastWorld, spec: ObservationSpec, k: int, i: int) -> np.nd
 
 def test_frames_equal_the_jetson_builder_value_for_value() -> None:
     spec = ObservationSpec(version=5, n_other_robots=3, n_stack=0, intake_flag=True)
-    world = FastWorld(WORLD, 8)
+    world = FastWorld(RING_RACE_2V2, 8)
     world.reset(range(8))
     obs = FastObserver(world, spec, obs_noise=False, gps_noise=False)
     rng = np.random.default_rng(0)
