@@ -218,15 +218,7 @@ def _memory_step(
         field_seen = np.empty((n_ring, 2))
         gone = np.empty(cap, dtype=np.bool_)
         for i in range(n_robot):
-            # The GPS pose in the alliance frame (to_alliance_frame: blue sees the field turned).
-            px, py, ph = gps[b, i, 0], gps[b, i, 1], gps[b, i, 2]
-            if blue[i]:
-                px, py = -px, -py
-                ph = (ph + 180.0) % 360.0
-                if ph >= 360.0:
-                    ph = 0.0
-            hr = math.radians(ph)
-            s, c = math.sin(hr), math.cos(hr)
+            px, py, s, c = _alliance_pose(gps, blue, b, i)
             # The rings seen, in the robot's frame from its true pose (sensors.rings_in_robot_
             # frame), placed on the field from the GPS pose (robot_to_field).
             th = math.radians(heading[b, i])
@@ -317,6 +309,20 @@ def _memory_step(
                     d2, rings_out[b, i], ok_out[b, i], filled, lx * lx + ly * ly, lx, ly, okv
                 )
     return rings_out, ok_out, route_out, route_n
+
+
+@nb.njit(cache=True, inline="always")
+def _alliance_pose(gps, blue, b, i):
+    """Robot i of match b's GPS pose in its alliance frame (to_alliance_frame: blue sees the
+    field turned 180 degrees): x, y and the heading's sine and cosine."""
+    px, py, ph = gps[b, i, 0], gps[b, i, 1], gps[b, i, 2]
+    if blue[i]:
+        px, py = -px, -py
+        ph = (ph + 180.0) % 360.0
+        if ph >= 360.0:
+            ph = 0.0
+    hr = math.radians(ph)
+    return px, py, math.sin(hr), math.cos(hr)
 
 
 @nb.njit(cache=True, inline="always")
@@ -491,14 +497,7 @@ def _goal_step(
         d2 = np.empty(slots)
         ok = np.empty(slots)
         for i in range(n_robot):
-            px, py, ph = gps[b, i, 0], gps[b, i, 1], gps[b, i, 2]
-            if blue[i]:
-                px, py = -px, -py
-                ph = (ph + 180.0) % 360.0
-                if ph >= 360.0:
-                    ph = 0.0
-            hr = math.radians(ph)
-            s, c = math.sin(hr), math.cos(hr)
+            px, py, s, c = _alliance_pose(gps, blue, b, i)
             cx = px - offset * s
             cy = py - offset * c
             kn = known[b, i]
