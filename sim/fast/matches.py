@@ -11,9 +11,11 @@ World.reset would. Rewards are MatchCore's components (sim.match.REWARD_COMPONEN
 learner, the shaping potentials from sim.rewards; the start curricula (goal_start_share,
 midgame_start_share) are drawn as MatchCore draws them. Opponents: "policy" (the caller's
 actions), "random" and "idle"; the planner, the scripted chaser and "none" need per-match Python
-and stay on the PyBullet backend for now, as do the planner teacher and skills (ConfigError
-names what is missing). The ring and goal memories and the route slots are batched
-(sim.fast.memory). The route teacher is jetson.autonomy.skills' controller, one per match as
+and stay on the PyBullet backend for now, as does the planner teacher (ConfigError names what is
+missing). The ring and goal memories and the route slots are batched (sim.fast.memory). A skill
+policy's scores drive each robot's SkillDriver (jetson.autonomy.skills, one per robot and match
+as MatchCore keeps them), and intake and clamp actions run the actuators as MatchCore.command
+does. The route teacher is jetson.autonomy.skills' controller, one per match as
 VecMatches keeps it: a Python call per match and step, which costs about what stepping the
 batch does at a few hundred matches and far more at thousands (it suits capped.toml's 16).
 """
@@ -25,7 +27,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from jetson.autonomy.skills import SkillDriver
+from jetson.autonomy.skills import SkillConfig, SkillDriver
 from jetson.autonomy.spec import ObservationSpec
 from sim.errors import ConfigError
 from sim.fast.observe import FastObserver, unsupported_spec
@@ -53,6 +55,7 @@ from sim.world import rules
 
 FAST_OPPONENTS = ("policy", "random", "idle")
 F64 = NDArray[np.float64]
+Commands = tuple[F64, F64, NDArray[np.bool_], NDArray[np.int8]]  # linear, angular, intake, clamp
 
 
 def fast_unsupported(config: EnvConfig, teacher: str = "none") -> list[str]:
@@ -60,10 +63,6 @@ def fast_unsupported(config: EnvConfig, teacher: str = "none") -> list[str]:
     out = unsupported(config.world)
     if len(config.world.red) != 1 or len(config.world.blue) != 1:
         out.append("a match that is not 1v1 (training matches are one robot a side)")
-    if config.skills is not None:
-        out.append("[env.skills] (a skill policy)")
-    if config.action_intake or config.action_clamp:
-        out.append("intake or clamp actions")
     if teacher not in ("none", "route"):
         out.append(f"imitation.teacher = {teacher!r}")
     if config.observation is not None:
@@ -135,6 +134,8 @@ class FastMatches:
         # The route teacher: the route skill's controller of each match's learner.
         self._route_teacher = teacher == "route"
         self._routers: list[SkillDriver | None] = [None] * n
+        # A skill policy's controllers: each match's two robots' (MatchCore.skill_driver).
+        self._drivers: list[list[SkillDriver]] = [[] for _ in range(n)]
 
     # --- VecMatches' interface ---------------------------------------------------------------
 
@@ -162,12 +163,13 @@ class FastMatches:
         lin = np.zeros((self.n, 2))
         ang = np.zeros((self.n, 2))
         intake = np.ones((self.n, 2), dtype=bool)
+        clamp = np.full((self.n, 2), -1, dtype=np.int8)
         mine = self._drive(np.asarray(actions, dtype=np.float64))
         theirs = self._opponents(np.asarray(opponent_actions, dtype=np.float64))
         for cmd, who in ((mine, me), (theirs, them)):
-            lin[rows, who], ang[rows, who], intake[rows, who] = cmd
+            lin[rows, who], ang[rows, who], intake[rows, who], clamp[rows, who] = cmd
         before = w.collected[rows, me].copy()
-        events = w.step(lin, ang, intake)
+        events = w.step(lin, ang, intake, clamp)
         self.obs = self.observer.push()
         pinned = events.pins[:, 0] if events.pins.shape[1] else np.zeros(self.n, bool)
         ended = events.match_over | (pinned & self.config.end_on_pin)
@@ -229,9 +231,10 @@ class FastMatches:
                 self.world.room_cap[k] = 1 << 30
             self._curricula(int(k), rng)
             if self._route_teacher:
-                i = int(self.learner[k])
-                settings = skill_settings(w.field, w.alliances[i], w.robot_configs[i])
-                self._routers[k] = SkillDriver(replace(ROUTE_SKILL, **settings), self.spec)
+                self._routers[k] = self._skill_driver(int(self.learner[k]), ROUTE_SKILL)
+            if self.config.skills is not None:
+                skills = self.config.skills
+                self._drivers[k] = [self._skill_driver(i, skills) for i in range(w.n_robots)]
         self.steps[which] = 0
         self.total[which] = 0.0
         self.totals[which] = 0.0
@@ -280,19 +283,15 @@ class FastMatches:
         if pose is not None:
             w.place_robot(k, i, *pose)
 
-    def _drive(self, actions: F64) -> tuple[F64, F64, NDArray[np.bool_]]:
-        """Drive actions (B, 2) of the robots they are for -> (linear, angular, intake); a
-        non-finite action is a stop with the intake off (MatchCore.command)."""
+    def _drive(self, actions: F64) -> Commands:
+        """The learners' actions (B, action_size) -> their commands (MatchCore.command)."""
         if actions.shape != (self.n, self.config.action_size):
             raise ValueError(f"actions must have shape ({self.n}, {self.config.action_size})")
-        ok = np.isfinite(actions).all(axis=1)
-        a = np.clip(np.where(ok[:, None], actions, 0.0), -1.0, 1.0)
-        w = self.world
-        return a[:, 0] * w.max_v[self.learner], a[:, 1] * w.max_w[self.learner], ok
+        return self._commands(actions, self.learner)
 
-    def _opponents(self, actions: F64) -> tuple[F64, F64, NDArray[np.bool_]]:
-        """The opponents' (linear, angular, intake): the caller's actions for a policy
-        opponent, uniform random ones, or a stop (idle)."""
+    def _opponents(self, actions: F64) -> Commands:
+        """The opponents' commands: the caller's actions for a policy opponent, uniform random
+        ones (RandomPlayer: through MatchCore.command, as a policy's), or a stop (idle)."""
         if actions.shape != (self.n, self.config.action_size):
             raise ValueError(
                 f"opponent actions must have shape ({self.n}, {self.config.action_size})"
@@ -300,12 +299,35 @@ class FastMatches:
         kinds = np.array(self.kinds)
         random = self._player_rng.uniform(-1.0, 1.0, actions.shape)
         a = np.where((kinds == "random")[:, None], random, actions)
-        a = np.where((kinds == "idle")[:, None], 0.0, a)
-        ok = np.isfinite(a).all(axis=1)
-        a = np.clip(np.where(ok[:, None], a, 0.0), -1.0, 1.0)
-        them = 1 - self.learner
+        lin, ang, intake, clamp = self._commands(a, 1 - self.learner)
+        idle = kinds == "idle"  # IdlePlayer: DriveCommand(0, 0), intake on, clamp automatic
+        lin[idle], ang[idle], intake[idle], clamp[idle] = 0.0, 0.0, True, -1
+        return lin, ang, intake, clamp
+
+    def _commands(self, actions: F64, who: NDArray[np.int64]) -> Commands:
+        """Actions (B, action_size) of robot `who` of each match -> (linear, angular, intake,
+        clamp: 1 grab, 0 release, -1 automatic), as MatchCore.command and skill_command: a
+        drive action scaled to the robot's top speeds, or skill scores driven by the robot's
+        SkillDriver; then the actuators; anything non-finite a stop, intake off."""
+        cfg = self.config
         w = self.world
-        return a[:, 0] * w.max_v[them], a[:, 1] * w.max_w[them], ok
+        ok = np.isfinite(actions).all(axis=1)
+        a = np.clip(np.where(ok[:, None], actions, 0.0), -1.0, 1.0)
+        if cfg.skills is None:
+            lin, ang, n = a[:, 0] * w.max_v[who], a[:, 1] * w.max_w[who], 2
+        else:
+            n = cfg.skills.n_options
+            lin, ang = np.zeros(self.n), np.zeros(self.n)
+            rows = np.arange(self.n)
+            obs = self.obs[rows, who]
+            for k in np.flatnonzero(ok):
+                lin[k], ang[k] = self._drivers[k][who[k]].command(obs[k], actions[k, :n])
+        tail = a[:, n:]
+        intake = ok & (tail[:, 0] > 0 if cfg.action_intake else True)
+        clamp = np.full(self.n, -1, dtype=np.int8)
+        if cfg.action_clamp:
+            clamp = np.where(ok, (tail[:, int(cfg.action_intake)] > 0).astype(np.int8), -1)
+        return lin, ang, intake, clamp.astype(np.int8)
 
     # --- rewards ----------------------------------------------------------------------------
 
@@ -474,6 +496,20 @@ class FastMatches:
             ended_by_pin=by_pin,
         )
 
+    def _skill_driver(self, i: int, skills: SkillConfig) -> SkillDriver:
+        """A fresh controller for robot i (MatchCore.skill_driver): its platform and size."""
+        w = self.world
+        settings = skill_settings(w.field, w.alliances[i], w.robot_configs[i])
+        return SkillDriver(replace(skills, **settings), self.spec)
+
+    def _deciding(self, mine: NDArray[np.float32]) -> NDArray[np.bool_]:
+        """Whether each learner's next action decides anything (VecMatches' deciding): False
+        while a skill manoeuvre it committed to is under way."""
+        if self.config.skills is None:
+            return np.ones(self.n, bool)
+        me = self.learner
+        return np.array([not d[me[k]].committed(mine[k]) for k, d in enumerate(self._drivers)])
+
     def _advice(self, mine: NDArray[np.float32]) -> NDArray[np.float32]:
         """The teacher's label for each learner observation (VecMatches' advice): what the
         route skill drives (linear, angular in action units); NaN without a teacher."""
@@ -507,6 +543,6 @@ class FastMatches:
             final if final is not None else np.zeros_like(mine),
             episodes,
             self._advice(mine),
-            np.ones(self.n, bool),
+            self._deciding(mine),
             self.uncapped.copy(),
         )

@@ -77,7 +77,7 @@ def test_a_policy_opponent_gets_its_own_observation_and_actions() -> None:
 
 
 def test_what_the_fast_backend_cannot_run_is_named() -> None:
-    with pytest.raises(ConfigError, match="skill policy"):
+    with pytest.raises(ConfigError, match="teacher = 'planner'"):
         replace(load_config("default"), backend="fast").on_backend()
     env = make_config(ENV)
     fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=2), seed=1)
@@ -91,7 +91,7 @@ def test_pete_sim_train_refuses_a_config_the_fast_backend_cannot_run(
     code = main(["train", "--config", "default", "--backend", "fast", "--run-dir", str(tmp_path)])
     assert code == 2
     err = capsys.readouterr().err
-    assert "--backend fast" in err and "skill policy" in err
+    assert "--backend fast" in err and "opponents.planner" in err
     assert not any(tmp_path.iterdir())  # refused before the run folder was written
 
 
@@ -191,3 +191,55 @@ def test_capped_toml_trains_on_the_fast_backend_with_its_route_teacher(tmp_path:
     assert result.steps == 2048
     assert result.history[-1]["charts/imitation_coef"] > 0
     assert np.isfinite(result.history[-1]["losses/imitation_loss"])
+
+
+def test_a_skill_policy_drives_through_each_robots_skill_controller() -> None:
+    """default.toml's skills on the fast backend: the route option (score it highest) fills the
+    intake as the planner's tour does; a goal option commits the robot to its manoeuvre, and
+    the learner decides nothing until the clamp closes or its time is up."""
+    cfg = load_config("default")
+    env = cfg.env_config()
+    assert env.skills is not None and env.skills.route_option
+    n = 6
+    fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=n), seed=5)
+    fm.set_kinds([("idle", -1)] * n)
+    step = fm.reset()
+    route = np.full((n, env.action_size), -1.0)
+    route[:, 0] = 1.0
+    most = np.zeros(n)
+    for _ in range(60):  # 5 s
+        step = fm.step(route, np.zeros_like(route))
+        assert step.deciding is not None and step.deciding.all()
+        most = np.maximum(most, fm.world.collected[np.arange(n), fm.learner])
+    assert np.median(most) >= 8  # the route fills the 10-ring intake (uncapped: more)
+    goal = np.full((n, env.action_size), -1.0)
+    goal[:, 1 + env.skills.ring_options] = 1.0  # the nearest goal slot
+    step = fm.step(goal, np.zeros_like(goal))
+    assert step.deciding is not None and not step.deciding.any()  # committed to the goal
+    for _ in range(2):
+        step = fm.step(goal, np.zeros_like(goal))
+    rows = np.arange(n)
+    v0 = np.abs(fm.world.v[rows, fm.learner])
+    assert v0.max() > 0.1  # backing onto goals
+    bad = np.full((n, env.action_size), np.nan)
+    fm.step(bad, np.zeros_like(bad))  # NaN scores: a stop (braking), not the manoeuvre
+    v1 = np.abs(fm.world.v[rows, fm.learner])
+    assert (v1 <= v0 + 1e-9).all() and (v1 < v0).any()
+
+
+def test_intake_actions_run_the_intake_only_when_asked() -> None:
+    """A drive policy with an intake action (action_intake): rings come in only while it is
+    above 0, as MatchCore.command's actuators have it."""
+    env = make_config({**ENV, "max_steps": 200, "action_intake": True})
+    assert env.action_size == 3
+    n = 8
+    rings = {}
+    for on in (1.0, -1.0):
+        fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=n), seed=2)
+        fm.set_kinds([("idle", -1)] * n)
+        fm.reset()
+        forward = np.tile([0.8, 0.15, on], (n, 1))
+        for _ in range(60):
+            fm.step(forward, np.zeros_like(forward))
+        rings[on] = int(fm.world.collected[np.arange(n), fm.learner].sum())
+    assert rings[1.0] > 4 and rings[-1.0] == 0, rings
