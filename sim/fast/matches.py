@@ -29,8 +29,10 @@ from numpy.typing import NDArray
 
 from jetson.autonomy.skills import SkillConfig, SkillDriver
 from jetson.autonomy.spec import ObservationSpec
+from sim.baselines.planner import Planner
 from sim.errors import ConfigError
 from sim.fast.observe import FastObserver, unsupported_spec
+from sim.fast.players import FastCore, command_row
 from sim.fast.world import FastWorld, unsupported
 from sim.match import (
     REWARD_COMPONENTS,
@@ -41,19 +43,24 @@ from sim.match import (
     skill_settings,
     with_prior,
 )
+from sim.players import Player, ScriptedPlayer
 from sim.rewards import goal_potential, park_potential, ring_potential
 from sim.training.rollout import (
     ROUTE_ACTION,
     ROUTE_SKILL,
+    TEACHERS,
     EpisodeStats,
     RolloutConfig,
     StepResult,
     advice_size,
     drive_label,
+    planner_label,
+    teacher_for,
 )
 from sim.world import rules
 
-FAST_OPPONENTS = ("policy", "random", "idle")
+FAST_OPPONENTS = ("policy", "random", "idle", "planner", "scripted")
+SCRIPTED = ("planner", "scripted")  # opponents that are Python players (sim.fast.players)
 F64 = NDArray[np.float64]
 Commands = tuple[F64, F64, NDArray[np.bool_], NDArray[np.int8]]  # linear, angular, intake, clamp
 
@@ -63,7 +70,7 @@ def fast_unsupported(config: EnvConfig, teacher: str = "none") -> list[str]:
     out = unsupported(config.world)
     if len(config.world.red) != 1 or len(config.world.blue) != 1:
         out.append("a match that is not 1v1 (training matches are one robot a side)")
-    if teacher not in ("none", "route"):
+    if teacher not in TEACHERS:
         out.append(f"imitation.teacher = {teacher!r}")
     if config.observation is not None:
         out += [f"observation.{name}" for name in unsupported_spec(config.observation)]
@@ -136,6 +143,10 @@ class FastMatches:
         self._routers: list[SkillDriver | None] = [None] * n
         # A skill policy's controllers: each match's two robots' (MatchCore.skill_driver).
         self._drivers: list[list[SkillDriver]] = [[] for _ in range(n)]
+        # Python players: each match's scripted opponent, and the planner teaching its learner.
+        self._players: list[Player | None] = [None] * n
+        self._planner_teacher = teacher == "planner"
+        self._teachers: list[Planner | None] = [None] * n
 
     # --- VecMatches' interface ---------------------------------------------------------------
 
@@ -235,6 +246,20 @@ class FastMatches:
             if self.config.skills is not None:
                 skills = self.config.skills
                 self._drivers[k] = [self._skill_driver(i, skills) for i in range(w.n_robots)]
+        if self._planner_teacher or any(self.kinds[k] in SCRIPTED for k in which):
+            # The players start from the match as it starts (after the curricula), as on
+            # PyBullet (their reset reads the field and the robots, not the sensors).
+            for k, rng in zip(which, rngs, strict=True):
+                core = self._core(int(k))
+                kind = self.kinds[k]
+                player = Planner() if kind == "planner" else ScriptedPlayer()
+                self._players[k] = player if kind in SCRIPTED else None
+                if self._players[k] is not None:
+                    player.reset(core, 1 - int(self.learner[k]), rng)  # type: ignore[arg-type]
+                if self._planner_teacher:
+                    planner = teacher_for(self.config.match_reward(bool(self.uncapped[k])))
+                    planner.reset(core, int(self.learner[k]), rng)  # type: ignore[arg-type]
+                    self._teachers[k] = planner
         self.steps[which] = 0
         self.total[which] = 0.0
         self.totals[which] = 0.0
@@ -299,9 +324,15 @@ class FastMatches:
         kinds = np.array(self.kinds)
         random = self._player_rng.uniform(-1.0, 1.0, actions.shape)
         a = np.where((kinds == "random")[:, None], random, actions)
-        lin, ang, intake, clamp = self._commands(a, 1 - self.learner)
+        them = 1 - self.learner
+        lin, ang, intake, clamp = self._commands(a, them)
         idle = kinds == "idle"  # IdlePlayer: DriveCommand(0, 0), intake on, clamp automatic
         lin[idle], ang[idle], intake[idle], clamp[idle] = 0.0, 0.0, True, -1
+        for k, player in enumerate(self._players):
+            if player is not None:
+                i = int(them[k])
+                cmd = player.act(self._core(k), i, self.obs[k, i])  # type: ignore[arg-type]
+                lin[k], ang[k], intake[k], clamp[k] = command_row(cmd)
         return lin, ang, intake, clamp
 
     def _commands(self, actions: F64, who: NDArray[np.int64]) -> Commands:
@@ -496,6 +527,10 @@ class FastMatches:
             ended_by_pin=by_pin,
         )
 
+    def _core(self, k: int) -> FastCore:
+        """Match k now, as MatchCore's players read it."""
+        return FastCore.of(self.world, self.observer, self.spec, self.config, k)
+
     def _skill_driver(self, i: int, skills: SkillConfig) -> SkillDriver:
         """A fresh controller for robot i (MatchCore.skill_driver): its platform and size."""
         w = self.world
@@ -514,6 +549,12 @@ class FastMatches:
         """The teacher's label for each learner observation (VecMatches' advice): what the
         route skill drives (linear, angular in action units); NaN without a teacher."""
         out = np.full((self.n, advice_size(self.config)), np.nan, np.float32)
+        if self._planner_teacher:
+            for k, planner in enumerate(self._teachers):
+                assert planner is not None
+                me = int(self.learner[k])
+                out[k] = planner_label(planner, self._core(k), me, mine[k])
+            return out
         if not self._route_teacher:
             return out
         rcs = self.world.robot_configs

@@ -82,6 +82,8 @@ class FastObserver:
             cams = [memory_camera(rc.camera, ring_z) for rc in rcs]
             self.memory = FastRingMemory(world, spec, cams)
         self.goal_memory = FastGoalMemory(world, spec) if spec.goal_memory else None
+        self.seen_pose = np.zeros((world.n, world.n_robots, 3))
+        self.seen_rings = np.zeros((world.n, world.n_robots, world.ring_xy.shape[1]), bool)
 
     # --- what the cameras see ---------------------------------------------------------------
 
@@ -121,6 +123,11 @@ class FastObserver:
         spec = self.spec
         visible = self.visible() if visible is None else visible
         pose = self.pose() if pose is None else pose
+        # What each robot's frame was built from, for players that read the same sensors (the
+        # planner through sim.fast.matches): only the rows this look is for.
+        keep = slice(None) if rows is None else rows
+        self.seen_pose[keep] = pose[keep]
+        self.seen_rings[keep] = visible[keep]
         unit = spec.length_unit_m
         noisy = self.obs_noise
         out = np.zeros((w.n, w.n_robots, spec.frame_size), dtype=np.float32)

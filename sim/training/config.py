@@ -121,7 +121,7 @@ class ImitationConfig:
 
 
 BACKENDS = ("pybullet", "fast")
-FAST_OPPONENTS = ("pool", "random", "idle")
+FAST_OPPONENTS = ("pool", "random", "idle", "planner", "scripted")
 
 
 @dataclass(frozen=True)

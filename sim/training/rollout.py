@@ -193,6 +193,28 @@ class StepResult:
     uncapped: np.ndarray | None = None
 
 
+def planner_label(teacher: Planner, core: Any, index: int, obs: np.ndarray) -> np.ndarray:
+    """The planner teacher's label for robot `index`'s observation `obs`, the planner acting
+    in `core` (a MatchCore, or sim.fast.players.FastCore): its (linear, angular) in action
+    units for a drive policy; for a skill policy +1 for the option that does what the planner
+    intends and -1 for the others, NaN where no option does it."""
+    command = teacher.act(core, index)
+    skills = core.config.skills
+    robot = core.world.robots[index]
+    if skills is None:
+        return drive_label(command.linear, command.angular, robot.config)
+    kind, point = teacher.intent
+    local = None
+    if point is not None:
+        local = field_to_robot(np.asarray(point)[None, :], robot.xy, robot.heading)[0]
+    k = option_for(kind, local, obs, core.spec, skills)
+    if k is None:
+        return np.full(skills.n_options, np.nan, np.float32)
+    label = np.full(skills.n_options, -1.0, np.float32)
+    label[k] = 1.0
+    return label
+
+
 def teacher_for(reward: RewardConfig) -> Planner:
     """The planner that teaches a match paid by `reward`: the usual one, parking at the end
     only when parking pays."""
@@ -351,26 +373,12 @@ class _Slot:
         planner keeps a map and a trail of poses, as when it drives). For a skill policy: +1
         for the option that does what the planner intends, -1 for the others. The route
         teacher: what the route skill drives from the learner's observation."""
-        skills = self.config.skills
         rc = self.core.world.robots[self.learner].config
         if self._router is not None:
             return drive_label(*self._router.command(self.obs[self.learner], ROUTE_ACTION), rc)
         if self.teacher is None:
             return np.full(advice_size(self.config), np.nan, np.float32)
-        command = self.teacher.act(self.core, self.learner)
-        if skills is not None:
-            kind, point = self.teacher.intent
-            robot = self.core.world.robots[self.learner]
-            local = None
-            if point is not None:
-                local = field_to_robot(np.asarray(point)[None, :], robot.xy, robot.heading)[0]
-            k = option_for(kind, local, self.obs[self.learner], self.core.spec, skills)
-            if k is None:
-                return np.full(skills.n_options, np.nan, np.float32)
-            label = np.full(skills.n_options, -1.0, np.float32)
-            label[k] = 1.0
-            return label
-        return drive_label(command.linear, command.angular, rc)
+        return planner_label(self.teacher, self.core, self.learner, self.obs[self.learner])
 
     def close(self) -> None:
         for core in self._cores.values():

@@ -4,6 +4,7 @@ runs on it, and a config it cannot run is refused by name."""
 
 from __future__ import annotations
 
+import tomllib
 from dataclasses import replace
 from pathlib import Path
 
@@ -14,7 +15,7 @@ from sim.cli import main
 from sim.errors import ConfigError
 from sim.fast.matches import FastMatches
 from sim.match import make_config
-from sim.training.config import FastConfig, load_config
+from sim.training.config import FastConfig, load_config, parse_config
 from sim.training.rollout import RolloutConfig
 from sim.training.trainer import train
 from sim.world.physics import World
@@ -76,23 +77,39 @@ def test_a_policy_opponent_gets_its_own_observation_and_actions() -> None:
     assert moved[np.arange(4), them].min() > 0
 
 
+WHOLE_GAME = """
+name = "game"
+backend = "fast"
+[env.world]
+game = "tipping_point"
+[opponents]
+pool = 0.5
+none = 0.5
+"""
+
+
 def test_what_the_fast_backend_cannot_run_is_named() -> None:
-    with pytest.raises(ConfigError, match="teacher = 'planner'"):
-        replace(load_config("default"), backend="fast").on_backend()
+    cfg = parse_config(tomllib.loads(WHOLE_GAME))
+    with pytest.raises(ConfigError, match="game = 'tipping_point'") as e:
+        cfg.on_backend()
+    assert "opponents.none" in str(e.value)
     env = make_config(ENV)
     fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=2), seed=1)
-    with pytest.raises(ConfigError, match="planner"):
-        fm.set_kinds([("planner", -1)] * 2)
+    with pytest.raises(ConfigError, match="none"):
+        fm.set_kinds([("none", -1)] * 2)
 
 
 def test_pete_sim_train_refuses_a_config_the_fast_backend_cannot_run(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code = main(["train", "--config", "default", "--backend", "fast", "--run-dir", str(tmp_path)])
+    config = tmp_path / "game.toml"
+    config.write_text(WHOLE_GAME)
+    run = tmp_path / "run"
+    code = main(["train", "--config", str(config), "--run-dir", str(run)])
     assert code == 2
     err = capsys.readouterr().err
-    assert "--backend fast" in err and "opponents.planner" in err
-    assert not any(tmp_path.iterdir())  # refused before the run folder was written
+    assert "--backend fast" in err and "tipping_point" in err
+    assert not run.exists()  # refused before the run folder was written
 
 
 def test_the_trainer_runs_on_the_fast_backend(tmp_path: Path) -> None:
@@ -243,3 +260,42 @@ def test_intake_actions_run_the_intake_only_when_asked() -> None:
             fm.step(forward, np.zeros_like(forward))
         rings[on] = int(fm.world.collected[np.arange(n), fm.learner].sum())
     assert rings[1.0] > 4 and rings[-1.0] == 0, rings
+
+
+def test_the_planner_plays_and_teaches_on_fast_matches() -> None:
+    """default.toml's planner on the fast backend: as the opponent it drives the other robot to
+    rings, as the teacher its labels pick the skill that does what it intends; following them
+    fills the learner's intake too."""
+    env = load_config("default").env_config()
+    n = 4
+    fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=n), seed=5, teacher="planner")
+    fm.set_kinds([("planner", -1)] * 2 + [("scripted", -1)] * 2)
+    step = fm.reset()
+    rows = np.arange(n)
+    picked = 0
+    for _ in range(96):  # 8 s
+        advice = step.advice
+        assert advice is not None and advice.shape == (n, env.skills.n_options)
+        labelled = np.isfinite(advice).all(axis=1)
+        assert ((advice[labelled] == 1.0).sum(axis=1) == 1).all()  # one option, +1
+        picked += int(labelled.sum())
+        step = fm.step(np.nan_to_num(advice, nan=-1.0), np.zeros((n, env.action_size)))
+    assert picked > 0.5 * 96 * n  # (NaN: backing off, searching, a target off the slots)
+    assert (fm.world.collected[rows, fm.learner] >= 8).all()
+    assert (fm.world.collected[rows, 1 - fm.learner] >= 5).all()  # the opponents collect too
+
+
+def test_default_toml_trains_on_the_fast_backend(tmp_path: Path) -> None:
+    """The shipped policy's config, unchanged: skills, memories, the planner teaching and a
+    quarter of the opponents, on the fast backend."""
+    cfg = replace(
+        load_config("default"),
+        backend="fast",
+        fast=FastConfig(envs=8, steps_per_env=32),
+        total_steps=512,
+        checkpoint_steps=512,
+    )
+    result = train(cfg, tmp_path / "run", progress=False, export=False)
+    assert result.steps == 512
+    assert result.history[-1]["charts/imitation_coef"] > 0
+    assert np.isfinite(result.history[-1]["losses/imitation_loss"])

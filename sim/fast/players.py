@@ -1,0 +1,93 @@
+"""Players written against MatchCore (the planner, the scripted chaser) on one fast match.
+
+    core = FastCore.of(matches.world, matches.observer, matches.spec, matches.config, k)
+    command = planner.act(core, index)
+
+MatchCore gives a player two things: the match's world (sim.world.state's robots, goals, rings
+and clock) and each robot's view (its GPS reading and the rings its camera sees, MatchCore.view).
+FastCore gives the same for match k of a FastWorld: match_view(world, k), and the reading and
+rings the FastObserver built that robot's frame from in this control step (the same reading,
+as MatchCore's GPS read twice in one step is). The players themselves are unchanged: the
+planner as an opponent and as the teacher, the greedy chaser as an opponent. Each is a Python
+call per match and step, as on PyBullet: what they cost is what they cost there, without the
+physics.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from jetson.autonomy.geometry import field_to_robot
+from jetson.autonomy.observation import RobotView
+from jetson.autonomy.spec import ObservationSpec
+from sim.fast.observe import FastObserver
+from sim.fast.view import MatchView, match_view
+from sim.fast.world import FastWorld
+from sim.match import EnvConfig
+from sim.world import sensors
+from sim.world.state import DriveCommand
+
+
+@dataclass
+class FastCore:
+    """One fast match as a MatchCore's player reads it (module docstring)."""
+
+    world: MatchView
+    spec: ObservationSpec
+    config: EnvConfig
+    seen_pose: NDArray[np.float64]  # (R, 3): each robot's GPS reading this step
+    seen_rings: NDArray[np.bool_]  # (R, N): the floor rings each robot's camera saw
+
+    @classmethod
+    def of(
+        cls,
+        world: FastWorld,
+        observer: FastObserver,
+        spec: ObservationSpec,
+        config: EnvConfig,
+        k: int,
+    ) -> FastCore:
+        """Match k now (a copy: stepping the world does not change it)."""
+        return cls(
+            match_view(world, k),
+            spec,
+            config,
+            observer.seen_pose[k].copy(),
+            observer.seen_rings[k].copy(),
+        )
+
+    def view(self, index: int) -> RobotView:
+        """What robot `index` knows (MatchCore.view): the GPS reading, the rings its camera
+        sees in its frame, the other robots, its intake and clamp."""
+        w = self.world
+        r = w.robots[index]
+        x, y, h = (float(v) for v in self.seen_pose[index])
+        rings = np.flatnonzero(self.seen_rings[index])
+        seen = sensors.rings_in_robot_frame(w, index, rings) if len(rings) else np.zeros((0, 2))
+        others = np.zeros((0, 2))
+        if self.spec.n_other_robots:
+            pts = [(o.x, o.y) for o in w.robots if o.index != index]
+            if pts:
+                others = field_to_robot(np.array(pts), r.xy, r.heading)
+        return RobotView(
+            x=x,
+            y=y,
+            heading_deg=h,
+            alliance=r.alliance,
+            time_s=w.time_s,
+            rings_robot_xy=seen,
+            rings_held=r.held,
+            others_robot_xy=others,
+            goal_clamped=r.carried_goal is not None,
+            intake_fills=r.config.ring_capacity is not None,
+        )
+
+
+def command_row(cmd: DriveCommand) -> tuple[float, float, bool, int]:
+    """A DriveCommand as FastWorld.step's row: linear, angular, intake, clamp (1 grab,
+    0 release, -1 automatic)."""
+    clamp = -1 if cmd.clamp is None else int(bool(cmd.clamp))
+    return float(cmd.linear), float(cmd.angular), bool(cmd.intake), clamp
