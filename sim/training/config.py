@@ -133,17 +133,10 @@ class FastConfig:
 
     envs: int = 1024
     steps_per_env: int = 64
-    # The opponents' shares on the fast backend, in place of [opponents] there: for a config
-    # whose [opponents] hold one the fast backend does not play yet (the planner).
-    opponents: dict[str, float] | None = None
 
     def __post_init__(self) -> None:
         if self.envs < 1 or self.steps_per_env < 1:
             raise ConfigError("[fast] envs and steps_per_env must be >= 1")
-        if self.opponents is not None and (
-            any(v < 0 for v in self.opponents.values()) or sum(self.opponents.values()) <= 0
-        ):
-            raise ConfigError("[fast] opponents: shares must be >= 0 and not all zero")
 
 
 @dataclass(frozen=True)
@@ -239,8 +232,7 @@ class TrainConfig:
         from sim.fast.matches import fast_unsupported
 
         missing = fast_unsupported(self.env_config(), self.imitation.teacher)
-        opponents = self.fast.opponents if self.fast.opponents is not None else self.opponents
-        kinds = sorted(k for k, share in opponents.items() if share > 0)
+        kinds = sorted(k for k, share in self.opponents.items() if share > 0)
         missing += [f"opponents.{k}" for k in kinds if k not in FAST_OPPONENTS]
         if missing:
             raise ConfigError(
@@ -254,7 +246,7 @@ class TrainConfig:
             envs_per_worker=self.fast.envs,
             steps_per_env=self.fast.steps_per_env,
         )
-        return replace(self, rollout=rollout, opponents=dict(opponents))
+        return replace(self, rollout=rollout)
 
     def env_config(self) -> EnvConfig:
         return make_config(_nones(self.env))

@@ -197,12 +197,12 @@ def test_the_route_teacher_drives_its_learner_to_the_rings_it_remembers() -> Non
 
 
 def test_capped_toml_trains_on_the_fast_backend_with_its_route_teacher(tmp_path: Path) -> None:
-    """capped.toml's [fast] table: its opponents (the pool; the planner is not batched) and its
-    size replace [opponents] and [rollout]'s on the fast backend; the route teacher pulls."""
+    """capped.toml as it is: its [fast] table sizes the rollouts, the planner is a quarter of
+    the opponents, the route teacher pulls."""
     cfg = replace(load_config("capped"), backend="fast")
     assert cfg.opponents["planner"] > 0
     fast = cfg.on_backend()
-    assert fast.opponents == {"pool": 1.0} and fast.rollout.n_envs == 16
+    assert fast.opponents == cfg.opponents and fast.rollout.n_envs == 16
     cfg = replace(cfg, total_steps=2048, checkpoint_steps=2048)
     result = train(cfg, tmp_path / "run", progress=False, export=False)
     assert result.steps == 2048
