@@ -11,13 +11,35 @@ compiled. tests/sim/fast/test_observe.py holds it to the twin's answer, ring for
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+# Below this many matches a compiled loop runs on one thread: a parallel region's start costs
+# more than the split saves, and on a busy machine it waits for a thread the system has not
+# scheduled (docs/notes/2026-11-28-fast-backend.md).
+SERIAL_BELOW = 128
+
 _T_MAX = 1.0 - 1e-6  # sim.visibility.occluded's: the segment stops short of its target
 _EPS = 1e-9  # sim.visibility._EPS: a sight line parallel to a slab
+
+
+@contextmanager
+def threads_for(n_matches: int) -> Iterator[None]:
+    """Run the compiled loops inside on one thread for a batch under SERIAL_BELOW matches, on
+    numba's threads otherwise (the caller's setting is restored after)."""
+    if n_matches >= SERIAL_BELOW:
+        yield
+        return
+    before = nb.get_num_threads()
+    nb.set_num_threads(1)
+    try:
+        yield
+    finally:
+        nb.set_num_threads(before)
 
 
 @nb.njit(cache=True, inline="always")

@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from jetson.autonomy.camera import MemoryCamera, robot_to_camera_rotation
 from jetson.autonomy.spec import REMEMBERED, SEEN, ObservationSpec
 from sim.errors import ConfigError
-from sim.fast.kernels import insert_nearest
+from sim.fast.kernels import insert_nearest, threads_for
 from sim.fast.world import FastWorld
 
 F64 = NDArray[np.float64]
@@ -139,12 +139,13 @@ class FastRingMemory(_Known):
         w = self.world
         s = self.spec
         fills = w.room_cap < (1 << 30)
-        rings, ok, route, n_route = _memory_step(
-            self.known, self.count, self.target, self.has_target, self.overflow,
-            np.asarray(active, dtype=np.bool_), w.x, w.y, w.heading, pose, self._blue,
-            w.ring_xy, visible, w.held, fills, self._view, self._cam, self._tour,
-            s.n_rings, s.route_slots, s.ring_capacity_norm, SEEN, REMEMBERED,
-        )  # fmt: skip
+        with threads_for(w.n):
+            rings, ok, route, n_route = _memory_step(
+                self.known, self.count, self.target, self.has_target, self.overflow,
+                np.asarray(active, dtype=np.bool_), w.x, w.y, w.heading, pose, self._blue,
+                w.ring_xy, visible, w.held, fills, self._view, self._cam, self._tour,
+                s.n_rings, s.route_slots, s.ring_capacity_norm, SEEN, REMEMBERED,
+            )  # fmt: skip
         return MemorySlots(rings, ok, route, n_route)
 
 
@@ -174,11 +175,12 @@ class FastGoalMemory(_Known):
         (B, R, n_goals, 2), and how many slots are filled (B, R)."""
         s = self.spec
         clamped = self.world.carried >= 0
-        return _goal_step(
-            self.known, self.count, self.holding, self.overflow,
-            np.asarray(active, dtype=np.bool_), pose, self._blue, clamped,
-            s.goal_clamp_offset_m, s.goal_forget_m, s.n_goals,
-        )  # fmt: skip
+        with threads_for(self.world.n):
+            return _goal_step(
+                self.known, self.count, self.holding, self.overflow,
+                np.asarray(active, dtype=np.bool_), pose, self._blue, clamped,
+                s.goal_clamp_offset_m, s.goal_forget_m, s.n_goals,
+            )  # fmt: skip
 
 
 def _camera_row(cam: MemoryCamera) -> list[float]:

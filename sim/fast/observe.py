@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from jetson.autonomy.spec import SEEN, ObservationSpec
 from sim.config import CameraConfig
 from sim.errors import ConfigError
-from sim.fast.kernels import nearest_seen, visible_rings
+from sim.fast.kernels import nearest_seen, threads_for, visible_rings
 from sim.fast.memory import FastGoalMemory, FastRingMemory, unsupported_memory
 from sim.fast.world import FastWorld
 from sim.match import memory_camera
@@ -91,10 +91,11 @@ class FastObserver:
         """(B, R, N): the floor rings each robot's camera sees (sensors.visible_rings: the
         frustum and the prism occlusion of sim.visibility, compiled: sim.fast.kernels)."""
         w = self.world
-        return visible_rings(
-            w.x, w.y, w.heading, w.w, w.ring_xy, w.ring_floor, w.ring_z,
-            self._cam, self._boxes, w.gx, w.gy, self._discs,
-        )  # fmt: skip
+        with threads_for(w.n):
+            return visible_rings(
+                w.x, w.y, w.heading, w.w, w.ring_xy, w.ring_floor, w.ring_z,
+                self._cam, self._boxes, w.gx, w.gy, self._discs,
+            )  # fmt: skip
 
     # --- frames -----------------------------------------------------------------------------
 
@@ -167,7 +168,8 @@ class FastObserver:
             ok = np.where(np.arange(spec.n_goals) < count[..., None], SEEN, 0.0)
             self._write(out, spec.goal_offset, goals, ok, noise=False)
         if self.memory is None:
-            near, seen = nearest_seen(w.x, w.y, w.heading, w.ring_xy, visible, spec.n_rings)
+            with threads_for(w.n):
+                near, seen = nearest_seen(w.x, w.y, w.heading, w.ring_xy, visible, spec.n_rings)
             ok = np.where(np.arange(spec.n_rings) < seen[..., None], SEEN, 0.0)
             self._write(out, spec.ring_offset, near, ok)
             return out

@@ -288,11 +288,12 @@ class FastWorld:
             self.x, self.y, self.heading, self.rvx, self.rvy, self.rw,
             self.gx, self.gy, self.gvx, self.gvy, self.carried, self.carrier,
         )  # fmt: skip
-        kernels.substeps(
-            state, self.half_w, self.half_l, self.mass, self.radius, self._offsets,
-            self.goal_radius, self.goal_mass, self.field.half, self.dt / self.substeps,
-            self.substeps, _GOAL_DAMPING, _POSITION_SHARE,
-        )  # fmt: skip
+        with kernels.threads_for(self.n):
+            kernels.substeps(
+                state, self.half_w, self.half_l, self.mass, self.radius, self._offsets,
+                self.goal_radius, self.goal_mass, self.field.half, self.dt / self.substeps,
+                self.substeps, _GOAL_DAMPING, _POSITION_SHARE,
+            )  # fmt: skip
         self.heading = np.asarray(wrap_heading(self.heading), dtype=np.float64)
         dx, dy = self.x - before[..., 0], self.y - before[..., 1]
         h0 = np.radians(before[..., 2])
@@ -332,7 +333,10 @@ class FastWorld:
         """(B, P): the least overlap of each robot pair's boxes (negative: the gap between
         them); pairs (P, 2) of robot indices, default every pair."""
         pairs = self._pairs if pairs is None else np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
-        return kernels.pair_overlaps(self.x, self.y, self.heading, self.half_w, self.half_l, pairs)
+        with kernels.threads_for(self.n):
+            return kernels.pair_overlaps(
+                self.x, self.y, self.heading, self.half_w, self.half_l, pairs
+            )
 
     def _touching(self) -> Bool:
         """Red-blue pairs within pin_contact_m hull to hull (World._touching), (B, P_pin)."""

@@ -172,3 +172,16 @@ def test_commands_of_the_wrong_shape_are_refused_by_name() -> None:
     with pytest.raises(ValueError, match="clamp must have shape"):
         fast.step(np.zeros((3, 2)), np.zeros((3, 2)), clamp=np.zeros(3))
     assert not fast.steps.any()  # nothing moved
+
+
+def test_small_batches_run_their_compiled_loops_on_one_thread() -> None:
+    import numba
+
+    from sim.fast.kernels import SERIAL_BELOW, threads_for
+
+    before = numba.get_num_threads()
+    with threads_for(SERIAL_BELOW - 1):
+        assert numba.get_num_threads() == 1
+    assert numba.get_num_threads() == before  # the caller's setting comes back
+    with threads_for(SERIAL_BELOW):
+        assert numba.get_num_threads() == before
