@@ -10,19 +10,21 @@ generator np.random.default_rng((seed, slot, match number)), which then starts t
 World.reset would. Rewards are MatchCore's components (sim.match.REWARD_COMPONENTS) for the
 learner, the shaping potentials from sim.rewards; the start curricula (goal_start_share,
 midgame_start_share) are drawn as MatchCore draws them. Opponents: "policy" (the caller's
-actions), "random" and "idle"; the planner, the scripted chaser and "none" need per-match Python
-and stay on the PyBullet backend for now, as does the planner teacher (ConfigError names what is
-missing). The ring and goal memories and the route slots are batched (sim.fast.memory). A skill
-policy's scores drive each robot's SkillDriver (jetson.autonomy.skills, one per robot and match
-as MatchCore keeps them), and intake and clamp actions run the actuators as MatchCore.command
-does. The route teacher is jetson.autonomy.skills' controller, one per match as
-VecMatches keeps it: a Python call per match and step, which costs about what stepping the
-batch does at a few hundred matches and far more at thousands (it suits capped.toml's 16).
+actions), "random", "idle", and "planner" and "scripted", the players written against MatchCore,
+each playing its match through sim.fast.players.FastCore; "none" (no opponent robot) stays on
+the PyBullet backend (ConfigError names it). The ring and goal memories and the route slots are
+batched (sim.fast.memory). A skill policy's scores drive each robot's SkillDriver
+(jetson.autonomy.skills, one per robot and match as MatchCore keeps them), and intake and clamp
+actions run the actuators as MatchCore.command does. Teachers: the route skill's controller and
+the planner, one per match as VecMatches keeps them. Controllers, players and teachers are a
+Python call per match and step: they cost about what stepping the batch does at a few hundred
+matches and far more at thousands (they suit capped.toml's and default.toml's 16).
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -246,20 +248,23 @@ class FastMatches:
             if self.config.skills is not None:
                 skills = self.config.skills
                 self._drivers[k] = [self._skill_driver(i, skills) for i in range(w.n_robots)]
-        if self._planner_teacher or any(self.kinds[k] in SCRIPTED for k in which):
-            # The players start from the match as it starts (after the curricula), as on
-            # PyBullet (their reset reads the field and the robots, not the sensors).
-            for k, rng in zip(which, rngs, strict=True):
-                core = self._core(int(k))
-                kind = self.kinds[k]
+        # The Python players start from the match as it starts (after the curricula), as on
+        # PyBullet (their reset reads the field and the robots, not the sensors).
+        for k, rng in zip(which, rngs, strict=True):
+            kind = self.kinds[k]
+            me = int(self.learner[k])
+            self._players[k] = None
+            if kind not in SCRIPTED and not self._planner_teacher:
+                continue
+            core: Any = self._core(int(k))  # what a MatchCore gives its players
+            if kind in SCRIPTED:
                 player = Planner() if kind == "planner" else ScriptedPlayer()
-                self._players[k] = player if kind in SCRIPTED else None
-                if self._players[k] is not None:
-                    player.reset(core, 1 - int(self.learner[k]), rng)  # type: ignore[arg-type]
-                if self._planner_teacher:
-                    planner = teacher_for(self.config.match_reward(bool(self.uncapped[k])))
-                    planner.reset(core, int(self.learner[k]), rng)  # type: ignore[arg-type]
-                    self._teachers[k] = planner
+                player.reset(core, 1 - me, rng)
+                self._players[k] = player
+            if self._planner_teacher:
+                planner = teacher_for(self.config.match_reward(bool(self.uncapped[k])))
+                planner.reset(core, me, rng)
+                self._teachers[k] = planner
         self.steps[which] = 0
         self.total[which] = 0.0
         self.totals[which] = 0.0
@@ -331,7 +336,8 @@ class FastMatches:
         for k, player in enumerate(self._players):
             if player is not None:
                 i = int(them[k])
-                cmd = player.act(self._core(k), i, self.obs[k, i])  # type: ignore[arg-type]
+                core: Any = self._core(k)
+                cmd = player.act(core, i, self.obs[k, i])
                 lin[k], ang[k], intake[k], clamp[k] = command_row(cmd)
         return lin, ang, intake, clamp
 
