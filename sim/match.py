@@ -34,6 +34,7 @@ from sim.world.state import (
     DriveCommand,
     GpsReading,
     StepEvents,
+    WorldState,
 )
 
 REWARD_COMPONENTS = (
@@ -206,6 +207,39 @@ def with_prior(spec: ObservationSpec, world: World) -> ObservationSpec:
         body = (rc.width_m / 2 + rad, rc.length_m / 2 + rad)
         spec = replace(spec, memory_body=tuple(round(v, 4) for v in body))
     return spec
+
+
+def robot_view(
+    world: WorldState,
+    spec: ObservationSpec,
+    index: int,
+    pose: tuple[float, float, float],
+    rings: np.ndarray,
+) -> RobotView:
+    """What robot `index` knows (MatchCore.view): `pose` (its GPS reading, field frame), the
+    floor rings `rings` (indices) its camera sees, in its frame, the other robots (when the
+    spec has slots for them), its intake and its clamp. sim.fast.players builds a fast match's
+    views with it too."""
+    r = world.robots[index]
+    # Most steps see no ring: the frame conversion of nothing is nothing.
+    seen = sensors.rings_in_robot_frame(world, index, rings) if len(rings) else np.zeros((0, 2))
+    others = np.zeros((0, 2))
+    if spec.n_other_robots:
+        pts = [(o.x, o.y) for o in world.robots if o.index != index]
+        if pts:
+            others = field_to_robot(np.array(pts), r.xy, r.heading)
+    return RobotView(
+        x=pose[0],
+        y=pose[1],
+        heading_deg=pose[2],
+        alliance=r.alliance,
+        time_s=world.time_s,
+        rings_robot_xy=seen,
+        rings_held=r.held,
+        others_robot_xy=others,
+        goal_clamped=r.carried_goal is not None,
+        intake_fills=r.config.ring_capacity is not None,
+    )
 
 
 def memory_camera(cam: CameraConfig, ring_z_m: float) -> MemoryCamera:
@@ -449,29 +483,10 @@ class MatchCore:
         r = w.robots[index]
         if self.config.gps_noise:
             g = self.gps(index)
-            x, y, h = g.x, g.y, g.heading_deg
+            pose = (g.x, g.y, g.heading_deg)
         else:
-            x, y, h = r.x, r.y, r.heading
-        rings = sensors.visible_rings(w, index)
-        # Most steps see no ring: the frame conversion of nothing is nothing.
-        seen = sensors.rings_in_robot_frame(w, index, rings) if len(rings) else np.zeros((0, 2))
-        others = np.zeros((0, 2))
-        if self.spec.n_other_robots:
-            pts = [(o.x, o.y) for o in w.robots if o.index != index]
-            if pts:
-                others = field_to_robot(np.array(pts), r.xy, r.heading)
-        return RobotView(
-            x=x,
-            y=y,
-            heading_deg=h,
-            alliance=r.alliance,
-            time_s=w.time_s,
-            rings_robot_xy=seen,
-            rings_held=r.held,
-            others_robot_xy=others,
-            goal_clamped=r.carried_goal is not None,
-            intake_fills=r.config.ring_capacity is not None,
-        )
+            pose = (r.x, r.y, r.heading)
+        return robot_view(w, self.spec, index, pose, sensors.visible_rings(w, index))
 
     def gps(self, index: int) -> GpsReading:
         """Robot `index`'s noisy GPS reading now. Read twice in one step (the frame, then a

@@ -252,27 +252,14 @@ def _memory_step(
                         dist = math.hypot(lx, ly)
                         bearing = math.degrees(abs(math.atan2(lx, ly)))
                         in_view = bearing <= view[1] / 2 and dist >= view[2] and dist <= view[3]
-                    matched = False
-                    for j in range(ns):
-                        ex = kn[k, 0] - field_seen[j, 0]
-                        ey = kn[k, 1] - field_seen[j, 1]
-                        if math.sqrt(ex * ex + ey * ey) <= merge:
-                            matched = True
-                            break
+                    matched = _near_any(kn[k, 0], kn[k, 1], field_seen, ns, merge)
                     gone[k] = (in_view and not matched) or taken
                 k_n = _compact(kn, k_n, gone)
             added = 0
             if ns > 0:
                 if k_n > 0:
-                    for k in range(k_n):
-                        stale = False
-                        for j in range(ns):
-                            ex = field_seen[j, 0] - kn[k, 0]
-                            ey = field_seen[j, 1] - kn[k, 1]
-                            if math.sqrt(ex * ex + ey * ey) <= merge:
-                                stale = True
-                                break
-                        gone[k] = stale
+                    for k in range(k_n):  # replaced by their fresh sighting
+                        gone[k] = _near_any(kn[k, 0], kn[k, 1], field_seen, ns, merge)
                     k_n = _compact(kn, k_n, gone)
                 for j in range(ns):
                     if k_n < cap:
@@ -311,6 +298,17 @@ def _memory_step(
                     d2, rings_out[b, i], ok_out[b, i], filled, lx * lx + ly * ly, lx, ly, okv
                 )
     return rings_out, ok_out, route_out, route_n
+
+
+@nb.njit(cache=True, inline="always")
+def _near_any(x, y, pts, n, radius):
+    """Whether any of pts[:n] lies within `radius` of (x, y) (RingMemory's norm <= merge)."""
+    for j in range(n):
+        ex = x - pts[j, 0]
+        ey = y - pts[j, 1]
+        if math.sqrt(ex * ex + ey * ey) <= radius:
+            return True
+    return False
 
 
 @nb.njit(cache=True, inline="always")

@@ -20,14 +20,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from jetson.autonomy.geometry import field_to_robot
 from jetson.autonomy.observation import RobotView
 from jetson.autonomy.spec import ObservationSpec
 from sim.fast.observe import FastObserver
 from sim.fast.view import MatchView, match_view
 from sim.fast.world import FastWorld
-from sim.match import EnvConfig
-from sim.world import sensors
+from sim.match import EnvConfig, robot_view
 from sim.world.state import DriveCommand
 
 
@@ -61,29 +59,10 @@ class FastCore:
 
     def view(self, index: int) -> RobotView:
         """What robot `index` knows (MatchCore.view): the GPS reading, the rings its camera
-        sees in its frame, the other robots, its intake and clamp."""
-        w = self.world
-        r = w.robots[index]
+        saw this step in its frame, the other robots, its intake and clamp."""
         x, y, h = (float(v) for v in self.seen_pose[index])
         rings = np.flatnonzero(self.seen_rings[index])
-        seen = sensors.rings_in_robot_frame(w, index, rings) if len(rings) else np.zeros((0, 2))
-        others = np.zeros((0, 2))
-        if self.spec.n_other_robots:
-            pts = [(o.x, o.y) for o in w.robots if o.index != index]
-            if pts:
-                others = field_to_robot(np.array(pts), r.xy, r.heading)
-        return RobotView(
-            x=x,
-            y=y,
-            heading_deg=h,
-            alliance=r.alliance,
-            time_s=w.time_s,
-            rings_robot_xy=seen,
-            rings_held=r.held,
-            others_robot_xy=others,
-            goal_clamped=r.carried_goal is not None,
-            intake_fills=r.config.ring_capacity is not None,
-        )
+        return robot_view(self.world, self.spec, index, (x, y, h), rings)  # type: ignore[arg-type]
 
 
 def command_row(cmd: DriveCommand) -> tuple[float, float, bool, int]:
