@@ -187,6 +187,12 @@ HEADLINES: tuple[Headline, ...] = (
         "{h2h_win_rate_ours_vs_planner:pct}, {h2h_win_rate_ours_vs_original:pct}",
     ),
     Headline(
+        "Training on the fast backend vs on PyBullet: PPO end to end; bench.train's competence",
+        "fastpath",
+        "{fast_ppo_steps_per_s} vs {pybullet_ppo_steps_per_s} steps/s; "
+        "{fast_competence_wall_s} s vs {pybullet_competence_wall_s} s",
+    ),
+    Headline(
         "Full stack over the policy directly in the simulator: rings, points",
         "match",
         "{rings_full_over_sim}, {score_full_over_sim}",

@@ -100,7 +100,7 @@ class FastMatches:
         if spec.goal_memory and spec.goal_clamp_offset_m <= 0:
             # with_prior's clamp offset (World.clamp_offset of the first robot and goal), from
             # the fast world's own, so that with_prior needs nothing but the field.
-            offset = abs(float(self.world._offsets[0, 0])) if self.world.n_goals else 0.0
+            offset = abs(float(self.world.clamp_offsets[0, 0])) if self.world.n_goals else 0.0
             offset = offset or self.world.robot_configs[0].length_m / 2
             spec = replace(spec, goal_clamp_offset_m=round(offset, 4))
         self.spec: ObservationSpec = with_prior(spec, self.world)  # type: ignore[arg-type]
@@ -307,7 +307,7 @@ class FastMatches:
         pose = goal_start(
             rng,
             [(float(w.gx[k, g]), float(w.gy[k, g])) for g in mine],
-            [abs(float(w._offsets[i, g])) for g in mine],
+            [abs(float(w.clamp_offsets[i, g])) for g in mine],
             w.field.half - float(w.radius[i]),
         )
         if pose is not None:
@@ -396,7 +396,7 @@ class FastMatches:
             rings = ring_potential(front, w.room[rows, me][:, None], w.ring_xy, w.ring_floor)
             out["approach"] = np.where(self._reward_config("approach") != 0, rings[:, 0], 0.0)
         if self._paid("goal_approach") and w.n_goals:
-            offsets = w._offsets[me]  # (B, G): signed, behind the back for a back clamp
+            offsets = w.clamp_offsets[me]  # (B, G): signed, behind the back for a back clamp
             cx = x + offsets * np.sin(rad)
             cy = y + offsets * np.cos(rad)
             clamp = np.stack([cx, cy], -1)[:, None]  # (B, 1, G, 2)

@@ -69,11 +69,11 @@ class FastObserver:
         self.stack = np.zeros((world.n, world.n_robots, spec.n_frames, spec.frame_size), np.float32)
         g = world.field.goals
         # Goals hide rings as two discs each: the base and the post (sim.world.sensors.obstacles).
-        self._disc_radius = np.array([x.base_radius for x in g] + [POST_RADIUS] * len(g), float)
-        self._disc_height = np.array([x.base_height for x in g] + [x.height for x in g], float)
+        radius = np.concatenate([world.field.goal_base_radii, np.full(len(g), POST_RADIUS)])
+        height = np.array([x.base_height for x in g] + [x.height for x in g], float)
         rcs = world.robot_configs
         self._boxes = np.array([(rc.width_m / 2, rc.length_m / 2, rc.height_m) for rc in rcs])
-        self._discs = np.stack([self._disc_radius, self._disc_height], -1).reshape(-1, 2)
+        self._discs = np.stack([radius, height], -1).reshape(-1, 2)
         self._cam = np.array([_camera_row(rc.camera) for rc in rcs]).reshape(-1, 14)
         self._blue = np.array([a == "blue" for a in world.alliances])
         self.memory: FastRingMemory | None = None

@@ -132,10 +132,10 @@ class FastWorld:
         self.radius = np.array([rc.radius_m for rc in rcs])  # the footprint's bounding circle
         self.goal_radius = self.field.goal_base_radii.copy()
         self.goal_mass = np.array([g.mass_kg for g in self.field.goals])
-        # Each robot's clamp point for each goal (World.clamp_offset): its signed distance ahead
-        # of the robot's centre, negative behind a back clamp.
+        # Each robot's clamp point for each goal, (R, G) (World.clamp_offset): its signed
+        # distance ahead of the robot's centre, negative behind a back clamp.
         offsets = self.half_l[:, None] + self.goal_radius[None] + 0.005
-        self._offsets = offsets * np.where(self.front_clamp, 1.0, -1.0)[:, None]
+        self.clamp_offsets = offsets * np.where(self.front_clamp, 1.0, -1.0)[:, None]
         self.n_goals = len(self.field.goals)
         reds = [i for i, a in enumerate(self.alliances) if a == "red"]
         blues = [i for i, a in enumerate(self.alliances) if a == "blue"]
@@ -243,7 +243,7 @@ class FastWorld:
         self.prev_pose[k, i] = (self.x[k, i], self.y[k, i], self.heading[k, i])
         g = int(self.carried[k, i])
         if g >= 0:
-            back = float(self._offsets[i, g])
+            back = float(self.clamp_offsets[i, g])
             rad = np.radians(self.heading[k, i])
             self.gx[k, g] = self.x[k, i] + back * np.sin(rad)
             self.gy[k, g] = self.y[k, i] + back * np.cos(rad)
@@ -290,7 +290,7 @@ class FastWorld:
         )  # fmt: skip
         with kernels.threads_for(self.n):
             kernels.substeps(
-                state, self.half_w, self.half_l, self.mass, self.radius, self._offsets,
+                state, self.half_w, self.half_l, self.mass, self.radius, self.clamp_offsets,
                 self.goal_radius, self.goal_mass, self.field.half, self.dt / self.substeps,
                 self.substeps, _GOAL_DAMPING, _POSITION_SHARE,
             )  # fmt: skip
@@ -347,7 +347,7 @@ class FastWorld:
 
     def clamp_points(self, goal: I64) -> tuple[F64, F64]:
         """Where goal `goal` (B, R) sits in each robot's clamp (World.clamp_point)."""
-        back = self._offsets[np.arange(self.n_robots)[None], goal]
+        back = self.clamp_offsets[np.arange(self.n_robots)[None], goal]
         rad = np.radians(self.heading)
         return self.x + back * np.sin(rad), self.y + back * np.cos(rad)
 

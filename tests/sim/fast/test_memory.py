@@ -65,7 +65,7 @@ def test_frames_with_the_memory_equal_ringmemory_value_for_value(memory_view: st
         memory_view=memory_view,
         goal_memory=True,
         prior_goals=tuple((float(x), float(y)) for x, y in np.round(goals, 4)),
-        goal_clamp_offset_m=round(abs(float(world._offsets[0, 0])), 4),
+        goal_clamp_offset_m=round(abs(float(world.clamp_offsets[0, 0])), 4),
     )
     obs = FastObserver(world, spec, obs_noise=False, gps_noise=True, rng=np.random.default_rng(3))
     z = world.field.ring.thickness / 2
