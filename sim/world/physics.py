@@ -52,6 +52,7 @@ from sim.config import RobotConfig, WorldConfig
 from sim.errors import WorldError
 from sim.field import FieldSpec, load_field
 from sim.world import rules, seesaw
+from sim.world.batch import ALLIANCE_CODES, game_consts, pack
 from sim.world.start import floor_rings, robot_starts
 from sim.world.state import (
     POST_RADIUS,
@@ -69,6 +70,7 @@ from sim.world.state import (
 )
 
 _PARK_Z = -5.0  # collected ring bodies wait here, under the floor and out of every ray
+_ONE = np.ones(1, dtype=bool)  # a World is a live batch of one for the compiled rules
 _GOAL_DAMPING = 0.99  # training: stands in for floor friction (a pushed goal slides ~0.2 m)
 
 
@@ -98,6 +100,10 @@ class World:
         self.lineup: list[tuple[AllianceName, str]] = [("red", n) for n in self.config.red] + [
             ("blue", n) for n in self.config.blue
         ]
+        # The whole game's constants for its compiled rules (sim.world.batch).
+        self.game_consts = game_consts(
+            self.field, self.config, [(a, self.config.robots[n]) for a, n in self.lineup]
+        )
         self.robots: list[RobotState] = []
         self.goals: list[GoalState] = []
         self.ring_xy = np.zeros((0, 2))
@@ -585,10 +591,8 @@ class World:
         self._transfer(events)
         rules.update_pins(self, self._touching, events, dt)
         if self.game:
+            self._step_tilts()
             for plat in self.field.platforms:
-                state = self.platforms[plat.alliance]
-                on = seesaw.loads(plat, self.robots, self.goals)
-                seesaw.step_tilt(plat, self.field.seesaw, state, on, dt)
                 self._set_board(plat.alliance)
             rules.update_fouls(self, self._touching, events)
             if events.phase_changed:  # the isolation (autonomous) period is judged as it ends
@@ -602,51 +606,43 @@ class World:
 
     def _board_contacts(self, before: list[tuple[float, float, float]]) -> None:
         """The whole game: robots drive onto a see-saw over its lowered field-side edge, leave it
-        when they are off it, and are pushed back from it anywhere else (sim.world.seesaw)."""
-        spec = self.field.seesaw
-        boards = [(plat, seesaw.board_box(plat)) for plat in self.field.platforms]
-        for r, (x0, y0, _) in zip(self.robots, before, strict=True):
-            box = seesaw.robot_box(r)
-            for plat, board in boards:
-                ox, oy = seesaw.overlap(box, board)
-                if ox <= 0 or oy <= 0:
-                    if r.on_platform == plat.alliance:
-                        r.on_platform = None
-                    continue
-                if r.on_platform == plat.alliance:
-                    continue
-                state = self.platforms[plat.alliance]
-                if r.on_platform is None and seesaw.may_mount(plat, spec, state, (x0, y0)):
-                    r.on_platform = plat.alliance
-                    continue
-                dx, dy = seesaw.push_out(box, (r.x, r.y), plat)
-                r.x += dx
-                r.y += dy
-                box = seesaw.robot_box(r)
+        when they are off it, and are pushed back from it anywhere else (seesaw.board_contacts)."""
+        state = pack(self)
+        x0 = np.array([[x for x, _, _ in before]])
+        y0 = np.array([[y for _, y, _ in before]])
+        moved = seesaw.board_contacts(self.game_consts, state, x0, y0, _ONE)
+        for r in self.robots:
+            code = int(state.on_platform[0, r.index])
+            r.on_platform = None if code < 0 else rules.ALLIANCES[code]
+            if moved[0, r.index]:
+                r.x, r.y = float(state.x[0, r.index]), float(state.y[0, r.index])
                 self._place(r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading))
 
     def _goal_board_contacts(self, before: list[tuple[float, float]]) -> None:
-        """The whole game: a free goal goes onto a see-saw only up its lowered field-side edge
-        (its centre came from beyond that edge while the edge is down, as a robot mounts); one
-        already resting on the board stays; anywhere else the board stops it (sim.world.seesaw).
-        Goals a robot holds move with it (the robot meets the board)."""
-        spec = self.field.seesaw
-        boards = [(plat, seesaw.board_box(plat)) for plat in self.field.platforms]
-        for g, (x0, y0) in zip(self.goals, before, strict=True):
-            if g.holders:
-                continue
-            for plat, board in boards:
-                box = seesaw.goal_box(g)
-                ox, oy = seesaw.overlap(box, board)
-                if ox <= 0 or oy <= 0 or plat.contains_point(x0, y0):
-                    continue
-                if seesaw.may_mount(plat, spec, self.platforms[plat.alliance], (x0, y0)):
-                    continue
-                dx, dy = seesaw.push_out(box, (g.x, g.y), plat)
-                g.x += dx
-                g.y += dy
+        """The whole game: a free goal goes onto a see-saw only up its lowered field-side edge;
+        one resting on the board stays; anywhere else the board stops it
+        (seesaw.goal_board_contacts). Goals a robot holds move with it."""
+        state = pack(self)
+        gx0 = np.array([[x for x, _ in before]])
+        gy0 = np.array([[y for _, y in before]])
+        moved = seesaw.goal_board_contacts(self.game_consts, state, gx0, gy0, _ONE)
+        for g in self.goals:
+            if moved[0, g.index]:
+                g.x, g.y = float(state.gx[0, g.index]), float(state.gy[0, g.index])
                 pos, q = p.getBasePositionAndOrientation(g.body, physicsClientId=self.client)
                 self._place(g.body, g.x, g.y, pos[2], quaternion_yaw(q))
+
+    def _step_tilts(self) -> None:
+        """The whole game: every see-saw swings one control step under its loads
+        (seesaw.step_tilts)."""
+        state = pack(self)
+        carried = np.array(
+            [[-1 if r.carried_goal is None else r.carried_goal for r in self.robots]],
+            dtype=np.int64,
+        )
+        seesaw.step_tilts(self.game_consts, state, carried, self.dt, _ONE)
+        for name, plat in self.platforms.items():
+            plat.tilt = float(state.tilt[0, ALLIANCE_CODES[name]])
 
     def _tug_of_war(self) -> None:
         """A goal clamped by robots of both alliances (training and high fidelity alike, a model):
@@ -1085,11 +1081,7 @@ class World:
         moving (a scene set up with place_robot/place_goal settles as the match would)."""
         self._edits += 1
         for _ in range(max(1, round(seconds / self.dt))):
-            for plat in self.field.platforms:
-                on = seesaw.loads(plat, self.robots, self.goals)
-                seesaw.step_tilt(
-                    plat, self.field.seesaw, self.platforms[plat.alliance], on, self.dt
-                )
+            self._step_tilts()
         for alliance in self.platforms:
             self._set_board(alliance)
 

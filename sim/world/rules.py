@@ -26,11 +26,20 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
 from jetson.autonomy.geometry import AllianceName
 from sim.field import FieldSpec, PlatformSpec
+from sim.world.batch import (
+    ALLIANCE_CODES,
+    FOUL_KINDS,
+    SCORE_FIELDS,
+    GameBatch,
+    GameConsts,
+    pack,
+)
 from sim.world.state import (
     AllianceScore,
     AutonomousResult,
@@ -55,51 +64,22 @@ def whole_game(world: WorldState) -> bool:
 def robot_elevated(world: WorldState, r: RobotState) -> bool:
     """Ring race: a robot is elevated while it stands on its alliance's platform. The whole game:
     it drove onto its alliance's platform, touches nothing else (its whole footprint is on the
-    board) and the platform is Balanced."""
-    return _robot_elevated(world, r, _Judged(world))
-
-
-def _robot_elevated(world: WorldState, r: RobotState, judged: _Judged) -> bool:
+    board but for the field file's overhang) and the platform is Balanced."""
+    if whole_game(world):
+        return bool(game_judged(world.game_consts, pack(world))[1][0, r.index])
     try:
         plat = world.field.platform(r.alliance)
     except ValueError:
         return False
-    if whole_game(world):
-        return (
-            r.on_platform == r.alliance
-            and footprint_on_board(plat, r, world.field.seesaw.overhang)
-            and judged.balanced(r.alliance)
-        )
     return plat.contains_point(r.x, r.y)
-
-
-class _Judged:
-    """What a score asks of one state again and again (is this robot elevated, is that platform
-    Balanced), each worked out once: the answers hold until the state changes, so a _Judged
-    lives for one question about the world (a score, a goal's owner)."""
-
-    def __init__(self, world: WorldState) -> None:
-        self.world = world
-        self._balanced: dict[AllianceName, bool] = {}
-        self._elevated: dict[int, bool] = {}
-
-    def balanced(self, alliance: AllianceName) -> bool:
-        b = self._balanced.get(alliance)
-        if b is None:
-            b = self._balanced[alliance] = platform_balanced(self.world, alliance)
-        return b
-
-    def elevated(self, r: RobotState) -> bool:
-        e = self._elevated.get(r.index)
-        if e is None:
-            e = self._elevated[r.index] = _robot_elevated(self.world, r, self)
-        return e
 
 
 def goal_owner(world: WorldState, g: GoalState) -> tuple[AllianceName | None, bool]:
     """Which alliance a goal scores for right now, and whether it is elevated."""
     if whole_game(world):
-        return _goal_owner_game(world, g, _Judged(world))
+        owner, up = game_owners(world.game_consts, pack(world))
+        code = int(owner[0, g.index])
+        return (None if code < 0 else ALLIANCES[code]), bool(up[0, g.index])
     owner, up, _ = ring_race_owners(world.field, *_ring_race_arrays(world))
     code = int(owner[0, g.index])
     return (None if code == 0 else ALLIANCES[code - 1]), bool(up[0, g.index])
@@ -124,7 +104,7 @@ def _ring_race_arrays(
 def score(world: WorldState) -> dict[str, AllianceScore]:
     """The match score for the current state (as if the match ended now)."""
     if whole_game(world):
-        return _score_game(world)
+        return game_state_score(world)
     return _score_ring_race(world)
 
 
@@ -262,103 +242,115 @@ def pin_timer(world: WorldState, red_index: int, blue_index: int) -> float:
 
 
 # --- the whole game ---------------------------------------------------------------------------
+# Compiled loops over a batch of matches (sim.world.batch: GameConsts, GameBatch). World calls
+# them on itself as a batch of one (pack); the batched backend (sim.fast) on all its matches.
+# Alliance codes: 0 red, 1 blue, -1 none.
 
 
-def robot_corners(r: RobotState) -> list[tuple[float, float]]:
-    """The four corners of a robot's footprint, field frame."""
-    h = math.radians(r.heading)
-    fx, fy = math.sin(h), math.cos(h)  # forward
-    rx, ry = fy, -fx  # right
-    hw, hl = r.config.width_m / 2, r.config.length_m / 2
-    return [
-        (r.x + a * hl * fx + b * hw * rx, r.y + a * hl * fy + b * hw * ry)
-        for a, b in ((1, 1), (1, -1), (-1, -1), (-1, 1))
-    ]
-
-
-def footprint_on_board(plat: PlatformSpec, r: RobotState, overhang: float = 0.0) -> bool:
-    """The robot touches no tile: its footprint is over the board but for `overhang` (the field
-    file's [seesaw] overhang: a frame hanging over the edge, its wheels on the board)."""
-    hx, hy = plat.size[0] / 2 + overhang, plat.size[1] / 2 + overhang
-    cx, cy = plat.center
-    return all(abs(x - cx) <= hx and abs(y - cy) <= hy for x, y in robot_corners(r))
-
-
-def goal_on_board(plat: PlatformSpec, g: GoalState) -> bool:
-    """A free goal rests on the board: its centre is over it."""
-    return g.carried_by is None and plat.contains_point(g.x, g.y)
-
-
-def goal_fully_on_board(plat: PlatformSpec, g: GoalState) -> bool:
-    rad = g.spec.base_radius
-    return (
-        abs(g.x - plat.center[0]) <= plat.size[0] / 2 - rad
-        and abs(g.y - plat.center[1]) <= plat.size[1] / 2 - rad
+@nb.njit(cache=True)
+def _on_board(c: GameConsts, a: int, x: float, y: float, grow: float) -> bool:
+    """A point over alliance a's board, the board grown by `grow` on every side."""
+    return abs(x - c.plat[a, 0]) <= c.plat[a, 2] + grow and abs(y - c.plat[a, 1]) <= (
+        c.plat[a, 3] + grow
     )
 
 
-def platform_balanced(world: WorldState, alliance: AllianceName) -> bool:
-    """Balanced [D]: the board roughly parallel to the field (|tilt| within the field file's
-    balanced_tilt_deg, the hinge's flats on its base) and nothing on it also touching the tiles
-    (a robot on it with part of its footprint off the board, a goal resting across its edge)."""
-    plat = world.field.platform(alliance)
-    state = world.platforms.get(alliance)
-    if state is None or abs(state.tilt) > math.radians(world.field.seesaw.balanced_tilt_deg):
+@nb.njit(cache=True)
+def _footprint_on_board(c: GameConsts, a: int, x: float, y: float, heading: float, i: int) -> bool:
+    """Robot i touches no tile: its footprint's four corners are over a's board but for the
+    field file's overhang (a frame hanging over the edge, its wheels on the board)."""
+    h = math.radians(heading)
+    fx, fy = math.sin(h), math.cos(h)
+    rx, ry = fy, -fx
+    hw, hl = c.half_w[i], c.half_l[i]
+    for sa in (1.0, -1.0):
+        for sb in (1.0, -1.0):
+            px = x + sa * hl * fx + sb * hw * rx
+            py = y + sa * hl * fy + sb * hw * ry
+            if not _on_board(c, a, px, py, c.overhang):
+                return False
+    return True
+
+
+@nb.njit(cache=True)
+def _balanced(c: GameConsts, s: GameBatch, b: int, a: int) -> bool:
+    """Balanced [D]: the board roughly parallel to the field (|tilt| within balanced_tilt, the
+    hinge's flats on its base) and nothing on it also touching the tiles (a robot on it with part
+    of its footprint off the board, a free goal whose centre is over the board resting across its
+    edge)."""
+    if not c.plat_has[a] or abs(s.tilt[b, a]) > c.balanced_tilt:
         return False
-    overhang = world.field.seesaw.overhang
-    for r in world.robots:
-        if r.on_platform == alliance and not footprint_on_board(plat, r, overhang):
+    for i in range(s.x.shape[1]):
+        if s.on_platform[b, i] == a and not _footprint_on_board(
+            c, a, s.x[b, i], s.y[b, i], s.heading[b, i], i
+        ):
             return False
-    return all(not goal_on_board(plat, g) or goal_fully_on_board(plat, g) for g in world.goals)
+    for g in range(s.gx.shape[1]):
+        x, y = s.gx[b, g], s.gy[b, g]
+        free = s.carrier[b, g] < 0
+        if free and _on_board(c, a, x, y, 0.0) and not _on_board(c, a, x, y, -c.goal_radius[g]):
+            return False
+    return True
 
 
-def goal_lifted(world: WorldState, g: GoalState) -> bool:
-    """A goal held off the tiles by a clamp that lifts (RobotConfig.clamp_lifts)."""
-    return any(world.robots[i].config.clamp_lifts for i in g.holders)
+@nb.njit(cache=True)
+def _judge(
+    c: GameConsts, s: GameBatch, b: int, balanced: NDArray[np.bool_], up: NDArray[np.bool_]
+) -> None:
+    """Match b's platforms Balanced (2,) and robots Elevated (R,), into the arrays given: a robot
+    is Elevated when it drove onto its own alliance's board, its footprint is on it and the
+    board is Balanced."""
+    for a in range(2):
+        balanced[a] = _balanced(c, s, b, a)
+    for i in range(s.x.shape[1]):
+        a = c.team[i]
+        up[i] = (
+            c.plat_has[a]
+            and s.on_platform[b, i] == a
+            and balanced[a]
+            and _footprint_on_board(c, a, s.x[b, i], s.y[b, i], s.heading[b, i], i)
+        )
 
 
-def _goal_owner_game(
-    world: WorldState, g: GoalState, judged: _Judged
-) -> tuple[AllianceName | None, bool]:
-    """Elevated on an alliance's Balanced platform (resting on the board, or in Possession of an
-    Elevated robot of it), else Scored in the home zone its base touches; an alliance goal only
-    ever scores for its own alliance."""
-    for i in g.holders:
-        carrier = world.robots[i]
-        if judged.elevated(carrier) and g.spec.alliance in (None, carrier.alliance):
-            return carrier.alliance, True
-    if g.carried_by is None:
-        for alliance in ALLIANCES:
-            try:
-                plat = world.field.platform(alliance)
-            except ValueError:
-                continue
+@nb.njit(cache=True)
+def _owner(
+    c: GameConsts, s: GameBatch, b: int, g: int, balanced: NDArray[np.bool_], up: NDArray[np.bool_]
+) -> tuple[int, bool]:
+    """Goal g's owner (alliance code, -1 none) and whether it is Elevated: in the Possession of
+    an Elevated robot it may score for; else resting wholly on a Balanced board of an alliance it
+    may score for; else (not lifted by a clamp) Scored in the first home zone its base touches
+    that it may score for. An alliance goal only ever scores for its own alliance."""
+    mine = c.goal_team[g]
+    lifted = False
+    for k in range(2):
+        i = s.carrier[b, g] if k == 0 else s.contester[b, g]
+        if i < 0:
+            continue
+        lifted = lifted or c.lifts[i]
+        if up[i] and (mine < 0 or mine == c.team[i]):
+            return c.team[i], True
+    x, y, rad = s.gx[b, g], s.gy[b, g], c.goal_radius[g]
+    if s.carrier[b, g] < 0:
+        for a in range(2):
             if (
-                goal_on_board(plat, g)
-                and goal_fully_on_board(plat, g)
-                and g.spec.alliance in (None, alliance)
-                and judged.balanced(alliance)
+                c.plat_has[a]
+                and balanced[a]
+                and (mine < 0 or mine == a)
+                and _on_board(c, a, x, y, 0.0)
+                and _on_board(c, a, x, y, -rad)
             ):
-                return alliance, True
-    if goal_lifted(world, g):
-        return None, False
-    for alliance, zone in world.field.home_zones.items():
-        inside = zone.contains_point(g.x, g.y, margin=g.spec.base_radius)
-        if inside and g.spec.alliance in (None, alliance):
-            return alliance, False  # type: ignore[return-value]
-    return None, False
+                return a, True
+    if lifted:
+        return -1, False
+    for z in range(c.zone.shape[0]):
+        a = c.zone_team[z]
+        x0, y0, x1, y1 = c.zone[z, 0], c.zone[z, 1], c.zone[z, 2], c.zone[z, 3]
+        if x0 - rad <= x <= x1 + rad and y0 - rad <= y <= y1 + rad and (mine < 0 or mine == a):
+            return a, False
+    return -1, False
 
 
-def ring_points(world: WorldState, g: GoalState) -> int:
-    """What the rings on a goal are worth to the alliance they count for."""
-    sc = world.field.scoring
-    return (
-        sc.ring_high_branch * g.rings_high
-        + sc.ring_branch * g.rings_low
-        + sc.ring_base * (g.rings_base)
-    )
-
-
+@nb.njit(cache=True)
 def platform_credit(violations: int, elevated: int, robots: int, most: int) -> int:
     """The Elevated robots credited to an alliance for the opponent's <SG3> violations (v2.2):
     each violation that does not interfere with gameplay credits "one additional Elevated
@@ -370,6 +362,274 @@ def platform_credit(violations: int, elevated: int, robots: int, most: int) -> i
     if most <= 0:
         return violations
     return max(0, min(violations, min(most, robots) - elevated))
+
+
+@nb.njit(cache=True)
+def game_judged(c: GameConsts, s: GameBatch) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Every match's platforms Balanced (B, 2) and robots Elevated (B, R)."""
+    n, r = s.x.shape
+    balanced = np.zeros((n, 2), dtype=np.bool_)
+    up = np.zeros((n, r), dtype=np.bool_)
+    for b in range(n):
+        _judge(c, s, b, balanced[b], up[b])
+    return balanced, up
+
+
+@nb.njit(cache=True)
+def game_owners(c: GameConsts, s: GameBatch) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    """Every goal's owner (B, G: alliance code, -1 none) and whether it is Elevated (B, G)."""
+    n, r = s.x.shape
+    n_goal = s.gx.shape[1]
+    owner = np.full((n, n_goal), -1, dtype=np.int64)
+    elevated = np.zeros((n, n_goal), dtype=np.bool_)
+    for b in range(n):
+        balanced = np.zeros(2, dtype=np.bool_)
+        up = np.zeros(r, dtype=np.bool_)
+        _judge(c, s, b, balanced, up)
+        for g in range(n_goal):
+            owner[b, g], elevated[b, g] = _owner(c, s, b, g, balanced, up)
+    return owner, elevated
+
+
+@nb.njit(cache=True)
+def game_score(c: GameConsts, s: GameBatch) -> NDArray[np.int64]:
+    """The whole game's score of every match as if it ended now, (B, 2, 12): by alliance, the
+    fields of sim.world.batch.SCORE_FIELDS (AllianceScore's). Rings on a neutral goal's high
+    branch, on any branch and in a base count for the alliance the goal counts for (an alliance
+    goal's wherever it is, a neutral goal's owner's); each goal Scored in a home zone and each
+    robot and goal Elevated; the Elevated robots credited for the opponent's platform fouls;
+    the autonomous bonus once it is judged."""
+    n, r = s.x.shape
+    n_goal = s.gx.shape[1]
+    out = np.zeros((n, 2, 12), dtype=np.int64)
+    for b in range(n):
+        balanced = np.zeros(2, dtype=np.bool_)
+        up = np.zeros(r, dtype=np.bool_)
+        _judge(c, s, b, balanced, up)
+        owner = np.full(n_goal, -1, dtype=np.int64)
+        goal_up = np.zeros(n_goal, dtype=np.bool_)
+        for g in range(n_goal):
+            owner[g], goal_up[g] = _owner(c, s, b, g, balanced, up)
+        for a in range(2):
+            rings = high = base = points = in_zone = goals_up = robots = elevated = 0
+            for i in range(r):
+                if c.team[i] == a:
+                    robots += 1
+                    elevated += up[i]
+            for g in range(n_goal):
+                mine = c.goal_team[g]
+                if mine == a or (mine < 0 and owner[g] == a):
+                    hi, ba = s.rings_high[b, g], s.rings_base[b, g]
+                    rings += s.rings[b, g]
+                    high += hi
+                    base += ba
+                    points += (
+                        c.ring_high_branch * hi
+                        + c.ring_branch * (s.rings[b, g] - hi - ba)
+                        + c.ring_base * ba
+                    )
+                if owner[g] == a:
+                    if goal_up[g]:
+                        goals_up += 1
+                    else:
+                        in_zone += 1
+            credit = platform_credit(
+                c.platform_foul_credit * s.fouls[b, 1 - a, 2],
+                elevated,
+                robots,
+                c.elevated_robots_max,
+            )
+            bonus = s.auto_bonus[b, a]
+            row = out[b, a]
+            row[0], row[1], row[2], row[3] = rings, in_zone, goals_up, elevated
+            row[4] = (
+                points
+                + in_zone * c.goal_in_home_zone
+                + goals_up * c.goal_elevated
+                + (elevated + credit) * c.robot_elevated
+                + bonus
+            )
+            row[5], row[6], row[7], row[8] = high, base, bonus, s.auto_win_point[b, a]
+            row[9] = s.fouls[b, a, 0] + s.fouls[b, a, 1] + s.fouls[b, a, 2]
+            row[10], row[11] = credit, c.plat_has[a] and balanced[a]
+    return out
+
+
+@nb.njit(cache=True)
+def _segment_distance(x: float, y: float, x0: float, y0: float, x1: float, y1: float) -> float:
+    dx, dy = x1 - x0, y1 - y0
+    n = dx * dx + dy * dy
+    t = 0.0 if n == 0 else min(1.0, max(0.0, ((x - x0) * dx + (y - y0) * dy) / n))
+    return math.hypot(x - (x0 + t * dx), y - (y0 + t * dy))
+
+
+@nb.njit(cache=True)
+def _awp_cleared(c: GameConsts, s: GameBatch, b: int, a: int) -> bool:
+    """Cleared [G]: the alliance goal that started on a's AWP line touches neither the line nor
+    the Neutral Zone (between the two home zones), lifted or not (the line's projection is
+    infinite upward, as the Q&A rules)."""
+    if not c.awp_has[a]:
+        return False
+    g = c.awp_goal[a]
+    x, y, rad = s.gx[b, g], s.gy[b, g], c.goal_radius[g]
+    line = c.awp_line[a]
+    if _segment_distance(x, y, line[0], line[1], line[2], line[3]) <= rad:
+        return False
+    return not (x + rad > c.neutral_lo and x - rad < c.neutral_hi)
+
+
+@nb.njit(cache=True)
+def game_autonomous(
+    c: GameConsts, s: GameBatch, points: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.bool_], NDArray[np.bool_]]:
+    """The isolation period's outcome, judged when it ends, from each alliance's points then
+    (B, 2): the Autonomous Bonus (B, 2) to the alliance with more points (a tie, 0-0 included,
+    splits it), the Win Point (B, 2) to an alliance that Cleared its AWP line with at least one
+    ring on each of its alliance goals, and whether each Cleared its line (B, 2). An alliance
+    whose robots committed a forfeiting foul in the period (isolation_foul_forfeits) gives both
+    to the opponent; when both did, neither gets the bonus."""
+    n = s.x.shape[0]
+    bonus = np.zeros((n, 2), dtype=np.int64)
+    win = np.zeros((n, 2), dtype=np.bool_)
+    cleared = np.zeros((n, 2), dtype=np.bool_)
+    for b in range(n):
+        forfeit = np.zeros(2, dtype=np.bool_)
+        if c.isolation_foul_forfeits:
+            for a in range(2):
+                forfeit[a] = s.fouls[b, a, 0] + s.fouls[b, a, 1] > 0
+        for a in range(2):
+            o = 1 - a
+            if forfeit[a] or forfeit[o]:
+                bonus[b, a] = c.autonomous_bonus if forfeit[o] and not forfeit[a] else 0
+            elif points[b, a] == points[b, o]:
+                bonus[b, a] = c.autonomous_bonus_tie
+            else:
+                bonus[b, a] = c.autonomous_bonus if points[b, a] > points[b, o] else 0
+            cleared[b, a] = _awp_cleared(c, s, b, a)
+            own = every = 0
+            for g in range(s.gx.shape[1]):
+                if c.goal_team[g] == a:
+                    own += 1
+                    every += s.rings[b, g] > 0
+            earned = cleared[b, a] and own > 0 and every == own and not forfeit[a]
+            win[b, a] = earned or (forfeit[o] and not forfeit[a])
+    return bonus, win, cleared
+
+
+@nb.njit(cache=True)
+def _touches_platform(c: GameConsts, s: GameBatch, b: int, i: int, a: int, margin: float) -> bool:
+    """Whether robot i's footprint (its bounding box, grown by margin) meets a's board."""
+    h = math.radians(s.heading[b, i])
+    ex = c.half_w[i] * abs(math.cos(h)) + c.half_l[i] * abs(math.sin(h))
+    ey = c.half_w[i] * abs(math.sin(h)) + c.half_l[i] * abs(math.cos(h))
+    hx, hy = c.plat[a, 2] + margin, c.plat[a, 3] + margin
+    x, y = s.x[b, i], s.y[b, i]
+    return (
+        x + ex >= c.plat[a, 0] - hx
+        and x - ex <= c.plat[a, 0] + hx
+        and y + ey >= c.plat[a, 1] - hy
+        and y - ey <= c.plat[a, 1] + hy
+    )
+
+
+@nb.njit(cache=True)
+def game_fouls(
+    c: GameConsts,
+    s: GameBatch,
+    time_s: NDArray[np.float64],
+    touching: NDArray[np.bool_],
+    contacts: NDArray[np.bool_],
+    live: NDArray[np.bool_],
+) -> NDArray[np.bool_]:
+    """One step of the fouls the twin can see, in every live match at its time_s (after the
+    step). Each is called once when it starts (a contact that goes on is one foul), charged to
+    the robot that broke the rule (the kinds are sim.world.batch.FOUL_KINDS):
+
+    isolation_contact: in the isolation period, a robot touching one of the other alliance's
+        (touching, (B, R, R)), charged to each robot that was driving toward the other (VEX
+        AI: no contact);
+    isolation_home_zone: in the isolation period, a robot's centre in the opponent's home zone
+        (<SG4>; off by default for VEX AI);
+    platform_protection: in the last endgame_s seconds, a robot touching the opposing
+        alliance's platform (its bounding box within pin_contact_m), or touching an opposing
+        robot that stands on its own platform (contact is transitive, <SG3>).
+
+    contacts (B, R, R + 1, 3): which contacts (robot, other robot or R for none, kind) were going
+    on, updated in place; the batch's foul counts (s.fouls) grow by the fouls called. Returns
+    which robot was called for which kind this step, (B, R, 3)."""
+    n, r = s.x.shape
+    called = np.zeros((n, r, 3), dtype=np.bool_)
+    fouls = s.fouls  # written in place
+    for b in range(n):
+        if not live[b]:
+            continue
+        t = time_s[b]
+        isolation = c.isolation_s > 0 and t <= c.isolation_s + 1e-9
+        endgame = t >= c.match_length_s - c.endgame_s - 1e-9
+        now = np.zeros((r, r + 1, 3), dtype=np.bool_)
+        for i in range(r):
+            for j in range(r):
+                if c.team[i] == c.team[j]:
+                    continue
+                if isolation and c.isolation_contact_foul and touching[b, i, j]:
+                    h = math.radians(s.heading[b, i])
+                    dx, dy = s.x[b, j] - s.x[b, i], s.y[b, j] - s.y[b, i]
+                    if s.v[b, i] * (math.sin(h) * dx + math.cos(h) * dy) > 1e-3:
+                        now[i, j, 0] = True
+                if endgame and s.on_platform[b, j] == c.team[j] and touching[b, i, j]:
+                    now[i, j, 2] = True
+            o = 1 - c.team[i]
+            if isolation and c.isolation_home_zone_foul:
+                for z in range(c.zone.shape[0]):
+                    if c.zone_team[z] == o:
+                        x0, y0, x1, y1 = c.zone[z, 0], c.zone[z, 1], c.zone[z, 2], c.zone[z, 3]
+                        if x0 <= s.x[b, i] <= x1 and y0 <= s.y[b, i] <= y1:
+                            now[i, r, 1] = True
+                        break
+            if endgame and c.plat_has[o] and _touches_platform(c, s, b, i, o, c.pin_contact_m):
+                now[i, r, 2] = True
+        for i in range(r):
+            for k in range(3):
+                started = ongoing = False
+                for j in range(r + 1):
+                    if now[i, j, k]:
+                        if contacts[b, i, j, k]:
+                            ongoing = True
+                        else:
+                            started = True
+                # One foul per robot and kind when a contact starts; a platform fouled through
+                # another contact that goes on is not called again.
+                if started and not (k == 2 and ongoing):
+                    called[b, i, k] = True
+                    fouls[b, c.team[i], k] += 1
+        contacts[b] = now
+    return called
+
+
+def game_state_score(world: WorldState) -> dict[str, AllianceScore]:
+    """The whole game's score of one World (game_score on it as a batch of one)."""
+    rows = game_score(world.game_consts, pack(world))[0]
+    return {a: _alliance_score(rows[code]) for code, a in enumerate(ALLIANCES)}
+
+
+def _alliance_score(row: NDArray[np.int64]) -> AllianceScore:
+    values = dict(zip(SCORE_FIELDS, (int(v) for v in row), strict=True))
+    values["autonomous_win_point"] = bool(values["autonomous_win_point"])
+    values["balanced"] = bool(values["balanced"])
+    return AllianceScore(**values)  # type: ignore[arg-type]
+
+
+def platform_balanced(world: WorldState, alliance: AllianceName) -> bool:
+    """Whether an alliance's board is Balanced now (the whole game; _balanced)."""
+    if alliance not in world.platforms:
+        return False
+    balanced, _ = game_judged(world.game_consts, pack(world))
+    return bool(balanced[0, ALLIANCE_CODES[alliance]])
+
+
+def goal_on_board(plat: PlatformSpec, g: GoalState) -> bool:
+    """A free goal rests on the board: its centre is over it."""
+    return g.carried_by is None and plat.contains_point(g.x, g.y)
 
 
 def platform_contact_at_end(world: WorldState) -> dict[str, bool]:
@@ -386,138 +646,23 @@ def platform_contact_at_end(world: WorldState) -> dict[str, bool]:
     return out
 
 
-def _score_game(world: WorldState) -> dict[str, AllianceScore]:
-    sc = world.field.scoring
-    rules = world.field.rules
-    judged = _Judged(world)
-    elevated_robots = {a: 0 for a in ALLIANCES}
-    robots = {a: 0 for a in ALLIANCES}
-    for r in world.robots:
-        robots[r.alliance] += 1
-        if judged.elevated(r):
-            elevated_robots[r.alliance] += 1
-    owners = [_goal_owner_game(world, g, judged) for g in world.goals]
-    fouls = {a: 0 for a in ALLIANCES}
-    platform_fouls = {a: 0 for a in ALLIANCES}
-    for f in world.fouls:
-        fouls[f.alliance] += 1
-        if f.kind == "platform_protection":
-            platform_fouls[f.alliance] += 1
-    out = {}
-    for alliance in ALLIANCES:
-        rings = high = base = points = in_zone = goals_up = 0
-        for g, (owner, elevated) in zip(world.goals, owners, strict=True):
-            if g.spec.alliance == alliance or (g.spec.alliance is None and owner == alliance):
-                rings += g.rings
-                high += g.rings_high
-                base += g.rings_base
-                points += ring_points(world, g)
-            if owner == alliance:
-                if elevated:
-                    goals_up += 1
-                else:
-                    in_zone += 1
-        credit = platform_credit(
-            rules.platform_foul_credit * platform_fouls[other(alliance)],
-            elevated_robots[alliance],
-            robots[alliance],
-            rules.elevated_robots_max,
-        )
-        auto = world.autonomous[alliance] if world.autonomous else None
-        bonus = auto.bonus if auto else 0
-        total = (
-            points
-            + in_zone * sc.goal_in_home_zone
-            + goals_up * sc.goal_elevated
-            + (elevated_robots[alliance] + credit) * sc.robot_elevated
-            + bonus
-        )
-        out[alliance] = AllianceScore(
-            rings,
-            in_zone,
-            goals_up,
-            elevated_robots[alliance],
-            total,
-            rings_high=high,
-            rings_base=base,
-            autonomous_bonus=bonus,
-            autonomous_win_point=bool(auto and auto.win_point),
-            fouls=fouls[alliance],
-            foul_credit=credit,
-            balanced=alliance in world.platforms and judged.balanced(alliance),
-        )
-    return out
-
-
-def _segment_distance(x: float, y: float, seg: tuple[float, float, float, float]) -> float:
-    x0, y0, x1, y1 = seg
-    dx, dy = x1 - x0, y1 - y0
-    n = dx * dx + dy * dy
-    t = 0.0 if n == 0 else min(1.0, max(0.0, ((x - x0) * dx + (y - y0) * dy) / n))
-    return math.hypot(x - (x0 + t * dx), y - (y0 + t * dy))
-
-
 def awp_line_cleared(world: WorldState, alliance: AllianceName) -> bool:
-    """Cleared [G]: the alliance goal that started on the AWP line touches neither the line nor
-    the Neutral Zone (between the two home zones), lifted or not (the line's projection is
-    infinite upward, as the Q&A rules)."""
-    f = world.field
-    if alliance not in f.awp_lines:
-        return False
-    g = world.goals[f.awp_goals[alliance]]
-    rad = g.spec.base_radius
-    if _segment_distance(g.x, g.y, f.awp_lines[alliance]) <= rad:
-        return False
-    lo, hi = f.home_zones["red"].x1, f.home_zones["blue"].x0
-    return not (g.x + rad > lo and g.x - rad < hi)
+    """Whether an alliance Cleared its AWP line now (_awp_cleared)."""
+    state = pack(world)
+    points = np.zeros((1, 2), dtype=np.int64)
+    return bool(game_autonomous(world.game_consts, state, points)[2][0, ALLIANCE_CODES[alliance]])
 
 
 def autonomous_results(world: WorldState) -> dict[str, AutonomousResult]:
-    """The isolation period's outcome, judged when it ends: the Autonomous Bonus to the alliance
-    with more points (a tie, 0-0 included, splits it), the Win Point to an alliance that Cleared
-    its AWP line with at least one ring on each of its alliance goals. An alliance whose robots
-    committed a forfeiting foul in the period (rules.isolation_foul_forfeits) gives both to the
-    opponent; when both did, neither gets the bonus."""
-    sc = world.field.scoring
-    now = _score_game(world)
-    points = {a: now[a].total for a in ALLIANCES}
-    forfeit = {a: False for a in ALLIANCES}
-    if world.field.rules.isolation_foul_forfeits:
-        for f in world.fouls:
-            if f.kind in ("isolation_contact", "isolation_home_zone"):
-                forfeit[f.alliance] = True
-    out = {}
-    for a in ALLIANCES:
-        b = other(a)
-        if forfeit[a] or forfeit[b]:
-            bonus = sc.autonomous_bonus if forfeit[b] and not forfeit[a] else 0
-        elif points[a] == points[b]:
-            bonus = sc.autonomous_bonus_tie
-        else:
-            bonus = sc.autonomous_bonus if points[a] > points[b] else 0
-        own_goals = [g for g in world.goals if g.spec.alliance == a]
-        earned = (
-            awp_line_cleared(world, a)
-            and bool(own_goals)
-            and all(g.rings > 0 for g in own_goals)
-            and not forfeit[a]
-        )
-        out[a] = AutonomousResult(points[a], bonus, earned or (forfeit[b] and not forfeit[a]))
-    return out
-
-
-def _touches_platform(world: WorldState, r: RobotState, plat: PlatformSpec, margin: float) -> bool:
-    """Whether a robot's footprint (its bounding box, grown by margin) meets a platform's board."""
-    corners = robot_corners(r)
-    xs = [c[0] for c in corners]
-    ys = [c[1] for c in corners]
-    hx, hy = plat.size[0] / 2 + margin, plat.size[1] / 2 + margin
-    return (
-        max(xs) >= plat.center[0] - hx
-        and min(xs) <= plat.center[0] + hx
-        and max(ys) >= plat.center[1] - hy
-        and min(ys) <= plat.center[1] + hy
-    )
+    """The isolation period's outcome for one World, judged as it ends (game_autonomous)."""
+    state = pack(world)
+    consts = world.game_consts
+    points = game_score(consts, state)[:, :, 4]
+    bonus, win, _ = game_autonomous(consts, state, points)
+    return {
+        a: AutonomousResult(int(points[0, k]), int(bonus[0, k]), bool(win[0, k]))
+        for k, a in enumerate(ALLIANCES)
+    }
 
 
 def update_fouls(
@@ -525,56 +670,31 @@ def update_fouls(
     touching: Callable[[RobotState, RobotState], bool],
     events: StepEvents,
 ) -> None:
-    """One step of the fouls the twin can see (the whole game). Each is called once when it
-    starts (a contact that goes on is one foul), charged to the robot that broke the rule:
-
-    isolation_contact: in the isolation period, a robot touching one of the other alliance's,
-        charged to each robot that was driving toward the other (VEX AI: no contact);
-    isolation_home_zone: in the isolation period, a robot's centre in the opponent's home zone
-        (<SG4>; off by default for VEX AI);
-    platform_protection: in the last endgame_s seconds, a robot touching the opposing alliance's
-        platform, or touching an opposing robot that stands on its own platform (contact is
-        transitive, <SG3>)."""
-    rules = world.field.rules
-    isolation = world.time_s <= world.isolation_s + 1e-9 and world.isolation_s > 0
-    endgame = world.time_s >= world.match_length_s - rules.endgame_s - 1e-9
-    now: set[tuple[int, int, str]] = set()
-    margin = world.config.pin_contact_m
-    for a in world.robots:
-        for b in world.robots:
-            if a.alliance == b.alliance or a.index == b.index:
-                continue
-            if isolation and rules.isolation_contact_foul and touching(a, b):
-                dx, dy = b.x - a.x, b.y - a.y
-                h = math.radians(a.heading)
-                toward = a.v * (math.sin(h) * dx + math.cos(h) * dy)
-                if toward > 1e-3:
-                    now.add((a.index, b.index, "isolation_contact"))
-            if endgame and b.on_platform == b.alliance and touching(a, b):
-                now.add((a.index, b.index, "platform_protection"))
-        if isolation and rules.isolation_home_zone_foul:
-            zone = world.field.home_zones[other(a.alliance)]
-            if zone.contains_point(a.x, a.y):
-                now.add((a.index, -1, "isolation_home_zone"))
-        if endgame:
-            try:
-                plat = world.field.platform(other(a.alliance))
-            except ValueError:
-                continue
-            if _touches_platform(world, a, plat, margin):
-                now.add((a.index, -1, "platform_protection"))
-    started = sorted(now - world.foul_contacts)
+    """One step of the fouls for one World (game_fouls on it as a batch of one): the fouls called
+    go to world.fouls and events.fouls, robot by robot in FOUL_KINDS' order, and the contacts
+    going on to world.foul_contacts."""
+    consts = world.game_consts
+    robots = world.robots
+    r = len(robots)
+    state = pack(world)
+    isolation = consts.isolation_s > 0 and world.time_s <= consts.isolation_s + 1e-9
+    endgame = world.time_s >= consts.match_length_s - consts.endgame_s - 1e-9
+    touch = np.zeros((1, r, r), dtype=bool)
+    if isolation or endgame:  # contacts only matter then (each is a PyBullet query)
+        for a in robots:
+            for b in robots:
+                if a.alliance != b.alliance and a.index < b.index:
+                    touch[0, a.index, b.index] = touch[0, b.index, a.index] = touching(a, b)
+    contacts = np.zeros((1, r, r + 1, 3), dtype=bool)
+    for i, j, kind in world.foul_contacts:
+        contacts[0, i, r if j < 0 else j, FOUL_KINDS.index(kind)] = True
+    called = game_fouls(
+        consts, state, np.array([world.time_s]), touch, contacts, np.ones(1, dtype=bool)
+    )
     world.foul_contacts.clear()
-    world.foul_contacts.update(now)
-    called: set[tuple[int, str]] = set()
-    for robot, _, kind in started:
-        if (robot, kind) in called:
-            continue
-        if kind == "platform_protection" and any(
-            c[0] == robot and c[2] == kind and c not in started for c in now
-        ):
-            continue  # already fouling that platform through another contact
-        called.add((robot, kind))
-        foul = Foul(world.time_s, robot, world.robots[robot].alliance, kind)  # type: ignore[arg-type]
+    for i, j, k in zip(*np.nonzero(contacts[0]), strict=True):
+        world.foul_contacts.add((int(i), -1 if j == r else int(j), FOUL_KINDS[k]))
+    for i, k in zip(*np.nonzero(called[0]), strict=True):
+        foul = Foul(world.time_s, int(i), robots[i].alliance, FOUL_KINDS[k])  # type: ignore[arg-type]
         world.fouls.append(foul)
         events.fouls.append(foul)

@@ -8,13 +8,16 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Literal, Protocol
+from typing import TYPE_CHECKING, Literal, Protocol
 
 import numpy as np
 
 from jetson.autonomy.geometry import AllianceName
 from sim.config import RobotConfig, WorldConfig
 from sim.field import FieldSpec, GoalSpec
+
+if TYPE_CHECKING:
+    from sim.world.batch import GameConsts
 
 RING_FLOOR = 0
 RING_HELD = 1
@@ -211,6 +214,7 @@ class WorldState(Protocol):
     fouls: list[Foul]
     autonomous: dict[str, AutonomousResult] | None
     foul_contacts: set[tuple[int, int, str]]
+    game_consts: GameConsts  # what the whole game's compiled rules read (sim.world.batch)
     ring_xy: np.ndarray
     ring_z: np.ndarray
     ring_state: np.ndarray
