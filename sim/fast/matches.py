@@ -10,15 +10,17 @@ generator np.random.default_rng((seed, slot, match number)), which then starts t
 World.reset would. Rewards are MatchCore's components (sim.match.REWARD_COMPONENTS) for the
 learner, the shaping potentials from sim.rewards; the start curricula (goal_start_share,
 midgame_start_share) are drawn as MatchCore draws them. Opponents: "policy" (the caller's
-actions), "random", "idle", and "planner" and "scripted", the players written against MatchCore,
-each playing its match through sim.fast.players.FastCore; "none" (no opponent robot) stays on
-the PyBullet backend (ConfigError names it). The ring and goal memories and the route slots are
+actions), "random", "idle", "planner" (sim.fast.planner: the planner for every match at once)
+and "scripted" (the greedy chaser, written against MatchCore, playing its match through
+sim.fast.players.FastCore); "none" (no opponent robot) stays on the PyBullet backend
+(ConfigError names it). The ring and goal memories and the route slots are
 batched (sim.fast.memory). A skill policy's scores drive each robot's SkillDriver
 (jetson.autonomy.skills, one per robot and match as MatchCore keeps them), and intake and clamp
-actions run the actuators as MatchCore.command does. Teachers: the route skill's controller and
-the planner, one per match as VecMatches keeps them. Controllers, players and teachers are a
-Python call per match and step: they cost about what stepping the batch does at a few hundred
-matches and far more at thousands (they suit capped.toml's and default.toml's 16).
+actions run the actuators as MatchCore.command does. Teachers: the route skill's controller, one
+per match as VecMatches keeps them, and the planner, batched (its label: rollout.intent_label).
+Controllers, the chaser and the route teacher are a Python call per match and step: they cost
+about what stepping the batch does at a few hundred matches and far more at thousands (they suit
+capped.toml's and default.toml's 16).
 """
 
 from __future__ import annotations
@@ -31,9 +33,9 @@ from numpy.typing import NDArray
 
 from jetson.autonomy.skills import SkillConfig, SkillDriver
 from jetson.autonomy.spec import ObservationSpec
-from sim.baselines.planner import Planner
 from sim.errors import ConfigError
 from sim.fast.observe import FastObserver, unsupported_spec
+from sim.fast.planner import FastPlanner
 from sim.fast.players import FastCore, command_row
 from sim.fast.world import FastWorld, unsupported
 from sim.match import (
@@ -56,13 +58,13 @@ from sim.training.rollout import (
     StepResult,
     advice_size,
     drive_label,
-    planner_label,
+    intent_label,
     teacher_for,
 )
 from sim.world import rules
+from sim.world.state import DriveCommand
 
 FAST_OPPONENTS = ("policy", "random", "idle", "planner", "scripted")
-SCRIPTED = ("planner", "scripted")  # opponents that are Python players (sim.fast.players)
 F64 = NDArray[np.float64]
 Commands = tuple[F64, F64, NDArray[np.bool_], NDArray[np.int8]]  # linear, angular, intake, clamp
 
@@ -145,10 +147,17 @@ class FastMatches:
         self._routers: list[SkillDriver | None] = [None] * n
         # A skill policy's controllers: each match's two robots' (MatchCore.skill_driver).
         self._drivers: list[list[SkillDriver]] = [[] for _ in range(n)]
-        # Python players: each match's scripted opponent, and the planner teaching its learner.
+        # Python players: each match's scripted chaser.
         self._players: list[Player | None] = [None] * n
-        self._planner_teacher = teacher == "planner"
-        self._teachers: list[Planner | None] = [None] * n
+        # The planner: the opponent where `_planning`, and the teacher of every learner.
+        self._planning = np.zeros(n, dtype=bool)
+        self._opponent_planner = FastPlanner(self.world)
+        self._teacher_configs = {
+            u: teacher_for(config.match_reward(u)).config for u in (False, True)
+        }
+        self._teacher: FastPlanner | None = None
+        if teacher == "planner":
+            self._teacher = FastPlanner(self.world, self._teacher_configs[False])
 
     # --- VecMatches' interface ---------------------------------------------------------------
 
@@ -248,23 +257,23 @@ class FastMatches:
             if self.config.skills is not None:
                 skills = self.config.skills
                 self._drivers[k] = [self._skill_driver(i, skills) for i in range(w.n_robots)]
-        # The Python players start from the match as it starts (after the curricula), as on
-        # PyBullet (their reset reads the field and the robots, not the sensors).
+        # The players start from the match as it starts (after the curricula), as on PyBullet
+        # (their reset reads the field and the robots, not the sensors).
         for k, rng in zip(which, rngs, strict=True):
             kind = self.kinds[k]
             me = int(self.learner[k])
             self._players[k] = None
-            if kind not in SCRIPTED and not self._planner_teacher:
-                continue
-            core: Any = self._core(int(k))  # what a MatchCore gives its players
-            if kind in SCRIPTED:
-                player = Planner() if kind == "planner" else ScriptedPlayer()
+            self._planning[k] = kind == "planner"
+            if kind == "planner":
+                self._opponent_planner.reset(np.array([k]), np.array([1 - me]))
+            if kind == "scripted":
+                core: Any = self._core(int(k))  # what a MatchCore gives its players
+                player = ScriptedPlayer()
                 player.reset(core, 1 - me, rng)
                 self._players[k] = player
-            if self._planner_teacher:
-                planner = teacher_for(self.config.match_reward(bool(self.uncapped[k])))
-                planner.reset(core, me, rng)
-                self._teachers[k] = planner
+            if self._teacher is not None:
+                teaching = self._teacher_configs[bool(self.uncapped[k])]
+                self._teacher.reset(np.array([k]), np.array([me]), teaching)
         self.steps[which] = 0
         self.total[which] = 0.0
         self.totals[which] = 0.0
@@ -339,6 +348,11 @@ class FastMatches:
                 core: Any = self._core(k)
                 cmd = player.act(core, i, self.obs[k, i])
                 lin[k], ang[k], intake[k], clamp[k] = command_row(cmd)
+        p = self._planning
+        if p.any():  # the planner's DriveCommand: intake on, clamp automatic
+            o = self.observer
+            plan = self._opponent_planner.act(p, o.seen_pose, o.seen_rings)
+            lin[p], ang[p], intake[p], clamp[p] = plan.linear[p], plan.angular[p], True, -1
         return lin, ang, intake, clamp
 
     def _commands(self, actions: F64, who: NDArray[np.int64]) -> Commands:
@@ -552,14 +566,21 @@ class FastMatches:
         return np.array([not d[me[k]].committed(mine[k]) for k, d in enumerate(self._drivers)])
 
     def _advice(self, mine: NDArray[np.float32]) -> NDArray[np.float32]:
-        """The teacher's label for each learner observation (VecMatches' advice): what the
-        route skill drives (linear, angular in action units); NaN without a teacher."""
+        """The teacher's label for each learner observation (VecMatches' advice): the
+        planner's (rollout.intent_label of what the batched planner does), or what the route
+        skill drives (linear, angular in action units); NaN without a teacher."""
         out = np.full((self.n, advice_size(self.config)), np.nan, np.float32)
-        if self._planner_teacher:
-            for k, planner in enumerate(self._teachers):
-                assert planner is not None
+        if self._teacher is not None:
+            w, o = self.world, self.observer
+            plan = self._teacher.act(np.ones(self.n, dtype=bool), o.seen_pose, o.seen_rings)
+            for k in range(self.n):
                 me = int(self.learner[k])
-                out[k] = planner_label(planner, self._core(k), me, mine[k])
+                pose = (float(w.x[k, me]), float(w.y[k, me]), float(w.heading[k, me]))
+                command = DriveCommand(float(plan.linear[k]), float(plan.angular[k]))
+                out[k] = intent_label(
+                    command, plan.intent_of(k), w.robot_configs[me], pose, mine[k], self.spec,
+                    self.config.skills,
+                )  # fmt: skip
             return out
         if not self._route_teacher:
             return out

@@ -54,6 +54,7 @@ import numpy as np
 
 from jetson.autonomy.geometry import field_to_robot, other_alliance
 from jetson.autonomy.skills import SkillConfig, SkillDriver, option_for
+from jetson.autonomy.spec import ObservationSpec
 from sim.baselines.planner import Planner, PlannerConfig
 from sim.config import RewardConfig, RobotConfig
 from sim.errors import ConfigError, WorkerError
@@ -199,15 +200,32 @@ def planner_label(teacher: Planner, core: Any, index: int, obs: np.ndarray) -> n
     units for a drive policy; for a skill policy +1 for the option that does what the planner
     intends and -1 for the others, NaN where no option does it."""
     command = teacher.act(core, index)
-    skills = core.config.skills
     robot = core.world.robots[index]
+    pose = (robot.x, robot.y, robot.heading)
+    return intent_label(
+        command, teacher.intent, robot.config, pose, obs, core.spec, core.config.skills
+    )
+
+
+def intent_label(
+    command: DriveCommand,
+    intent: tuple[str, np.ndarray | None],
+    robot: RobotConfig,
+    pose: tuple[float, float, float],
+    obs: np.ndarray,
+    spec: ObservationSpec,
+    skills: SkillConfig | None,
+) -> np.ndarray:
+    """planner_label from what the planner did: its `command` and `intent` (Planner.intent)
+    for a robot of config `robot` at `pose` (field frame, as the world has it). The fast
+    backend's batched planner (sim.fast.planner) is labelled with it too."""
     if skills is None:
-        return drive_label(command.linear, command.angular, robot.config)
-    kind, point = teacher.intent
+        return drive_label(command.linear, command.angular, robot)
+    kind, point = intent
     local = None
     if point is not None:
-        local = field_to_robot(np.asarray(point)[None, :], robot.xy, robot.heading)[0]
-    k = option_for(kind, local, obs, core.spec, skills)
+        local = field_to_robot(np.asarray(point)[None, :], pose[:2], pose[2])[0]
+    k = option_for(kind, local, obs, spec, skills)
     if k is None:
         return np.full(skills.n_options, np.nan, np.float32)
     label = np.full(skills.n_options, -1.0, np.float32)

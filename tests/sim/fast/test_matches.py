@@ -304,14 +304,15 @@ def test_default_toml_trains_on_the_fast_backend(tmp_path: Path) -> None:
 def test_a_slot_whose_opponent_changes_plays_the_new_one_from_its_next_match() -> None:
     env = make_config({**ENV, "max_steps": 3})
     fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=2), seed=4)
-    fm.set_kinds([("planner", -1)] * 2)
+    fm.set_kinds([("planner", -1), ("scripted", -1)])
     fm.reset()
-    assert all(p is not None for p in fm._players)
+    assert fm._planning[0] and fm._players[1] is not None
     fm.set_kinds([("policy", -1)] * 2)
     still = np.zeros((2, env.action_size))
     for _ in range(3):  # the matches end (max_steps) and start again with the new opponent
         fm.step(still, still)
     assert fm.kinds == ["policy", "policy"] and all(p is None for p in fm._players)
+    assert not fm._planning.any()
     them = 1 - fm.learner
     ahead = np.tile([1.0, 0.0], (2, 1))
     for _ in range(2):  # inside the new 3-step matches

@@ -17,10 +17,13 @@ from jetson.autonomy.spec import ObservationSpec
 from sim.baselines.planner import Planner, PlannerConfig
 from sim.config import WorldConfig
 from sim.fast import planner as fp
+from sim.fast.matches import FastMatches
 from sim.fast.observe import FastObserver
 from sim.fast.players import FastCore
 from sim.fast.world import FastWorld
 from sim.match import EnvConfig
+from sim.training.config import load_config
+from sim.training.rollout import RolloutConfig, planner_label, teacher_for
 
 # 1v1 as training plays it, a 24 s match so that a few hundred steps reach the endgame.
 WORLD = WorldConfig(
@@ -157,3 +160,55 @@ def test_the_compiled_trail_equals_skills_trail() -> None:
             trail.clear()
             count[0] = 0
     assert stuck > 10 and not overflow.any()
+
+
+def test_fast_matches_teach_and_play_with_the_planner_as_planner_label_does() -> None:
+    """default.toml's fast matches: each step's advice is planner_label of a Planner fed the
+    same match (FastCore), and each planner opponent's command that Planner's, through matches
+    that end and start again (sides and uncapped intakes drawn anew)."""
+    env = replace(load_config("default").env_config(), max_steps=100)
+    n = 4
+    fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=n), seed=3, teacher="planner")
+    fm.set_kinds([("planner", -1)] * 3 + [("policy", -1)])
+    commands: list[tuple[np.ndarray, ...]] = []
+    opponents = fm._opponents
+
+    def spy(actions: np.ndarray) -> tuple[np.ndarray, ...]:
+        commands.append(opponents(actions))
+        return commands[-1]
+
+    fm._opponents = spy  # type: ignore[method-assign]
+    step = fm.reset()
+    teachers: list[Planner] = []
+    players: list[Planner] = []
+
+    def start(k: int) -> None:
+        core = fm._core(k)
+        me = int(fm.learner[k])
+        teacher = teacher_for(env.match_reward(bool(fm.uncapped[k])))
+        teacher.reset(core, me)  # type: ignore[arg-type]
+        player = Planner()
+        player.reset(core, 1 - me)  # type: ignore[arg-type]
+        teachers[k:k] = [teacher]
+        players[k:k] = [player]
+
+    for k in range(n):
+        start(k)
+    ends = 0
+    for t in range(260):
+        assert step.advice is not None
+        for k in range(n):
+            want = planner_label(teachers[k], fm._core(k), int(fm.learner[k]), step.learner_obs[k])
+            np.testing.assert_array_equal(step.advice[k], want, err_msg=f"step {t}, match {k}")
+        them = 1 - fm.learner
+        expected = [players[k].act(fm._core(k), int(them[k])) for k in range(3)]  # type: ignore[arg-type]
+        actions = np.nan_to_num(step.advice, nan=-1.0)
+        step = fm.step(actions, np.zeros((n, env.action_size)))
+        lin, ang = commands[-1][0], commands[-1][1]
+        for k, cmd in enumerate(expected):
+            np.testing.assert_allclose([lin[k], ang[k]], [cmd.linear, cmd.angular], atol=1e-9)
+        for k in np.flatnonzero(step.dones):
+            del teachers[k], players[k]
+            start(int(k))
+            ends += 1
+    assert ends >= n
