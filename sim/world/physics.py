@@ -51,7 +51,7 @@ from jetson.autonomy.geometry import (
 from sim.config import RobotConfig, WorldConfig
 from sim.errors import WorldError
 from sim.field import FieldSpec, load_field
-from sim.world import rules, seesaw
+from sim.world import mechanisms, rules, seesaw
 from sim.world.batch import ALLIANCE_CODES, game_consts, pack
 from sim.world.start import floor_rings, robot_starts
 from sim.world.state import (
@@ -645,42 +645,19 @@ class World:
             plat.tilt = float(state.tilt[0, ALLIANCE_CODES[name]])
 
     def _tug_of_war(self) -> None:
-        """A goal clamped by robots of both alliances (training and high fidelity alike, a model):
-        each pulls with its drive's force (RobotConfig.pull_n) times how hard it drives away from
-        the goal; the stronger pull moves, slowed by the weaker, and drags the other robot with
-        the goal (_carry_goals). The three hold together as one rigid body: the dragged robot
-        neither drives nor turns by itself, and swings with the winner when it turns. Equal
-        pulls hold both still; when neither pulls, the one that turns harder turns the three."""
-        self._tug = {}
-        self._dragged = set()
+        """A goal clamped by robots of both alliances (training and high fidelity alike, a
+        model): mechanisms.tug_of_war decides who drags whom; the winner becomes its carrier
+        and the loser is dragged with the goal (_carry_goals)."""
+        carrier = np.array([[_index(g.carried_by) for g in self.goals]], dtype=np.int64)
+        contester = np.array([[_index(g.contested_by) for g in self.goals]], dtype=np.int64)
+        v = np.array([[r.v for r in self.robots]])
+        w = np.array([[r.w for r in self.robots]])
+        share, dragged = mechanisms.tug_of_war(self.game_consts, carrier, contester, v, w, _ONE)
         for g in self.goals:
-            if g.carried_by is None or g.contested_by is None:
-                continue
-            a, b = self.robots[g.carried_by], self.robots[g.contested_by]
-            pa, pb = self._pull(a), self._pull(b)
-            if pa == pb:
-                self._tug[a.index] = self._tug[b.index] = 0.0
-                if pa > 0.0:  # both pull: held still, turning included
-                    self._dragged.update((a.index, b.index))
-                    continue
-                # Neither pulls: the one that turns harder swings the goal and the other robot
-                # with it (_carry_goals).
-                if abs(b.w) > abs(a.w):
-                    g.carried_by, g.contested_by = b.index, a.index
-                    a, b = b, a
-                self._dragged.add(b.index)
-                continue
-            win, lose, pw, pl = (a, b, pa, pb) if pa > pb else (b, a, pb, pa)
-            self._tug[win.index] = (pw - pl) / (pw + pl)
-            self._tug[lose.index] = 0.0
-            self._dragged.add(lose.index)
-            if win is b:  # the goal now goes where the winner drags it
-                g.carried_by, g.contested_by = b.index, a.index
-
-    @staticmethod
-    def _pull(r: RobotState) -> float:
-        away = -r.config.clamp_sign * r.v  # driving away from the goal it holds
-        return r.config.pull_n * max(0.0, away) / r.config.max_linear_mps
+            g.carried_by = None if carrier[0, g.index] < 0 else int(carrier[0, g.index])
+            g.contested_by = None if contester[0, g.index] < 0 else int(contester[0, g.index])
+        self._tug = {i: float(f) for i, f in enumerate(share[0]) if not math.isnan(f)}
+        self._dragged = {int(i) for i in np.flatnonzero(dragged[0])}
 
     def _apply_limits(self, r: RobotState, cmd: DriveCommand, dt: float) -> None:
         rc = r.config
@@ -1002,15 +979,20 @@ class World:
 
     @staticmethod
     def _place_ring(rc: RobotConfig, g: GoalState) -> None:
-        """The whole game: where the robot's mechanism puts a ring on the goal it holds (counted
-        before g.rings grows): the high branch when its lift reaches one with room, else the low
-        branches while they have room, else (or with an intake that only drops rings) the base."""
+        """The whole game: where the robot's mechanism puts a ring on the goal it holds
+        (mechanisms.ring_slot; counted before g.rings grows)."""
         spec = g.spec
-        if rc.loads == "base":
-            g.rings_base += 1
-        elif rc.reaches_high_branch and g.rings_high < spec.high_branch_capacity:
+        slot = mechanisms.ring_slot(
+            rc.loads == "base",
+            rc.reaches_high_branch,
+            g.rings_high,
+            g.rings_low,
+            spec.high_branch_capacity,
+            spec.branch_capacity,
+        )
+        if slot == mechanisms.HIGH:
             g.rings_high += 1
-        elif g.rings_low >= spec.branch_capacity:
+        elif slot == mechanisms.BASE:
             g.rings_base += 1
 
     # --- rules (sim.world.rules) ----------------------------------------------------------
@@ -1157,3 +1139,7 @@ class World:
         for r in self.robots:
             out[r.body] = ("robot", r.index)
         return out
+
+
+def _index(i: int | None) -> int:
+    return -1 if i is None else i
