@@ -361,9 +361,11 @@ def substeps(
     share_rot: float,
 ) -> None:
     """Every match's `n_sub` substeps of h seconds, in place (sim.fast.world.FastWorld.step).
-    state: (x, y, heading, rvx, rvy, rw, gx, gy, gvx, gvy, carried, carrier); offset (R, G):
-    each robot's signed clamp offset for each goal (negative: behind its back)."""
-    x, y, heading, rvx, rvy, rw, gx, gy, gvx, gvy, carried, carrier = state
+    state: (x, y, heading, rvx, rvy, rw, gx, gy, gvx, gvy, carried, carrier, contester): carried
+    (B, R) the goal each robot's clamp moves (-1 none: a tug of war's loser is dragged after the
+    step), carrier and contester (B, G) the robots holding each goal (neither meets it); offset
+    (R, G): each robot's signed clamp offset for each goal (negative: behind its back)."""
+    x, y, heading, rvx, rvy, rw, gx, gy, gvx, gvy, carried, carrier, contester = state
     n_match, n_robot = x.shape
     n_goal = gx.shape[1]
     k = n_robot + n_goal
@@ -408,7 +410,7 @@ def substeps(
                 fx, fy = math.sin(hr), math.cos(hr)
                 rx, ry = fy, -fx
                 for g in range(n_goal):
-                    if carrier[b, g] == i:
+                    if carrier[b, g] == i or contester[b, g] == i:
                         continue
                     dx, dy = gx[b, g] - x[b, i], gy[b, g] - y[b, i]
                     if dx * dx + dy * dy >= (radius[i] + goal_radius[g]) ** 2:

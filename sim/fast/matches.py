@@ -61,7 +61,6 @@ from sim.training.rollout import (
     intent_label,
     teacher_for,
 )
-from sim.world import rules
 from sim.world.state import DriveCommand
 
 FAST_OPPONENTS = ("policy", "random", "idle", "planner", "scripted")
@@ -498,23 +497,14 @@ class FastMatches:
         me = self.learner
         mine = self._scores_for[me]  # (B, G)
         if self.config.reward.goal_zone == "home":
-            owner, _, _ = rules.ring_race_owners(
-                w.field,
-                w.alliances,
-                np.stack([w.x, w.y], -1),
-                np.stack([w.gx, w.gy], -1),
-                w.carrier,
-            )
+            owner, _, _ = w.owners()
             counts = owner == (me + 1)[:, None]
         else:
             counts = (w.gx < 0) == (me == 0)[:, None]
         return (counts & mine).sum(axis=1).astype(np.float64)
 
     def _elevated(self) -> NDArray[np.bool_]:
-        w = self.world
-        _, _, elevated = rules.ring_race_owners(
-            w.field, w.alliances, np.stack([w.x, w.y], -1), np.stack([w.gx, w.gy], -1), w.carrier
-        )
+        _, _, elevated = self.world.owners()
         return elevated[np.arange(self.n), self.learner]
 
     # --- results ----------------------------------------------------------------------------

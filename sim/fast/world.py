@@ -38,7 +38,8 @@ from sim.config import RobotConfig, WorldConfig
 from sim.errors import ConfigError
 from sim.fast import kernels
 from sim.field import FieldSpec, load_field
-from sim.world import rules
+from sim.world import mechanisms, rules, seesaw
+from sim.world.batch import GameBatch, game_consts
 from sim.world.sensors import interpolate_pose
 from sim.world.start import floor_rings, robot_starts
 
@@ -55,6 +56,7 @@ _GOAL_DAMPING = 0.99
 # training fidelity (a robot turning against a wall).
 _POSITION_SHARE = 0.5
 _UNLIMITED = 1 << 30  # the room of an intake that never fills
+_BARRIER_HALF = 0.01  # half the isolation barrier's thickness (World._build_barrier)
 
 
 @dataclass
@@ -66,19 +68,17 @@ class FastEvents:
     clamped: I64  # (B, R) the goal each robot's clamp took this step, -1 none
     pins: Bool  # (B, P) each red-blue pair (FastWorld.pin_pairs) pinned this step
     match_over: Bool  # (B,) the match is over (it ended with this step or before)
+    fouls: Bool  # (B, R, 3) the whole game: each robot called for each foul kind this step
+    phase_changed: Bool  # (B,) the isolation period ended with this step
 
 
 def unsupported(config: WorldConfig) -> list[str]:
     """What of `config` the batched backend does not model (empty: it plays this world)."""
     out = []
-    if config.game != "ring_race":
-        out.append(f"game = {config.game!r} (the fast path plays the ring race)")
     if config.fidelity != "training":
         out.append("fidelity = 'high' (the fast path is training fidelity)")
     if config.occlude_with_rings:
         out.append("occlude_with_rings (rings hiding rings)")
-    if config.isolation_s > 0:
-        out.append("an isolation period (isolation_s > 0)")
     for name in (*config.red, *config.blue):
         rc = config.robots[name]
         if rc.gps.latency_s > config.control_dt:
@@ -144,6 +144,21 @@ class FastWorld:
         self._pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
         self.ring_radius = self.field.ring.radius
         self.ring_z = self.field.ring.thickness / 2
+        # The whole game (sim.world.batch): its rules' constants and each robot's mechanism.
+        self.game = cfg.game == "tipping_point"
+        self.isolation_s = cfg.isolation_s
+        self.barrier = cfg.isolation_s > 0 and cfg.isolation_barrier
+        self.consts = game_consts(
+            self.field, cfg, [(a, rc) for a, rc in zip(self.alliances, rcs, strict=True)]
+        )
+        self.loads_base = np.array([rc.loads == "base" for rc in rcs])
+        self.reaches_high = np.array([rc.reaches_high_branch for rc in rcs])
+        self.high_cap = np.array([g.high_branch_capacity for g in self.field.goals], np.int64)
+        self.branch_cap = np.array([g.branch_capacity for g in self.field.goals], np.int64)
+        self.start_tilt = np.zeros(2)
+        for plat in self.field.platforms:
+            code = 0 if plat.alliance == "red" else 1
+            self.start_tilt[code] = seesaw.start_tilt(plat, self.field.seesaw) if self.game else 0
         self._allocate()
 
     # --- state ------------------------------------------------------------------------------
@@ -175,6 +190,18 @@ class FastWorld:
         self.gvy = np.zeros((b, g))
         self.carrier = np.full((b, g), -1, dtype=np.int64)
         self.goal_rings = np.zeros((b, g), dtype=np.int64)
+        # The whole game (GameBatch's arrays): a tug of war's second robot on each goal, the
+        # rings on its high branch and in its base, the board each robot drove onto, the
+        # boards' tilt, the fouls and the contacts going on, the autonomous period's result.
+        self.contester = np.full((b, g), -1, dtype=np.int64)
+        self.rings_high = np.zeros((b, g), dtype=np.int64)
+        self.rings_base = np.zeros((b, g), dtype=np.int64)
+        self.on_platform = np.full((b, r), -1, dtype=np.int64)
+        self.tilt = np.zeros((b, 2))
+        self.fouls = np.zeros((b, 2, 3), dtype=np.int64)
+        self.foul_contacts = np.zeros((b, r, r + 1, 3), dtype=bool)
+        self.auto_bonus = np.zeros((b, 2), dtype=np.int64)
+        self.auto_win_point = np.zeros((b, 2), dtype=np.int64)
         self.ring_xy = np.zeros((b, n_rings, 2))
         self.ring_floor = np.zeros((b, n_rings), dtype=bool)
         self.pin_timers = np.zeros((b, len(self.pin_pairs)))
@@ -226,6 +253,15 @@ class FastWorld:
         self.gvy[which] = 0.0
         self.carrier[which] = -1
         self.goal_rings[which] = 0
+        self.contester[which] = -1
+        self.rings_high[which] = 0
+        self.rings_base[which] = 0
+        self.on_platform[which] = -1
+        self.tilt[which] = self.start_tilt
+        self.fouls[which] = 0
+        self.foul_contacts[which] = False
+        self.auto_bonus[which] = 0
+        self.auto_win_point[which] = 0
         self.ring_floor[which] = True
         self.steps[which] = 0
         self.time_s[which] = 0.0
@@ -241,12 +277,30 @@ class FastWorld:
         self.heading[k, i] = float(wrap_heading(heading_deg))
         self.v[k, i] = self.w[k, i] = self.measured_v[k, i] = self.measured_w[k, i] = 0.0
         self.prev_pose[k, i] = (self.x[k, i], self.y[k, i], self.heading[k, i])
+        if self.game:  # set down by hand: on a board it overlaps, as World.place_robot
+            self.on_platform[k, i] = -1
+            h = np.radians(self.heading[k, i])
+            ex = self.half_w[i] * abs(np.cos(h)) + self.half_l[i] * abs(np.sin(h))
+            ey = self.half_w[i] * abs(np.sin(h)) + self.half_l[i] * abs(np.cos(h))
+            for code in self.consts.plat_order:
+                cx, cy, hx, hy, _ = self.consts.plat[code]
+                ox = min(x + ex, cx + hx) - max(x - ex, cx - hx)
+                oy = min(y + ey, cy + hy) - max(y - ey, cy - hy)
+                if ox > 0 and oy > 0:
+                    self.on_platform[k, i] = code
         g = int(self.carried[k, i])
         if g >= 0:
             back = float(self.clamp_offsets[i, g])
             rad = np.radians(self.heading[k, i])
             self.gx[k, g] = self.x[k, i] + back * np.sin(rad)
             self.gy[k, g] = self.y[k, i] + back * np.cos(rad)
+
+    def place_goal(self, k: int, g: int, x: float, y: float) -> None:
+        """Put free goal g of match k at (x, y), at rest, as World.place_goal does."""
+        if self.carrier[k, g] >= 0:
+            raise ValueError(f"goal {self.field.goals[g].name} is carried; release it first")
+        self.gx[k, g], self.gy[k, g] = float(x), float(y)
+        self.gvx[k, g] = self.gvy[k, g] = 0.0
 
     # --- stepping ---------------------------------------------------------------------------
 
@@ -278,15 +332,24 @@ class FastWorld:
         self.gvy[~live] = 0.0
         self.intake_on = on.astype(bool)
         before = np.stack([self.x, self.y, self.heading], -1)
+        goals_before = (self.gx.copy(), self.gy.copy())
+        v, w = self.v, self.w
+        if self.game:  # a tug of war slows its winner and holds its loser
+            share, dragged = mechanisms.tug_of_war(
+                self.consts, self.carrier, self.contester, self.v, self.w, live
+            )
+            v = np.where(np.isnan(share), self.v, self.v * share)
+            w = np.where(dragged, 0.0, self.w)
         # As World sets each body's velocity once a control step (PyBullet keeps it in the
         # field frame through the substeps, where contacts change it).
         rad = np.radians(self.heading)
-        self.rvx = self.v * np.sin(rad)
-        self.rvy = self.v * np.cos(rad)
-        self.rw = self.w.copy()
+        self.rvx = v * np.sin(rad)
+        self.rvy = v * np.cos(rad)
+        self.rw = w.copy()
         state = (
             self.x, self.y, self.heading, self.rvx, self.rvy, self.rw,
-            self.gx, self.gy, self.gvx, self.gvy, self.carried, self.carrier,
+            self.gx, self.gy, self.gvx, self.gvy, self._moving_clamps(), self.carrier,
+            self.contester,
         )  # fmt: skip
         with kernels.threads_for(self.n):
             kernels.substeps(
@@ -295,6 +358,13 @@ class FastWorld:
                 self.substeps, _GOAL_DAMPING, _POSITION_SHARE,
             )  # fmt: skip
         self.heading = np.asarray(wrap_heading(self.heading), dtype=np.float64)
+        isolation = live & (self.time_s < self.isolation_s)
+        if self.barrier and isolation.any():
+            self._barrier(isolation)
+        if self.game:
+            gs = self.game_batch()
+            seesaw.board_contacts(self.consts, gs, before[..., 0], before[..., 1], live)
+            seesaw.goal_board_contacts(self.consts, gs, *goals_before, live)
         dx, dy = self.x - before[..., 0], self.y - before[..., 1]
         h0 = np.radians(before[..., 2])
         self.measured_v = (dx * np.sin(h0) + dy * np.cos(h0)) / self.dt
@@ -310,9 +380,11 @@ class FastWorld:
             clamped=np.full((b, r), -1, dtype=np.int64),
             pins=np.zeros((b, len(self.pin_pairs)), dtype=bool),
             match_over=self.over.copy(),
+            fouls=np.zeros((b, r, 3), dtype=bool),
+            phase_changed=isolation & (self.time_s >= self.isolation_s),
         )
         self._clamp(want, live, events)
-        self._follow_clamps()
+        self._follow_clamps(before[..., 2])
         self._intake(live, events)
         if self.config.push_rings:
             self._push_rings()
@@ -322,10 +394,56 @@ class FastWorld:
             timers, pinned = rules.pin_step(self.pin_timers, touching, self.dt, self.pin_time_s)
             self.pin_timers = np.where(live[:, None], timers, self.pin_timers)
             events.pins = pinned & live[:, None]
+        if self.game:
+            self._game_rules(live, events)
         ended = live & (self.time_s >= self.match_length_s - 1e-9)
         self.over |= ended
         events.match_over = self.over.copy()
         return events
+
+    def game_batch(self) -> GameBatch:
+        """The whole game's state of every match as its rules read it (the arrays themselves,
+        not copies: the rules' in-place updates are this world's)."""
+        return GameBatch(
+            self.x, self.y, self.heading, self.v, self.on_platform, self.gx, self.gy,
+            self.carrier, self.contester, self.goal_rings, self.rings_high, self.rings_base,
+            self.tilt, self.fouls, self.auto_bonus, self.auto_win_point,
+        )  # fmt: skip
+
+    def _game_rules(self, live: Bool, events: FastEvents) -> None:
+        """The whole game's end of a step: the boards swing, fouls are called, and where the
+        isolation period ended its bonus and win point are judged (World's order)."""
+        gs = self.game_batch()
+        carried = self.carried.copy()
+        seesaw.step_tilts(self.consts, gs, carried, self.dt, live)
+        contact = -self._overlap_matrix() <= self.config.pin_contact_m
+        events.fouls = rules.game_fouls(
+            self.consts, gs, self.time_s, contact, self.foul_contacts, live
+        )
+        judged = events.phase_changed
+        if judged.any():
+            points = np.ascontiguousarray(rules.game_score(self.consts, gs)[:, :, 4])
+            bonus, win, _ = rules.game_autonomous(self.consts, gs, points)
+            self.auto_bonus[judged] = bonus[judged]
+            self.auto_win_point[judged] = win[judged]
+
+    def _moving_clamps(self) -> I64:
+        """(B, R): the goal each robot's clamp moves through the substeps, -1 none (a tug of
+        war's loser holds its goal but is dragged with it after the step)."""
+        g = np.where(self.carried >= 0, self.carried, 0)
+        holder = np.take_along_axis(self.carrier, g, axis=1)
+        mine = (self.carried >= 0) & (holder == np.arange(self.n_robots)[None])
+        return np.where(mine, self.carried, -1)
+
+    def _barrier(self, isolation: Bool) -> None:
+        """The isolation period's centre-line wall that only robots hit (World's 2 cm thick
+        body): a robot's footprint stays on its side of it."""
+        rad = np.radians(self.heading)
+        ex = self.half_w * np.abs(np.cos(rad)) + self.half_l * np.abs(np.sin(rad))
+        wall = _BARRIER_HALF + ex
+        right = self.x >= 0
+        x = np.where(right, np.maximum(self.x, wall), np.minimum(self.x, -wall))
+        np.copyto(self.x, x, where=isolation[:, None])
 
     # --- contacts ---------------------------------------------------------------------------
 
@@ -337,6 +455,15 @@ class FastWorld:
             return kernels.pair_overlaps(
                 self.x, self.y, self.heading, self.half_w, self.half_l, pairs
             )
+
+    def _overlap_matrix(self) -> F64:
+        """(B, R, R): every robot pair's least overlap (overlaps), both ways round."""
+        out = np.full((self.n, self.n_robots, self.n_robots), -np.inf)
+        if len(self._pairs):
+            o = self.overlaps()
+            out[:, self._pairs[:, 0], self._pairs[:, 1]] = o
+            out[:, self._pairs[:, 1], self._pairs[:, 0]] = o
+        return out
 
     def _touching(self) -> Bool:
         """Red-blue pairs within pin_contact_m hull to hull (World._touching), (B, P_pin)."""
@@ -351,8 +478,12 @@ class FastWorld:
         rad = np.radians(self.heading)
         return self.x + back * np.sin(rad), self.y + back * np.cos(rad)
 
-    def _follow_clamps(self) -> None:
-        holding = self.carried >= 0
+    def _follow_clamps(self, headings_before: F64) -> None:
+        """Carried goals to their carriers' clamps. A tug of war's loser (the goal's contester)
+        is dragged with it (World._carry_goals): it keeps its place against the goal, turning by
+        as much as the carrier turned since headings_before (B, R); a wall that stops it pushes
+        the carrier and the goal back with it."""
+        holding = self._moving_clamps() >= 0
         if not holding.any():
             return
         gi = np.where(holding, self.carried, 0)
@@ -363,6 +494,30 @@ class FastWorld:
         self.gy[bi, g] = cy[bi, ri]
         self.gvx[bi, g] = self.rvx[bi, ri]
         self.gvy[bi, g] = self.rvy[bi, ri]
+        bi, g = np.nonzero((self.contester >= 0) & (self.carrier >= 0))
+        if len(bi):
+            self._drag(bi, g, headings_before)
+
+    def _drag(self, bi: I64, g: I64, headings_before: F64) -> None:
+        """The tug of war's losers (contesters of goals g in matches bi) to their goals."""
+        win, lose = self.carrier[bi, g], self.contester[bi, g]
+        turned = self.heading[bi, win] - headings_before[bi, win]
+        h = (headings_before[bi, lose] + turned) % 360.0
+        self.heading[bi, lose] = h
+        back = self.clamp_offsets[lose, g]
+        rad = np.radians(h)
+        x = self.gx[bi, g] - back * np.sin(rad)
+        y = self.gy[bi, g] - back * np.cos(rad)
+        ex = self.half_w[lose] * np.abs(np.cos(rad)) + self.half_l[lose] * np.abs(np.sin(rad))
+        ey = self.half_w[lose] * np.abs(np.sin(rad)) + self.half_l[lose] * np.abs(np.cos(rad))
+        lim = self.field.half
+        sx = np.maximum(0.0, -lim - (x - ex)) - np.maximum(0.0, x + ex - lim)
+        sy = np.maximum(0.0, -lim - (y - ey)) - np.maximum(0.0, y + ey - lim)
+        self.x[bi, lose], self.y[bi, lose] = x + sx, y + sy
+        self.x[bi, win] += sx
+        self.y[bi, win] += sy
+        self.gx[bi, g] += sx
+        self.gy[bi, g] += sy
 
     def _clamp(self, want: F64, live: Bool, events: FastEvents) -> None:
         """World._clamp for every match, robot by robot in index order (a goal the first
@@ -372,9 +527,15 @@ class FastWorld:
             grab = np.where(want[:, i] < 0, auto, want[:, i] > 0) & live
             release = (want[:, i] == 0) & (self.carried[:, i] >= 0) & live
             if release.any():
-                g = self.carried[release, i]
-                self.carrier[np.flatnonzero(release), g] = -1
-                self.carried[release, i] = -1
+                rows = np.flatnonzero(release)
+                g = self.carried[rows, i]
+                second = self.contester[rows, g] == i
+                # The goal stays with the tug of war's other robot, if any.
+                self.carrier[rows, g] = np.where(
+                    second, self.carrier[rows, g], self.contester[rows, g]
+                )
+                self.contester[rows, g] = -1
+                self.carried[rows, i] = -1
             take = grab & (self.carried[:, i] < 0)
             if not take.any():
                 continue
@@ -390,15 +551,22 @@ class FastWorld:
                 & (gap <= rc.clamp_reach_m)
                 & (np.abs(across) <= rc.clamp_half_width_m)
             )
-            ok &= (self.carrier < 0) & take[:, None]
+            free = self.carrier < 0
+            if self.game:  # a goal one robot holds: one of the other alliance may clamp it too
+                holder = self.consts.team[np.maximum(self.carrier, 0)]
+                free |= (self.carrier >= 0) & (self.contester < 0) & (holder != self.consts.team[i])
+            ok &= free & take[:, None]
             found = ok.any(axis=1)
             if not found.any():
                 continue
             best = np.argmin(np.where(ok, gap, np.inf), axis=1)
             rows = np.flatnonzero(found)
-            self.carried[rows, i] = best[rows]
-            self.carrier[rows, best[rows]] = i
-            events.clamped[rows, i] = best[rows]
+            goal = best[rows]
+            held = self.carrier[rows, goal] >= 0
+            self.carrier[rows, goal] = np.where(held, self.carrier[rows, goal], i)
+            self.contester[rows, goal] = np.where(held, i, self.contester[rows, goal])
+            self.carried[rows, i] = goal
+            events.clamped[rows, i] = goal
 
     # --- rings ------------------------------------------------------------------------------
 
@@ -469,14 +637,26 @@ class FastWorld:
             self.transfer = np.where(due, self.transfer - period, self.transfer)
             self.held -= due
             events.scored += due
-            bi, ri = np.nonzero(due)
-            np.add.at(self.goal_rings, (bi, self.carried[bi, ri]), 1)
+            if self.game:  # where each robot's mechanism puts it, robot by robot
+                mechanisms.place_rings(
+                    due, self.carried, self.goal_rings, self.rings_high, self.rings_base,
+                    self.loads_base, self.reaches_high, self.high_cap, self.branch_cap,
+                )  # fmt: skip
+            else:
+                bi, ri = np.nonzero(due)
+                np.add.at(self.goal_rings, (bi, self.carried[bi, ri]), 1)
             due = due & (self.held > 0) & (self.transfer >= period)
 
     # --- the rules --------------------------------------------------------------------------
 
     def score(self) -> dict[str, tuple[I64, ...]]:
-        """By alliance: (rings, goals in zone, goals elevated, robots elevated, total), (B,)."""
+        """By alliance: (rings, goals in zone, goals elevated, robots elevated, total), (B,);
+        the whole game's other fields are game_score's."""
+        if self.game:
+            rows = self.game_score()
+            return {
+                a: tuple(rows[:, k, f] for f in range(5)) for k, a in enumerate(rules.ALLIANCES)
+            }
         return rules.ring_race_score(
             self.field,
             self.alliances,
@@ -485,6 +665,28 @@ class FastWorld:
             self.goal_rings,
             self.carrier,
         )
+
+    def owners(self) -> tuple[I64, Bool, Bool]:
+        """Each goal's owner (B, G: 0 none, 1 red, 2 blue), whether it is elevated (B, G) and
+        whether each robot is (B, R), by this world's game's rules (rules.ring_race_owners,
+        or the whole game's game_owners and game_judged)."""
+        if self.game:
+            gs = self.game_batch()
+            owner, up = rules.game_owners(self.consts, gs)
+            _, robots_up = rules.game_judged(self.consts, gs)
+            return owner + 1, up, robots_up
+        return rules.ring_race_owners(
+            self.field,
+            self.alliances,
+            np.stack([self.x, self.y], -1),
+            np.stack([self.gx, self.gy], -1),
+            self.carrier,
+        )
+
+    def game_score(self) -> I64:
+        """The whole game's score of every match, (B, 2, 12): by alliance (red, blue), the fields
+        of sim.world.batch.SCORE_FIELDS (rules.game_score)."""
+        return rules.game_score(self.consts, self.game_batch())
 
     def totals(self) -> tuple[I64, I64]:
         """Red's and blue's match score now, (B,) each."""

@@ -87,3 +87,36 @@ def ring_slot(
     if low >= branch_cap:
         return BASE
     return LOW
+
+
+@nb.njit(cache=True)
+def place_rings(
+    due: NDArray[np.bool_],
+    carried: NDArray[np.int64],
+    rings: NDArray[np.int64],
+    rings_high: NDArray[np.int64],
+    rings_base: NDArray[np.int64],
+    loads_base: NDArray[np.bool_],
+    reaches_high: NDArray[np.bool_],
+    high_cap: NDArray[np.int64],
+    branch_cap: NDArray[np.int64],
+) -> None:
+    """Robots putting one ring each (due, (B, R)) on the goal they hold (carried): where each
+    goes (ring_slot), robot by robot in index order, counted in rings (each goal's total),
+    rings_high and rings_base (B, G) in place."""
+    n, r = due.shape
+    for b in range(n):
+        for i in range(r):
+            if not due[b, i]:
+                continue
+            g = carried[b, i]
+            high, base = rings_high[b, g], rings_base[b, g]
+            slot = ring_slot(
+                loads_base[i], reaches_high[i], high, rings[b, g] - high - base,
+                high_cap[g], branch_cap[g],
+            )  # fmt: skip
+            if slot == HIGH:
+                rings_high[b, g] += 1
+            elif slot == BASE:
+                rings_base[b, g] += 1
+            rings[b, g] += 1

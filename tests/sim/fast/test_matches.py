@@ -77,11 +77,11 @@ def test_a_policy_opponent_gets_its_own_observation_and_actions() -> None:
     assert moved[np.arange(4), them].min() > 0
 
 
-WHOLE_GAME = """
-name = "game"
+UNSUPPORTED = """
+name = "occluded"
 backend = "fast"
 [env.world]
-game = "tipping_point"
+occlude_with_rings = true
 [opponents]
 pool = 0.5
 none = 0.5
@@ -89,8 +89,8 @@ none = 0.5
 
 
 def test_what_the_fast_backend_cannot_run_is_named() -> None:
-    cfg = parse_config(tomllib.loads(WHOLE_GAME))
-    with pytest.raises(ConfigError, match="game = 'tipping_point'") as e:
+    cfg = parse_config(tomllib.loads(UNSUPPORTED))
+    with pytest.raises(ConfigError, match="occlude_with_rings") as e:
         cfg.on_backend()
     assert "opponents.none" in str(e.value)
     env = make_config(ENV)
@@ -102,13 +102,13 @@ def test_what_the_fast_backend_cannot_run_is_named() -> None:
 def test_pete_sim_train_refuses_a_config_the_fast_backend_cannot_run(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    config = tmp_path / "game.toml"
-    config.write_text(WHOLE_GAME)
+    config = tmp_path / "occluded.toml"
+    config.write_text(UNSUPPORTED)
     run = tmp_path / "run"
     code = main(["train", "--config", str(config), "--run-dir", str(run)])
     assert code == 2
     err = capsys.readouterr().err
-    assert "--backend fast" in err and "tipping_point" in err
+    assert "--backend fast" in err and "occlude_with_rings" in err
     assert not run.exists()  # refused before the run folder was written
 
 

@@ -113,8 +113,8 @@ def test_a_pin_is_called_after_pin_time_in_contact() -> None:
 
 
 def test_a_world_it_cannot_model_is_refused_by_name() -> None:
-    with pytest.raises(ConfigError, match="game = 'tipping_point'"):
-        FastWorld(WorldConfig(game="tipping_point"))
+    with pytest.raises(ConfigError, match="occlude_with_rings"):
+        FastWorld(WorldConfig(occlude_with_rings=True))
     with pytest.raises(ConfigError, match="fidelity"):
         FastWorld(WorldConfig(fidelity="high"))
 
