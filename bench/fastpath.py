@@ -7,14 +7,14 @@ fidelity in one run.
                              [--skip-default] [--default-steps N]
 
 Rows:
-  speed       robot control steps per second with every robot's observation built, the ring
-              race 1v1 and 2v2: sim.fast (--matches matches at once, random drive commands,
+  speed       robot control steps per second with every robot's observation built:
+              sim.fast (--matches matches at once, random drive commands,
               --steps steps, one process whose compiled loops use every core) against the
               PettingZoo env on PyBullet (every robot an agent) on --processes processes.
-              Target (issue 45): >= 200,000 for the whole 2v2 game
-              (fast_game_2v2_robot_steps_per_s); the fast backend plays the ring race only so
-              far, so that key is not measured and its target stands unmet, and the ring race's
-              2v2 figure is reported beside it.
+              Rows for the ring race 1v1 and 2v2 and the whole 2v2 game (tipping_point_2v2:
+              the isolation period, preloads, see-saws, tugs of war, fouls; every rule in
+              every match each step). Target (issue 45): >= 200,000 for the whole 2v2 game
+              (fast_game_2v2_robot_steps_per_s).
   ppo         PPO end to end (rollouts and updates, sim.training.trainer): sim/configs/fast.toml
               on the fast backend, and the same game on PyBullet (worker processes of 8 matches,
               minibatches of 512): steps per second. Target >= 50,000.
@@ -59,31 +59,53 @@ import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from bench.common import Result
 
-RING_RACE_2V2 = {"red": ("24in", "15in"), "blue": ("24in", "15in")}
-JITTER = {"start_jitter_m": 0.1, "start_jitter_deg": 10.0, "ring_jitter_m": 0.03}
-
-
-def _world(two: bool) -> object:
+if TYPE_CHECKING:
     from sim.config import WorldConfig
 
-    return WorldConfig(**JITTER, **(RING_RACE_2V2 if two else {}))
+RING_RACE_2V2 = {"red": ("24in", "15in"), "blue": ("24in", "15in")}
+JITTER = {"start_jitter_m": 0.1, "start_jitter_deg": 10.0, "ring_jitter_m": 0.03}
+# The speed rows' games: (robots a side, the world's settings).
+SPEED_GAMES = ("ring_race_1v1", "ring_race_2v2", "game_2v2")
 
 
-def fast_speed(args: tuple[bool, int, int, int]) -> tuple[int, float]:
+def _world(game: str) -> WorldConfig:
+    from sim.config import WorldConfig
+
+    return WorldConfig(**_world_settings(game))  # type: ignore[arg-type]
+
+
+def _world_settings(game: str) -> dict[str, object]:
+    from sim.config import WORLD_PRESETS
+
+    if game == "game_2v2":  # the whole VEX AI match: isolation period, preloads, the see-saws
+        return {**WORLD_PRESETS["tipping_point_2v2"], **JITTER}
+    return {**JITTER, **(RING_RACE_2V2 if game == "ring_race_2v2" else {})}
+
+
+def _observation(game: str) -> dict[str, object]:
+    from sim.config import world_preset
+
+    two = game != "ring_race_1v1"
+    length = world_preset("tipping_point_2v2").isolation_s + 105.0 if game == "game_2v2" else 105.0
+    return {"n_stack": 2, "n_other_robots": 3 if two else 1, "match_length_s": length}
+
+
+def fast_speed(args: tuple[str, int, int, int]) -> tuple[int, float]:
     """(robot steps, seconds) of `steps` steps of `matches` fast matches with observations."""
     from jetson.autonomy.spec import ObservationSpec
     from sim.fast.observe import FastObserver
     from sim.fast.world import FastWorld
 
-    two, matches, steps, seed = args
-    world = FastWorld(_world(two), matches)  # type: ignore[arg-type]
+    game, matches, steps, seed = args
+    world = FastWorld(_world(game), matches)
     world.reset(range(seed * matches, (seed + 1) * matches))
-    spec = ObservationSpec(n_stack=2, n_other_robots=3 if two else 1)
+    spec = ObservationSpec(**_observation(game))  # type: ignore[arg-type]
     obs = FastObserver(world, spec, rng=np.random.default_rng(seed))
     obs.reset()
     rng = np.random.default_rng(seed)
@@ -98,15 +120,12 @@ def fast_speed(args: tuple[bool, int, int, int]) -> tuple[int, float]:
     return matches * r * steps, time.perf_counter() - start
 
 
-def pybullet_speed(args: tuple[bool, int, int, int]) -> tuple[int, float]:
+def pybullet_speed(args: tuple[str, int, int, int]) -> tuple[int, float]:
     """(robot steps, seconds) of the PettingZoo env on PyBullet, every robot an agent."""
     from sim.parallel_env import parallel_env
 
-    two, _, steps, seed = args
-    env = parallel_env(
-        world={**JITTER, **(RING_RACE_2V2 if two else {})},
-        observation={"n_stack": 2, "n_other_robots": 3 if two else 1},
-    )
+    game, _, steps, seed = args
+    env = parallel_env(world=_world_settings(game), observation=_observation(game))
     rng = np.random.default_rng(seed)
     env.reset(seed=seed)
     n = 0
@@ -123,7 +142,7 @@ def pybullet_speed(args: tuple[bool, int, int, int]) -> tuple[int, float]:
     return robots * steps, elapsed
 
 
-def _parallel(fn: object, jobs: list[tuple[bool, int, int, int]]) -> float:
+def _parallel(fn: object, jobs: list[tuple[str, int, int, int]]) -> float:
     """Total robot steps per second of `jobs` run at once, one process each."""
     if len(jobs) == 1:
         steps, secs = fn(jobs[0])  # type: ignore[operator]
@@ -135,17 +154,18 @@ def _parallel(fn: object, jobs: list[tuple[bool, int, int, int]]) -> float:
 
 def speed_rows(result: Result, args: argparse.Namespace) -> None:
     procs = args.processes
-    fast_speed((True, 8, 2, 0))  # the compiled loops load (or compile) before the timing
-    for two, label in ((False, "1v1"), (True, "2v2")):
-        matches = args.matches if not two else args.matches // 2
+    for game in SPEED_GAMES:  # the compiled loops load (or compile) before the timing
+        fast_speed((game, 8, 2, 0))
+    for game in SPEED_GAMES:
+        matches = args.matches if game == "ring_race_1v1" else args.matches // 2
         # One process: its compiled loops run on every core (numba's threads); PyBullet's
         # matches run one per process on as many.
-        fast = _parallel(fast_speed, [(two, matches, args.steps, 0)])
-        slow = _parallel(pybullet_speed, [(two, 0, args.pybullet_steps, k) for k in range(procs)])
-        result.add(f"fast_ring_race_{label}_robot_steps_per_s", round(fast))
-        result.add(f"pybullet_ring_race_{label}_robot_steps_per_s", round(slow))
-        result.add(f"speedup_ring_race_{label}", round(fast / slow, 1))
-        print(f"{label}: fast {fast:,.0f} robot steps/s, PyBullet {slow:,.0f} ({fast / slow:.0f}x)")
+        fast = _parallel(fast_speed, [(game, matches, args.steps, 0)])
+        slow = _parallel(pybullet_speed, [(game, 0, args.pybullet_steps, k) for k in range(procs)])
+        result.add(f"fast_{game}_robot_steps_per_s", round(fast))
+        result.add(f"pybullet_{game}_robot_steps_per_s", round(slow))
+        result.add(f"speedup_{game}", round(fast / slow, 1))
+        print(f"{game}: fast {fast:,.0f} robot steps/s, PyBullet {slow:,.0f} ({fast / slow:.0f}x)")
 
 
 def ppo_rows(result: Result, args: argparse.Namespace) -> None:
@@ -276,7 +296,7 @@ def _pybullet_match(seed: int, nudge_m: float = 0.0) -> tuple[list[int], list[in
     from sim.baselines.scripted import GreedyChaser
     from sim.world.physics import World
 
-    with World(_world(False)) as w:  # type: ignore[arg-type]
+    with World(_world("ring_race_1v1")) as w:
         w.reset(np.random.default_rng(seed))
         if nudge_m:
             r = w.robots[0]
@@ -294,7 +314,7 @@ def _fast_matches(seeds: list[int]) -> list[tuple[list[int], list[int]]]:
     from sim.fast.view import match_view
     from sim.fast.world import FastWorld
 
-    world = FastWorld(_world(False), len(seeds))  # type: ignore[arg-type]
+    world = FastWorld(_world("ring_race_1v1"), len(seeds))
     world.reset([np.random.default_rng(s) for s in seeds])
     players = [[GreedyChaser(i) for i in range(world.n_robots)] for _ in seeds]
     lin = np.zeros((len(seeds), world.n_robots))
