@@ -8,9 +8,9 @@ and clock) and each robot's view (its GPS reading and the rings its camera sees,
 FastCore gives the same for match k of a FastWorld: match_view(world, k), and the reading and
 rings the FastObserver built that robot's frame from in this control step (the same reading,
 as MatchCore's GPS read twice in one step is). The players themselves are unchanged: the
-planner as an opponent and as the teacher, the greedy chaser as an opponent. Each is a Python
-call per match and step, as on PyBullet: what they cost is what they cost there, without the
-physics.
+greedy chaser as an opponent in FastMatches, a Python call per match and step, as on PyBullet;
+and the planner, which FastMatches plays batched (sim.fast.planner) and the tests hold to the
+planner playing through FastCore.
 """
 
 from __future__ import annotations
