@@ -2,6 +2,7 @@
 fidelity in one run.
 
     python -m bench.fastpath [--matches 8192] [--steps 120] [--processes 2] [--seeds 40]
+                             [--game-seeds 200]
                              [--ppo-steps N] [--transfer-steps N] [--skip-ppo]
                              [--skip-transfer] [--skip-agreement] [--skip-competence]
                              [--skip-default] [--default-steps N]
@@ -19,7 +20,8 @@ Rows:
               on the fast backend, and the same game on PyBullet (worker processes of 8 matches,
               minibatches of 512): steps per second. Target >= 50,000.
   agreement   the same scripted players (sim.baselines.scripted.GreedyChaser, ground truth)
-              on the same seeds, 1v1, both backends: the share of matches where every robot's
+              on the same seeds, both backends, the ring race 1v1 (--seeds) and the whole 2v2
+              game (--game-seeds; agreement_game_*): the share of matches where every robot's
               rings are within 1 (target >= 0.9) and the mean match score's relative error
               (target <= 0.03). Beside them, PyBullet against itself with the red robot's start
               moved 1 cm: how far the twin's own matches move for a centimetre, the floor any
@@ -291,12 +293,15 @@ def transfer_rows(result: Result, args: argparse.Namespace) -> None:
     )
 
 
-def _pybullet_match(seed: int, nudge_m: float = 0.0) -> tuple[list[int], list[int]]:
-    """Two greedy chasers, one seeded 1v1 match on PyBullet: rings and score per alliance."""
+def _pybullet_match(
+    seed: int, nudge_m: float = 0.0, game: str = "ring_race_1v1"
+) -> tuple[list[int], list[int]]:
+    """Greedy chasers, one seeded match of `game` on PyBullet: each robot's rings and each
+    alliance's score."""
     from sim.baselines.scripted import GreedyChaser
     from sim.world.physics import World
 
-    with World(_world("ring_race_1v1")) as w:
+    with World(_world(game)) as w:
         w.reset(np.random.default_rng(seed))
         if nudge_m:
             r = w.robots[0]
@@ -308,13 +313,15 @@ def _pybullet_match(seed: int, nudge_m: float = 0.0) -> tuple[list[int], list[in
         return [r.collected for r in w.robots], [s["red"].total, s["blue"].total]
 
 
-def _fast_matches(seeds: list[int]) -> list[tuple[list[int], list[int]]]:
+def _fast_matches(
+    seeds: list[int], game: str = "ring_race_1v1"
+) -> list[tuple[list[int], list[int]]]:
     """The same matches on the fast backend, every seed at once."""
     from sim.baselines.scripted import GreedyChaser
     from sim.fast.view import match_view
     from sim.fast.world import FastWorld
 
-    world = FastWorld(_world("ring_race_1v1"), len(seeds))
+    world = FastWorld(_world(game), len(seeds))
     world.reset([np.random.default_rng(s) for s in seeds])
     players = [[GreedyChaser(i) for i in range(world.n_robots)] for _ in seeds]
     lin = np.zeros((len(seeds), world.n_robots))
@@ -346,22 +353,28 @@ def _agreement(
 
 
 def agreement_rows(result: Result, args: argparse.Namespace) -> None:
-    seeds = list(range(args.seeds))
-    with mp.get_context("spawn").Pool(args.processes) as pool:
-        ref = pool.map(_pybullet_match, seeds)
-        nudged = pool.starmap(_pybullet_match, [(s, 0.01) for s in seeds])
-    fast = _fast_matches(seeds)
-    within, err = _agreement(ref, fast)
-    floor_within, floor_err = _agreement(ref, nudged)
-    result.add("agreement_seeds", len(seeds))
-    result.add("agreement_rings_within_1", round(within, 3))
-    result.add("agreement_score_error", round(err, 4))
-    result.add("pybullet_nudged_rings_within_1", round(floor_within, 3))
-    result.add("pybullet_nudged_score_error", round(floor_err, 4))
-    print(
-        f"agreement: rings within 1 in {within:.0%} of matches, mean score off by {err:.1%} "
-        f"(PyBullet nudged 1 cm: {floor_within:.0%}, {floor_err:.1%})"
-    )
+    """The ring race 1v1 on --seeds seeds, and the whole 2v2 game on --game-seeds."""
+    for game, n, prefix in (
+        ("ring_race_1v1", args.seeds, "agreement"),
+        ("game_2v2", args.game_seeds, "agreement_game"),
+    ):
+        seeds = list(range(n))
+        with mp.get_context("spawn").Pool(args.processes) as pool:
+            ref = pool.starmap(_pybullet_match, [(s, 0.0, game) for s in seeds])
+            nudged = pool.starmap(_pybullet_match, [(s, 0.01, game) for s in seeds])
+        fast = _fast_matches(seeds, game)
+        within, err = _agreement(ref, fast)
+        floor_within, floor_err = _agreement(ref, nudged)
+        nudged_key = "pybullet_nudged" if game == "ring_race_1v1" else "pybullet_game_nudged"
+        result.add(f"{prefix}_seeds", len(seeds))
+        result.add(f"{prefix}_rings_within_1", round(within, 3))
+        result.add(f"{prefix}_score_error", round(err, 4))
+        result.add(f"{nudged_key}_rings_within_1", round(floor_within, 3))
+        result.add(f"{nudged_key}_score_error", round(floor_err, 4))
+        print(
+            f"agreement ({game}): rings within 1 in {within:.0%} of matches, mean score off by "
+            f"{err:.1%} (PyBullet nudged 1 cm: {floor_within:.0%}, {floor_err:.1%})"
+        )
 
 
 def competence_rows(result: Result, args: argparse.Namespace) -> None:
@@ -423,7 +436,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--steps", type=int, default=120, help="fast steps timed")
     parser.add_argument("--pybullet-steps", type=int, default=600, help="PyBullet steps timed")
     parser.add_argument("--processes", type=int, default=os.cpu_count() or 1)
-    parser.add_argument("--seeds", type=int, default=40, help="agreement matches")
+    parser.add_argument("--seeds", type=int, default=40, help="agreement matches, ring race")
+    parser.add_argument(
+        "--game-seeds", type=int, default=200, help="agreement matches, the whole 2v2 game"
+    )
     parser.add_argument("--ppo-steps", type=int, default=1_048_576, help="fast PPO steps")
     parser.add_argument("--ppo-pybullet-steps", type=int, default=16_384)
     parser.add_argument("--transfer-config", default="fast_score", help="the policy's config")
@@ -464,6 +480,8 @@ def main(argv: list[str] | None = None) -> int:
     result.target("fast_default_retrain_s", 180.0, "<=")
     result.target("agreement_rings_within_1", 0.9, ">=")
     result.target("agreement_score_error", 0.03, "<=")
+    result.target("agreement_game_rings_within_1", 0.9, ">=")
+    result.target("agreement_game_score_error", 0.03, "<=")
     result.target("fast_policy_high_fidelity_score_ratio", 0.95, ">=")
     result.report()
     return 0

@@ -14,10 +14,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from jetson.autonomy.geometry import AllianceName
 from sim.config import WorldConfig
 from sim.fast.world import FastWorld
 from sim.field import FieldSpec
-from sim.world.state import RING_FLOOR, RING_HELD, GoalState, RobotState
+from sim.world.batch import ALLIANCE_CODES
+from sim.world.state import RING_FLOOR, RING_HELD, GoalState, PlatformState, RobotState
 
 
 @dataclass
@@ -35,6 +37,7 @@ class MatchView:
     ring_z: np.ndarray
     training: bool = True
     lineup: list[tuple[str, str]] = field(default_factory=list)
+    platforms: dict[str, PlatformState] = field(default_factory=dict)  # the whole game's boards
 
 
 def match_view(world: FastWorld, k: int) -> MatchView:
@@ -62,6 +65,7 @@ def match_view(world: FastWorld, k: int) -> MatchView:
             held=int(world.held[k, i]),
             collected=int(world.collected[k, i]),
             carried_goal=None if carried < 0 else carried,
+            on_platform=_alliance(int(world.on_platform[k, i])),
         )
         slots[alliance] += 1
         robots.append(r)
@@ -77,6 +81,9 @@ def match_view(world: FastWorld, k: int) -> MatchView:
                 y=float(world.gy[k, g]),
                 carried_by=None if carrier < 0 else carrier,
                 rings=int(world.goal_rings[k, g]),
+                rings_high=int(world.rings_high[k, g]),
+                rings_base=int(world.rings_base[k, g]),
+                contested_by=None if world.contester[k, g] < 0 else int(world.contester[k, g]),
             )
         )
     floor = world.ring_floor[k]
@@ -91,4 +98,14 @@ def match_view(world: FastWorld, k: int) -> MatchView:
         ring_state=np.where(floor, RING_FLOOR, RING_HELD).astype(np.int8),
         ring_z=np.full(len(floor), world.ring_z),
         lineup=list(world.lineup),
+        platforms={
+            p.alliance: PlatformState(p.alliance, float(world.tilt[k, ALLIANCE_CODES[p.alliance]]))
+            for p in world.field.platforms
+        }
+        if world.game
+        else {},
     )
+
+
+def _alliance(code: int) -> AllianceName | None:
+    return None if code < 0 else ("red", "blue")[code]
