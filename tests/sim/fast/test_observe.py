@@ -4,11 +4,12 @@ noise, the spec's noise within its bounds, and the stack newest first."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from jetson.autonomy.geometry import field_to_robot
 from jetson.autonomy.observation import RobotView, build_frame
 from jetson.autonomy.spec import ObservationSpec
-from sim.config import WorldConfig
+from sim.config import WorldConfig, world_preset
 from sim.fast.observe import FastObserver
 from sim.fast.view import match_view
 from sim.fast.world import FastWorld
@@ -37,9 +38,15 @@ def _reference(world: FastWorld, spec: ObservationSpec, k: int, i: int) -> np.nd
     return build_frame(spec, view)
 
 
-def test_frames_equal_the_jetson_builder_value_for_value() -> None:
-    spec = ObservationSpec(version=5, n_other_robots=3, n_stack=0, intake_flag=True)
-    world = FastWorld(RING_RACE_2V2, 8)
+@pytest.mark.parametrize("game", ["ring_race", "tipping_point"])
+def test_frames_equal_the_jetson_builder_value_for_value(game: str) -> None:
+    """The ring race 2v2, and the whole game (its isolation period, see-saws and tugs)."""
+    length = 120.0 if game == "tipping_point" else 105.0
+    spec = ObservationSpec(
+        version=5, n_other_robots=3, n_stack=0, intake_flag=True, match_length_s=length
+    )
+    cfg = world_preset("tipping_point_2v2") if game == "tipping_point" else RING_RACE_2V2
+    world = FastWorld(cfg, 8)
     world.reset(range(8))
     obs = FastObserver(world, spec, obs_noise=False, gps_noise=False)
     rng = np.random.default_rng(0)
