@@ -18,11 +18,20 @@ once what sim.world.physics.World does for one in training fidelity:
    numpy, one array operation per rule;
 4. the rules: pins (sim.world.rules.pin_step) and the score (rules.ring_race_score).
 
+The whole game (WorldConfig.game = "tipping_point") adds, on sim.world's compiled rules that World
+calls too (sim.world.batch: the arrays they read): a tug of war before the substeps
+(mechanisms.tug_of_war: the winner's speed share, the loser held), the isolation barrier and the
+boards' contacts after them (seesaw.board_contacts, goal_board_contacts), goals contested and
+their losers dragged after the clamps, rings placed by each mechanism (mechanisms.place_rings),
+and at the step's end the boards' tilt (seesaw.step_tilts), the fouls (rules.game_fouls) and,
+where the isolation period ended, its bonus and win point (rules.game_autonomous); the score is
+rules.game_score.
+
 Where World asks PyBullet (contacts, the solver's pushes), this models them with the same
 masses, speeds and shapes, fitted to PyBullet's answers (docs/notes/2026-11-28-fast-backend.md),
 so the two agree closely but not bit for bit; everything else (limits, clamp, intake, transfer,
-the rules, the start's randomness) is the same arithmetic. The ring race only: the whole game's
-see-saws, tugs of war and fouls are not batched yet (ConfigError names what is not).
+the rules, the start's randomness) is the same arithmetic. What it does not model, ConfigError
+names (unsupported()).
 """
 
 from __future__ import annotations
@@ -87,7 +96,7 @@ def unsupported(config: WorldConfig) -> list[str]:
 
 
 class FastWorld:
-    """A batch of `n_matches` ring-race matches in training fidelity (module docstring)."""
+    """A batch of `n_matches` matches in training fidelity (module docstring)."""
 
     def __init__(
         self,
