@@ -40,6 +40,7 @@ from sim.world.batch import (
     GameConsts,
     pack,
 )
+from sim.world.seesaw import robot_extents
 from sim.world.state import (
     AllianceScore,
     AutonomousResult,
@@ -519,9 +520,7 @@ def game_autonomous(
 @nb.njit(cache=True)
 def _touches_platform(c: GameConsts, s: GameBatch, b: int, i: int, a: int, margin: float) -> bool:
     """Whether robot i's footprint (its bounding box, grown by margin) meets a's board."""
-    h = math.radians(s.heading[b, i])
-    ex = c.half_w[i] * abs(math.cos(h)) + c.half_l[i] * abs(math.sin(h))
-    ey = c.half_w[i] * abs(math.sin(h)) + c.half_l[i] * abs(math.cos(h))
+    ex, ey = robot_extents(c, i, s.heading[b, i])
     hx, hy = c.plat[a, 2] + margin, c.plat[a, 3] + margin
     x, y = s.x[b, i], s.y[b, i]
     return (

@@ -162,6 +162,14 @@ def step_tilts(
 
 
 @nb.njit(cache=True)
+def robot_extents(c: GameConsts, i: int, heading: float) -> tuple[float, float]:
+    """Half the x and y extents of robot i's footprint's bounding box at a heading (deg)."""
+    h = math.radians(heading)
+    ac, as_ = abs(math.cos(h)), abs(math.sin(h))
+    return c.half_w[i] * ac + c.half_l[i] * as_, c.half_w[i] * as_ + c.half_l[i] * ac
+
+
+@nb.njit(cache=True)
 def _may_mount(c: GameConsts, a: int, tilt: float, x0: float, y0: float) -> bool:
     """Whether a body whose centre was at (x0, y0) last step comes onto a's board now: it came
     over the field-side edge (its centre beyond that edge, within the board's length) while that
@@ -209,10 +217,7 @@ def board_contacts(
         if not live[b]:
             continue
         for i in range(r):
-            h = math.radians(s.heading[b, i])
-            ac, as_ = abs(math.cos(h)), abs(math.sin(h))
-            ex = c.half_w[i] * ac + c.half_l[i] * as_
-            ey = c.half_w[i] * as_ + c.half_l[i] * ac
+            ex, ey = robot_extents(c, i, s.heading[b, i])
             for a in c.plat_order:
                 dx, dy, over = _push_out(c, a, x[b, i], y[b, i], ex, ey)
                 if not over:

@@ -24,6 +24,7 @@ from sim.world import rules
 from sim.world.batch import ALLIANCE_CODES, FOUL_KINDS, SCORE_FIELDS
 from sim.world.physics import World
 from sim.world.state import RING_FLOOR, RING_HELD, DriveCommand
+from tests.sim.world.test_goals import RING_PLACEMENTS
 
 IDLE = DriveCommand(intake=False)
 # The goals apart along the north and south walls, clear of every scene below (contacts the two
@@ -222,15 +223,7 @@ def test_a_goal_is_stolen_out_of_its_home_zone_as_in_the_twin(duel: Twin) -> Non
     assert duel.f.game_score()[0, 0, 1] == before - 1
 
 
-@pytest.mark.parametrize(
-    ("robot", "goal", "n", "expected"),
-    [
-        ("24in", "neutral_tall", 8, (6, 2, 0)),
-        ("15in", "neutral_tall", 8, (0, 8, 0)),
-        ("15in", "red_north", 14, (0, 12, 2)),
-        ("base", "neutral_north", 3, (0, 0, 3)),
-    ],
-)
+@pytest.mark.parametrize(("robot", "goal", "n", "expected"), RING_PLACEMENTS)
 def test_rings_land_where_the_mechanism_puts_them(
     robot: str, goal: str, n: int, expected: tuple[int, int, int]
 ) -> None:

@@ -165,15 +165,17 @@ def load_rings(w: World, robot: int, goal: int, n: int) -> None:
     assert r.held == 0
 
 
-@pytest.mark.parametrize(
-    ("robot", "goal", "n", "expected"),
-    [
-        ("24in", "neutral_tall", 8, (6, 2, 0)),  # the lift fills the high branch first
-        ("15in", "neutral_tall", 8, (0, 8, 0)),  # no lift: the low branches
-        ("15in", "red_north", 14, (0, 12, 2)),  # an alliance goal's one branch, then the base
-        ("base", "neutral_north", 3, (0, 0, 3)),  # an intake that drops rings in the base
-    ],
-)
+# (robot, goal, rings, (high, low, base)): where each mechanism puts its rings (also played on
+# the batched world, tests/sim/fast/test_game.py).
+RING_PLACEMENTS = [
+    ("24in", "neutral_tall", 8, (6, 2, 0)),  # the lift fills the high branch first
+    ("15in", "neutral_tall", 8, (0, 8, 0)),  # no lift: the low branches
+    ("15in", "red_north", 14, (0, 12, 2)),  # an alliance goal's one branch, then the base
+    ("base", "neutral_north", 3, (0, 0, 3)),  # an intake that drops rings in the base
+]
+
+
+@pytest.mark.parametrize(("robot", "goal", "n", "expected"), RING_PLACEMENTS)
 def test_rings_land_where_the_mechanism_puts_them(
     robot: str, goal: str, n: int, expected: tuple[int, int, int]
 ) -> None:
