@@ -162,11 +162,13 @@ def test_the_compiled_trail_equals_skills_trail() -> None:
     assert stuck > 10 and not overflow.any()
 
 
-def test_fast_matches_teach_and_play_with_the_planner_as_planner_label_does() -> None:
-    """default.toml's fast matches: each step's advice is planner_label of a Planner fed the
-    same match (FastCore), and each planner opponent's command that Planner's, through matches
-    that end and start again (sides and uncapped intakes drawn anew)."""
-    env = replace(load_config("default").env_config(), max_steps=100)
+@pytest.mark.parametrize("name", ["default", "drive"])
+def test_fast_matches_teach_and_play_with_the_planner_as_planner_label_does(name: str) -> None:
+    """default.toml's (a skill policy's) and drive.toml's fast matches: each step's advice is
+    planner_label of a Planner fed the same match (FastCore), and each planner opponent's
+    command that Planner's, through matches that end and start again (sides and uncapped
+    intakes drawn anew)."""
+    env = replace(load_config(name).env_config(), max_steps=100)
     n = 4
     fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=n), seed=3, teacher="planner")
     fm.set_kinds([("planner", -1)] * 3 + [("policy", -1)])
@@ -199,7 +201,7 @@ def test_fast_matches_teach_and_play_with_the_planner_as_planner_label_does() ->
         assert step.advice is not None
         for k in range(n):
             want = planner_label(teachers[k], fm._core(k), int(fm.learner[k]), step.learner_obs[k])
-            np.testing.assert_array_equal(step.advice[k], want, err_msg=f"step {t}, match {k}")
+            np.testing.assert_allclose(step.advice[k], want, atol=1e-6, err_msg=f"{t}, {k}")
         them = 1 - fm.learner
         expected = [players[k].act(fm._core(k), int(them[k])) for k in range(3)]  # type: ignore[arg-type]
         actions = np.nan_to_num(step.advice, nan=-1.0)
