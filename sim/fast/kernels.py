@@ -237,6 +237,22 @@ def _follow(b, x, y, heading, rvx, rvy, gx, gy, gvx, gvy, carried, offset):
 
 
 @nb.njit(cache=True)
+def _slide(
+    dx: float, dy: float, free_x: float, free_y: float, friction: float
+) -> tuple[float, float]:
+    """A push (dx, dy) on a body free to move along x and y (free_x, free_y: 1 or 0): where it
+    is held across one axis (a wall), the push along the other less the wall's friction
+    (friction x the push taken by the wall), never reversed."""
+    if free_x > 0 and free_y > 0:
+        return dx, dy
+    if free_x > 0:
+        return math.copysign(max(0.0, abs(dx) - friction * abs(dy)), dx), 0.0
+    if free_y > 0:
+        return 0.0, math.copysign(max(0.0, abs(dy) - friction * abs(dx)), dy)
+    return 0.0, 0.0
+
+
+@nb.njit(cache=True)
 def _sat(b, i, j, x, y, heading, half_w, half_l):
     """Robots i, j of match b as boxes: the least overlap over the four separating axes
     (negative: the gap between them), that axis from i to j, which axis it is (0, 1: i's
@@ -359,6 +375,8 @@ def substeps(
     n_sub: int,
     damping: float,
     share_rot: float,
+    goal_wall_friction: float,
+    robot_wall_friction: float,
 ) -> None:
     """Every match's `n_sub` substeps of h seconds, in place (sim.fast.world.FastWorld.step).
     state: (x, y, heading, rvx, rvy, rw, gx, gy, gvx, gvy, carried, carrier, contester): carried
@@ -475,7 +493,7 @@ def substeps(
                 for e in range(m):
                     pa, pc = c_a[e], c_c[e]
                     nx, ny = c_n[e, 0], c_n[e, 1]
-                    props = np.empty((2, 7))
+                    props = np.empty((2, 9))
                     for side in range(2):
                         q = pa if side == 0 else pc
                         if q < n_robot:
@@ -491,15 +509,19 @@ def substeps(
                             props[side, 2], props[side, 3] = gx[b, g], gy[b, g]
                             props[side, 4], props[side, 5] = gvx[b, g], gvy[b, g]
                             props[side, 6] = 0.0
-                        # Against a wall and pushed toward it: it stands like the wall.
+                        # Against a wall and pushed toward it: it stands like the wall across
+                        # it (props 7 and 8: whether it moves along x and along y) and slides
+                        # along it; in a corner it stands.
                         dxs, dys = (-nx, -ny) if side == 0 else (nx, ny)
-                        held = (wall[q, 0] != 0 and dxs * wall[q, 0] > 1e-6) or (
-                            wall[q, 1] != 0 and dys * wall[q, 1] > 1e-6
-                        )
-                        if held:
-                            props[side, 0] = 0.0
+                        free_x = not (wall[q, 0] != 0 and dxs * wall[q, 0] > 1e-6)
+                        free_y = not (wall[q, 1] != 0 and dys * wall[q, 1] > 1e-6)
+                        props[side, 7] = 1.0 if free_x else 0.0
+                        props[side, 8] = 1.0 if free_y else 0.0
+                        if not (free_x and free_y):
                             props[side, 1] = 0.0
-                    if props[0, 0] == 0.0 and props[1, 0] == 0.0:
+                    inv_a = props[0, 0] * (nx * nx * props[0, 7] + ny * ny * props[0, 8])
+                    inv_c = props[1, 0] * (nx * nx * props[1, 7] + ny * ny * props[1, 8])
+                    if inv_a <= 1e-12 and inv_c <= 1e-12:
                         # Both held: both give way, by mass (as neither were held).
                         for side in range(2):
                             q = pa if side == 0 else pc
@@ -507,6 +529,8 @@ def substeps(
                                 mass[q] if q < n_robot else goal_mass[q - n_robot]
                             )
                             props[side, 1] = 1.0 / inertia[q] if q < n_robot else 0.0
+                            props[side, 7] = props[side, 8] = 1.0
+                        inv_a, inv_c = props[0, 0], props[1, 0]
                     lever = not math.isnan(c_p[e, 0])
                     ax = c_p[e, 0] - props[0, 2] if lever else 0.0
                     ay = c_p[e, 1] - props[0, 3] if lever else 0.0
@@ -516,20 +540,31 @@ def substeps(
                     rel = (props[1, 4] + props[1, 6] * cy - props[0, 4] - props[0, 6] * ay) * nx + (
                         props[1, 5] - props[1, 6] * cx - props[0, 5] + props[0, 6] * ax
                     ) * ny
-                    inv_a, inv_c = props[0, 0], props[1, 0]
                     ia, ic = props[0, 1], props[1, 1]
                     eff = inv_a + inv_c + a_n * a_n * ia + cc_n * cc_n * ic
                     j = -rel / eff if rel < 0 else 0.0
                     share = share_rot * c_d[e] / eff
                     move = share + (1.0 - share_rot) * c_d[e] / (inv_a + inv_c)
-                    acc[pa, 0] -= move * inv_a * nx
-                    acc[pa, 1] -= move * inv_a * ny
-                    acc[pc, 0] += move * inv_c * nx
-                    acc[pc, 1] += move * inv_c * ny
-                    acc[pa, 2] -= j * inv_a * nx
-                    acc[pa, 3] -= j * inv_a * ny
-                    acc[pc, 2] += j * inv_c * nx
-                    acc[pc, 3] += j * inv_c * ny
+                    # Each side moves along the contact normal where it is free to; one pressed
+                    # against a wall slides along it against the wall's friction.
+                    for side in range(2):
+                        q = pa if side == 0 else pc
+                        sign = -1.0 if side == 0 else 1.0
+                        mu = goal_wall_friction if q >= n_robot else robot_wall_friction
+                        dx_, dy_ = _slide(
+                            sign * move * props[side, 0] * nx,
+                            sign * move * props[side, 0] * ny,
+                            props[side, 7], props[side, 8], mu,
+                        )  # fmt: skip
+                        acc[q, 0] += dx_
+                        acc[q, 1] += dy_
+                        dvx, dvy = _slide(
+                            sign * j * props[side, 0] * nx,
+                            sign * j * props[side, 0] * ny,
+                            props[side, 7], props[side, 8], mu,
+                        )  # fmt: skip
+                        acc[q, 2] += dvx
+                        acc[q, 3] += dvy
                     acc[pa, 4] += j * a_n * ia
                     acc[pc, 4] -= j * cc_n * ic
                     acc[pa, 5] += share * a_n * ia

@@ -266,9 +266,9 @@ def test_isolation_contact_is_a_foul_that_forfeits_the_autonomous_period() -> No
         t.sync()
         commands = [IDLE] * 4
         commands[1] = DriveCommand(0.5, intake=False)
-        while t.w.time_s < t.w.isolation_s - 1e-9:
+        while t.w.time_s < t.w.isolation_s - 1e-9:  # 15 s of pushing blue into the wall
             t.step(commands)
-            t.agree()
+            t.agree(pos_m=0.03)
         assert t.f.fouls[0, 0, 0] == 1 and t.f.fouls[0].sum() == 1
         assert t.f.auto_bonus[0].tolist() == [0, 20] and t.f.auto_win_point[0].tolist() == [0, 1]
     finally:
