@@ -31,12 +31,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from jetson.autonomy.skills import SkillConfig, SkillDriver
+from jetson.autonomy.skills import SkillConfig
 from jetson.autonomy.spec import ObservationSpec
 from sim.errors import ConfigError
 from sim.fast.observe import FastObserver, unsupported_spec
 from sim.fast.planner import FastPlanner
 from sim.fast.players import FastCore, command_row
+from sim.fast.skills import FastSkillDrivers, option_labels
 from sim.fast.world import FastWorld, unsupported
 from sim.match import (
     REWARD_COMPONENTS,
@@ -58,10 +59,8 @@ from sim.training.rollout import (
     StepResult,
     advice_size,
     drive_label,
-    intent_label,
     teacher_for,
 )
-from sim.world.state import DriveCommand
 
 FAST_OPPONENTS = ("policy", "random", "idle", "planner", "scripted")
 F64 = NDArray[np.float64]
@@ -143,9 +142,16 @@ class FastMatches:
         self.obs = np.zeros((n, 2, self.spec.size), np.float32)
         # The route teacher: the route skill's controller of each match's learner.
         self._route_teacher = teacher == "route"
-        self._routers: list[SkillDriver | None] = [None] * n
+        self._routers: FastSkillDrivers | None = None
+        if self._route_teacher:
+            self._routers = self._skill_drivers(ROUTE_SKILL)
         # A skill policy's controllers: each match's two robots' (MatchCore.skill_driver).
-        self._drivers: list[list[SkillDriver]] = [[] for _ in range(n)]
+        self._drivers: FastSkillDrivers | None = None
+        if config.skills is not None:
+            self._drivers = self._skill_drivers(config.skills)
+        rcs = self.world.robot_configs
+        self._max_v = np.array([rc.max_linear_mps for rc in rcs])  # drive_label's speeds
+        self._max_w = np.array([rc.max_angular_rad_s for rc in rcs])
         # Python players: each match's scripted chaser.
         self._players: list[Player | None] = [None] * n
         # The planner: the opponent where `_planning`, and the teacher of every learner.
@@ -244,18 +250,15 @@ class FastMatches:
             rngs.append(rng)
         rngs = self.world.reset_matches(which, rngs)
         share = self.config.uncapped_share
-        w = self.world
         for k, rng in zip(which, rngs, strict=True):
             uncapped = share > 0 and rng.random() < share
             self.uncapped[k] = uncapped
             if uncapped:
                 self.world.room_cap[k] = 1 << 30
             self._curricula(int(k), rng)
-            if self._route_teacher:
-                self._routers[k] = self._skill_driver(int(self.learner[k]), ROUTE_SKILL)
-            if self.config.skills is not None:
-                skills = self.config.skills
-                self._drivers[k] = [self._skill_driver(i, skills) for i in range(w.n_robots)]
+        for drivers in (self._routers, self._drivers):
+            if drivers is not None:  # fresh controllers (MatchCore.skill_driver)
+                drivers.reset(which)
         # The players start from the match as it starts (after the curricula), as on PyBullet
         # (their reset reads the field and the robots, not the sensors).
         for k, rng in zip(which, rngs, strict=True):
@@ -363,15 +366,12 @@ class FastMatches:
         w = self.world
         ok = np.isfinite(actions).all(axis=1)
         a = np.clip(np.where(ok[:, None], actions, 0.0), -1.0, 1.0)
-        if cfg.skills is None:
+        if cfg.skills is None or self._drivers is None:
             lin, ang, n = a[:, 0] * w.max_v[who], a[:, 1] * w.max_w[who], 2
         else:
             n = cfg.skills.n_options
-            lin, ang = np.zeros(self.n), np.zeros(self.n)
-            rows = np.arange(self.n)
-            obs = self.obs[rows, who]
-            for k in np.flatnonzero(ok):
-                lin[k], ang[k] = self._drivers[k][who[k]].command(obs[k], actions[k, :n])
+            obs = self.obs[np.arange(self.n), who]
+            lin, ang = self._drivers.command(obs, actions[:, :n], who, ok)
         tail = a[:, n:]
         intake = ok & (tail[:, 0] > 0 if cfg.action_intake else True)
         clamp = np.full(self.n, -1, dtype=np.int8)
@@ -541,45 +541,43 @@ class FastMatches:
         """Match k now, as MatchCore's players read it."""
         return FastCore.of(self.world, self.observer, self.spec, self.config, k)
 
-    def _skill_driver(self, i: int, skills: SkillConfig) -> SkillDriver:
-        """A fresh controller for robot i (MatchCore.skill_driver): its platform and size."""
+    def _skill_drivers(self, skills: SkillConfig) -> FastSkillDrivers:
+        """Controllers for every robot of every match (MatchCore.skill_driver's: each robot's
+        platform, size and speeds)."""
         w = self.world
-        settings = skill_settings(w.field, w.alliances[i], w.robot_configs[i])
-        return SkillDriver(replace(skills, **settings), self.spec)
+        configs = [
+            replace(skills, **skill_settings(w.field, w.alliances[i], w.robot_configs[i]))
+            for i in range(w.n_robots)
+        ]
+        return FastSkillDrivers(configs, self.spec, self.n, w.dt)
 
     def _deciding(self, mine: NDArray[np.float32]) -> NDArray[np.bool_]:
         """Whether each learner's next action decides anything (VecMatches' deciding): False
         while a skill manoeuvre it committed to is under way."""
-        if self.config.skills is None:
+        if self._drivers is None:
             return np.ones(self.n, bool)
-        me = self.learner
-        return np.array([not d[me[k]].committed(mine[k]) for k, d in enumerate(self._drivers)])
+        return ~self._drivers.committed(mine, self.learner, np.ones(self.n, bool))
 
     def _advice(self, mine: NDArray[np.float32]) -> NDArray[np.float32]:
         """The teacher's label for each learner observation (VecMatches' advice): the
         planner's (rollout.intent_label of what the batched planner does), or what the route
         skill drives (linear, angular in action units); NaN without a teacher."""
         out = np.full((self.n, advice_size(self.config)), np.nan, np.float32)
+        me = self.learner
+        everyone = np.ones(self.n, dtype=bool)
         if self._teacher is not None:
             w, o = self.world, self.observer
-            plan = self._teacher.act(np.ones(self.n, dtype=bool), o.seen_pose, o.seen_rings)
-            for k in range(self.n):
-                me = int(self.learner[k])
-                pose = (float(w.x[k, me]), float(w.y[k, me]), float(w.heading[k, me]))
-                command = DriveCommand(float(plan.linear[k]), float(plan.angular[k]))
-                out[k] = intent_label(
-                    command, plan.intent_of(k), w.robot_configs[me], pose, mine[k], self.spec,
-                    self.config.skills,
-                )  # fmt: skip
+            plan = self._teacher.act(everyone, o.seen_pose, o.seen_rings)
+            if self.config.skills is None:
+                return drive_label(plan.linear, plan.angular, self._max_v[me], self._max_w[me])
+            rows = np.arange(self.n)
+            pose = np.stack([w.x[rows, me], w.y[rows, me], w.heading[rows, me]], -1)
+            return option_labels(plan.intent, plan.point, pose, mine, self.spec, self.config.skills)
+        if self._routers is None:
             return out
-        if not self._route_teacher:
-            return out
-        rcs = self.world.robot_configs
-        for k, driver in enumerate(self._routers):
-            assert driver is not None
-            rc = rcs[int(self.learner[k])]
-            out[k] = drive_label(*driver.command(mine[k], ROUTE_ACTION), rc)
-        return out
+        actions = np.broadcast_to(ROUTE_ACTION, (self.n, len(ROUTE_ACTION)))
+        v, w = self._routers.command(mine, actions, me, everyone)
+        return drive_label(v, w, self._max_v[me], self._max_w[me])
 
     def _result(
         self,

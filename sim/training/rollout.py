@@ -51,6 +51,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any, Literal, Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from jetson.autonomy.geometry import field_to_robot, other_alliance
 from jetson.autonomy.skills import SkillConfig, SkillDriver, option_for
@@ -87,10 +88,18 @@ def check_route_teacher(config: EnvConfig) -> None:
         )
 
 
-def drive_label(linear: float, angular: float, robot: RobotConfig) -> np.ndarray:
-    """(linear m/s, angular rad/s) in a drive policy's action units, clipped to [-1, 1]."""
-    drive = (linear / robot.max_linear_mps, angular / robot.max_angular_rad_s)
-    return np.clip(np.asarray(drive, np.float32), -1.0, 1.0)
+def drive_label(
+    linear: ArrayLike, angular: ArrayLike, max_linear_mps: ArrayLike, max_angular_rad_s: ArrayLike
+) -> np.ndarray:
+    """(linear m/s, angular rad/s) in a drive policy's action units (a robot's top speeds),
+    clipped to [-1, 1]: (2,) for one command, (B, 2) for arrays of them (the fast backend's)."""
+    drive = np.stack(
+        np.broadcast_arrays(
+            np.divide(linear, max_linear_mps), np.divide(angular, max_angular_rad_s)
+        ),
+        -1,
+    )
+    return np.clip(drive.astype(np.float32), -1.0, 1.0)
 
 
 def advice_size(config: EnvConfig) -> int:
@@ -218,9 +227,12 @@ def intent_label(
 ) -> np.ndarray:
     """planner_label from what the planner did: its `command` and `intent` (Planner.intent)
     for a robot of config `robot` at `pose` (field frame, as the world has it). The fast
-    backend's batched planner (sim.fast.planner) is labelled with it too."""
+    backend labels every match at once with sim.fast.skills.option_labels, held to this by
+    tests/sim/fast/test_skills.py."""
     if skills is None:
-        return drive_label(command.linear, command.angular, robot)
+        return drive_label(
+            command.linear, command.angular, robot.max_linear_mps, robot.max_angular_rad_s
+        )
     kind, point = intent
     local = None
     if point is not None:
@@ -393,7 +405,8 @@ class _Slot:
         teacher: what the route skill drives from the learner's observation."""
         rc = self.core.world.robots[self.learner].config
         if self._router is not None:
-            return drive_label(*self._router.command(self.obs[self.learner], ROUTE_ACTION), rc)
+            v, w = self._router.command(self.obs[self.learner], ROUTE_ACTION)
+            return drive_label(v, w, rc.max_linear_mps, rc.max_angular_rad_s)
         if self.teacher is None:
             return np.full(advice_size(self.config), np.nan, np.float32)
         return planner_label(self.teacher, self.core, self.learner, self.obs[self.learner])

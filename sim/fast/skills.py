@@ -1,0 +1,358 @@
+"""jetson.autonomy.skills' controller (SkillDriver) for every robot of every match, and the
+planner teacher's skill label (option_for), compiled.
+
+    drivers = FastSkillDrivers(configs, spec, n_matches, dt)   # configs: one per robot index
+    drivers.reset(rows)                                        # matches `rows` start afresh
+    busy = drivers.committed(obs, who, active)                 # SkillDriver.committed
+    linear, angular = drivers.command(obs, actions, who, active)
+    labels = option_labels(intent, point, pose, obs, spec, skills)
+
+A skill policy's action is one score per skill, and each robot's SkillDriver drives the best
+one: a Python call per robot and step. FastSkillDrivers is the same controller for robot who[b]
+of every match b at once (numba): the same state (the trail of positions, the back-off, a goal
+manoeuvre committed to) and the same arithmetic, on the observation rows the robots' own
+controllers read. skills' turn_first, arc_through, pursuit_point, back_onto and Trail are
+sim.fast.planner's compiled ports; tests/sim/fast/test_skills.py holds the whole controller to
+SkillDriver command for command, and option_labels to rollout.intent_label.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+
+from jetson.autonomy.skills import SkillConfig
+from jetson.autonomy.spec import ObservationSpec
+from sim.fast.kernels import threads_for
+from sim.fast.planner import (
+    INTENTS,
+    _to_robot,
+    _trail_push,
+    _trail_stuck,
+    arc_through,
+    back_onto,
+    pursuit_point,
+    turn_first,
+)
+
+F64 = NDArray[np.float64]
+F32 = NDArray[np.float32]
+I64 = NDArray[np.int64]
+Bool = NDArray[np.bool_]
+
+# Columns of a robot's configuration row: its SkillConfig's numbers and where its spec puts the
+# slots (the spec's offsets into a frame; _CLAMPED is -1 without a goal memory).
+(_ROUTE, _THROUGH, _RINGS, _GOALS, _PLATFORM, _BOX_X, _BOX_Y, _BOX_HX, _BOX_HY, _LENGTH, _MAX_V,
+ _MAX_W, _LOOKAHEAD, _TURN_GAIN, _TURN_IN_PLACE, _COMMIT_S, _WINDOW, _STUCK_M, _BACKOFF, _UNIT,
+ _MATCH_LENGTH, _ROUTE_AT, _RING_AT, _GOAL_AT, _CLAMPED) = range(25)  # fmt: skip
+# Columns of a controller's state: SkillDriver's back-off and committed goal manoeuvre.
+_BACKOFF_UNTIL, _BACKOFF_TURN, _COMMITTED, _COMMIT_X, _COMMIT_Y, _COMMIT_UNTIL = range(6)
+_MATCH_M = 0.3  # option_for's match_m: how near an option's slot must be to the intent
+
+
+def config_row(config: SkillConfig, spec: ObservationSpec) -> list[float]:
+    """One robot's SkillConfig and spec as the kernels read them (the column constants)."""
+    c = config
+    clamped = spec.scalar_index("clamped") if spec.goal_memory else -1
+    return [
+        float(c.route_option), float(c.route_through_next), c.ring_options, c.goal_options,
+        float(c.platform), *c.platform_box, c.robot_length_m, c.max_linear_mps,
+        c.max_angular_rad_s, c.lookahead_m, c.turn_gain, c.turn_in_place_rad, c.commit_goal_s,
+        c.stuck_window_s, c.stuck_distance_m, c.backoff_s, spec.length_unit_m,
+        spec.match_length_s, spec.route_offset, spec.ring_offset, spec.goal_offset, clamped,
+    ]  # fmt: skip
+
+
+class FastSkillDrivers:
+    """A SkillDriver for every robot of every match (module docstring): configs[i] is robot
+    i's SkillConfig (its platform, size and speeds: MatchCore.skill_driver's)."""
+
+    def __init__(
+        self, configs: Sequence[SkillConfig], spec: ObservationSpec, n_matches: int, dt: float
+    ) -> None:
+        for config in configs:
+            config.check(spec)
+        self.configs = tuple(configs)
+        self.spec = spec
+        self.n = n_matches
+        self.n_robots = len(configs)
+        self.n_options = max(c.n_options for c in configs)
+        self._cfg = np.array([config_row(c, spec) for c in configs], dtype=np.float64)
+        rows = n_matches * self.n_robots  # one controller per (match, robot): b * R + i
+        window = max(c.stuck_window_s for c in configs)
+        self.trail = np.zeros((rows, math.ceil(window / dt) + 8, 3))
+        self.trail_n = np.zeros(rows, dtype=np.int64)
+        self.overflow = np.zeros(rows, dtype=np.int64)  # trail rows dropped for room
+        self.state = np.zeros((rows, 6))
+        self.reset(np.arange(n_matches))
+
+    def reset(self, rows: I64) -> None:
+        """Every robot of matches `rows` gets a fresh controller (SkillDriver.reset)."""
+        r = np.asarray(rows, dtype=np.int64)[:, None] * self.n_robots + np.arange(self.n_robots)
+        r = r.reshape(-1)
+        self.trail_n[r] = 0
+        self.overflow[r] = 0
+        self.state[r] = 0.0
+        self.state[r, _BACKOFF_UNTIL] = -1.0
+        self.state[r, _BACKOFF_TURN] = 1.0
+        self.state[r, _COMMIT_UNTIL] = -1.0
+
+    def committed(self, obs: F32, who: I64, active: Bool) -> Bool:
+        """SkillDriver.committed of robot who[b] of each active match b on its observation
+        obs[b] (B, spec.size): whether its next command ignores its action. False elsewhere."""
+        with threads_for(self.n):
+            return _committed_all(
+                np.asarray(active, dtype=np.bool_), np.asarray(who, dtype=np.int64),
+                np.asarray(obs, dtype=np.float32), self._cfg, self.state, self.n_robots,
+            )  # fmt: skip
+
+    def command(self, obs: F32, actions: F64, who: I64, active: Bool) -> tuple[F64, F64]:
+        """SkillDriver.command of robot who[b] of each active match b: (linear m/s, angular
+        rad/s clockwise), (B,) each, zeros where not active; actions (B, >= n_options)."""
+        a = np.asarray(actions, dtype=np.float64)
+        if a.ndim != 2 or a.shape[1] < self.n_options:
+            raise ValueError(f"actions must have shape (B, >= {self.n_options})")
+        with threads_for(self.n):
+            return _command_all(
+                np.asarray(active, dtype=np.bool_), np.asarray(who, dtype=np.int64),
+                np.asarray(obs, dtype=np.float32), a, self._cfg, self.trail, self.trail_n,
+                self.overflow, self.state, self.n_robots,
+            )  # fmt: skip
+
+
+def option_labels(
+    intent: I64,
+    point: F64,
+    pose: F64,
+    obs: F32,
+    spec: ObservationSpec,
+    skills: SkillConfig,
+) -> F32:
+    """rollout.intent_label of a skill policy for every match at once: the option that does what
+    the planner intends (option_for) as a label (1 for it, -1 for the others), NaN where no
+    option does. intent (B,) indexes sim.fast.planner.INTENTS, point (B, 2) its point in the
+    field frame, pose (B, 3) the robot's field pose (x, y, heading in degrees), obs (B,
+    spec.size) the robot's observation."""
+    skills.check(spec)
+    assert INTENTS == ("other", "ring", "goal", "home")
+    with threads_for(len(intent)):
+        return _labels(
+            np.asarray(intent, dtype=np.int64), np.asarray(point, dtype=np.float64),
+            np.asarray(pose, dtype=np.float64), np.asarray(obs, dtype=np.float32),
+            np.array(config_row(skills, spec), dtype=np.float64), skills.n_options,
+        )  # fmt: skip
+
+
+# --- the controller, one robot --------------------------------------------------------------
+
+
+@nb.njit(cache=True)
+def _is_committed(f, st, r, c):
+    """SkillDriver.committed for controller r on frame f: a goal manoeuvre under way (the clamp
+    still open and its time not up); one that ended is dropped."""
+    if not st[r, _COMMITTED] > 0.5:
+        return False
+    at = int(c[_CLAMPED])
+    clamped = at >= 0 and np.float64(f[at]) > 0.5
+    if clamped or np.float64(f[0]) * c[_MATCH_LENGTH] >= st[r, _COMMIT_UNTIL]:
+        st[r, _COMMITTED] = 0.0
+        return False
+    return True
+
+
+@nb.njit(cache=True)
+def _pursue(tx, ty, now, has_after, ax, ay, r, c, trail, trail_n, st):
+    """SkillDriver._pursue: turn first, or the pure-pursuit arc onto (tx, ty) (along to
+    (ax, ay) when has_after); a robot stuck while driving backs off."""
+    turns, v, w = turn_first(
+        tx, ty, c[_MAX_V], c[_MAX_W], c[_TURN_GAIN], c[_TURN_IN_PLACE], c[_LENGTH]
+    )
+    if turns:
+        return v, w
+    look = c[_LOOKAHEAD]
+    if has_after:
+        path = np.empty((2, 2))
+        path[0, 0], path[0, 1], path[1, 0], path[1, 1] = tx, ty, ax, ay
+        px, py = pursuit_point(path, look)
+    else:
+        d = math.hypot(tx, ty)
+        px, py = (tx, ty) if d <= look else (tx * look / d, ty * look / d)
+    v, w = arc_through(px, py, c[_MAX_V], c[_MAX_W])
+    if _trail_stuck(trail, trail_n, r, now, v, c[_WINDOW], c[_STUCK_M]):
+        st[r, _BACKOFF_UNTIL] = now + c[_BACKOFF]
+        st[r, _BACKOFF_TURN] = -1.0 if math.atan2(tx, ty) > 0 else 1.0
+        trail_n[r] = 0
+    return v, w
+
+
+@nb.njit(cache=True)
+def _reverse_onto(gx, gy, now, r, c, trail, trail_n, st):
+    """SkillDriver._reverse_onto: drive to half a metre short of a far goal (robot frame),
+    then back onto it; forward when stuck."""
+    dist = math.hypot(gx, gy)
+    if dist > 1.0:
+        k = 1.0 - 0.5 / dist
+        return _pursue(gx * k, gy * k, now, False, 0.0, 0.0, r, c, trail, trail_n, st)
+    v, w = back_onto(gx, gy, c[_MAX_V], c[_MAX_W], c[_TURN_GAIN])
+    if _trail_stuck(trail, trail_n, r, now, abs(v), c[_WINDOW], c[_STUCK_M]):
+        st[r, _BACKOFF_UNTIL] = now + c[_BACKOFF] / 2
+        st[r, _BACKOFF_TURN] = 1.0
+        trail_n[r] = 0
+        return 0.5 * c[_MAX_V], 0.0
+    return v, w
+
+
+@nb.njit(cache=True)
+def _best(a, n):
+    """SkillDriver.option: the first of the n highest scores (np.argmax)."""
+    k = 0
+    for j in range(1, n):
+        if a[j] > a[k]:
+            k = j
+    return k
+
+
+@nb.njit(cache=True)
+def _command(f, a, r, c, trail, trail_n, overflow, st):
+    """SkillDriver.command for controller r (config row c) on frame f and scores a."""
+    unit = c[_UNIT]
+    now = np.float64(f[0]) * c[_MATCH_LENGTH]
+    p0, p1 = np.float64(f[1]) * unit, np.float64(f[2]) * unit
+    cos_h, sin_h = np.float64(f[3]), np.float64(f[4])
+    _trail_push(trail, trail_n, overflow, r, now, p0, p1, c[_WINDOW])
+    backoff = -0.6 * c[_MAX_V], st[r, _BACKOFF_TURN] * 0.5 * c[_MAX_W]
+    if _is_committed(f, st, r, c):
+        lx, ly = _to_robot(st[r, _COMMIT_X], st[r, _COMMIT_Y], p0, p1, sin_h, cos_h)
+        if now < st[r, _BACKOFF_UNTIL]:
+            return backoff
+        return _reverse_onto(lx, ly, now, r, c, trail, trail_n, st)
+    if now < st[r, _BACKOFF_UNTIL]:
+        return backoff
+    search = 0.0, 0.3 * c[_MAX_W]  # an empty slot: a slow turn in place
+    rings, goals = int(c[_RINGS]), int(c[_GOALS])
+    route = int(c[_ROUTE])
+    k = _best(a, route + rings + goals + int(c[_PLATFORM]))
+    if route:
+        if k == 0:
+            at = int(c[_ROUTE_AT])
+            if not f[at + 2] > 0:
+                return search
+            tx, ty = np.float64(f[at]) * unit, np.float64(f[at + 1]) * unit
+            has_after = c[_THROUGH] > 0.5 and f[at + 5] > 0
+            ax, ay = 0.0, 0.0
+            if has_after:
+                ax, ay = np.float64(f[at + 3]) * unit, np.float64(f[at + 4]) * unit
+            return _pursue(tx, ty, now, has_after, ax, ay, r, c, trail, trail_n, st)
+        k -= 1
+    if k < rings:
+        at = int(c[_RING_AT]) + 3 * k
+        if not f[at + 2] > 0:
+            return search
+        tx, ty = np.float64(f[at]) * unit, np.float64(f[at + 1]) * unit
+        return _pursue(tx, ty, now, False, 0.0, 0.0, r, c, trail, trail_n, st)
+    k -= rings
+    if k < goals:
+        at = int(c[_GOAL_AT]) + 3 * k
+        if not f[at + 2] > 0:
+            return search
+        gx, gy = np.float64(f[at]) * unit, np.float64(f[at + 1]) * unit
+        if c[_COMMIT_S] > 0:
+            # skills._to_alliance: the goal's point in the alliance frame, held while committed.
+            st[r, _COMMIT_X] = p0 + gx * cos_h + gy * sin_h
+            st[r, _COMMIT_Y] = p1 - gx * sin_h + gy * cos_h
+            st[r, _COMMIT_UNTIL] = now + c[_COMMIT_S]
+            st[r, _COMMITTED] = 1.0
+        return _reverse_onto(gx, gy, now, r, c, trail, trail_n, st)
+    # The platform: stop well inside it, else drive onto its centre.
+    if abs(p0 - c[_BOX_X]) < c[_BOX_HX] - 0.2 and abs(p1 - c[_BOX_Y]) < c[_BOX_HY] - 0.2:
+        return 0.0, 0.0
+    lx, ly = _to_robot(c[_BOX_X], c[_BOX_Y], p0, p1, sin_h, cos_h)
+    return _pursue(lx, ly, now, False, 0.0, 0.0, r, c, trail, trail_n, st)
+
+
+@nb.njit(cache=True, parallel=True)
+def _command_all(active, who, obs, actions, cfg, trail, trail_n, overflow, st, n_robots):
+    """_command for robot who[b] of every active match b: (linear, angular), zeros elsewhere."""
+    n_match = active.shape[0]
+    lin = np.zeros(n_match)
+    ang = np.zeros(n_match)
+    for b in nb.prange(n_match):
+        if active[b]:
+            r = b * n_robots + who[b]
+            lin[b], ang[b] = _command(
+                obs[b], actions[b], r, cfg[who[b]], trail, trail_n, overflow, st
+            )
+    return lin, ang
+
+
+@nb.njit(cache=True, parallel=True)
+def _committed_all(active, who, obs, cfg, st, n_robots):
+    """_is_committed for robot who[b] of every active match b; False elsewhere."""
+    n_match = active.shape[0]
+    out = np.zeros(n_match, dtype=np.bool_)
+    for b in nb.prange(n_match):
+        if active[b]:
+            out[b] = _is_committed(obs[b], st, b * n_robots + who[b], cfg[who[b]])
+    return out
+
+
+# --- the teacher's label ---------------------------------------------------------------------
+
+
+@nb.njit(cache=True)
+def _nearest_slot(f, at, count, lx, ly, unit):
+    """option_for's pick among `count` slots from frame index `at`: the filled slot nearest
+    (lx, ly) (the first of equals), -1 when none is filled or it is farther than _MATCH_M."""
+    k, best = -1, np.inf
+    for j in range(count):
+        s = at + 3 * j
+        if f[s + 2] > 0:
+            d = math.hypot(np.float64(f[s]) * unit - lx, np.float64(f[s + 1]) * unit - ly)
+            if d < best:
+                k, best = j, d
+    return k if k >= 0 and best <= _MATCH_M else -1
+
+
+@nb.njit(cache=True)
+def _option(kind, qx, qy, x, y, heading, f, c, n_options):
+    """skills.option_for of the planner's intent (kind, field point) for a robot at (x, y,
+    heading): the option index, -1 for none."""
+    if kind == 3:  # home
+        return n_options - 1 if c[_PLATFORM] > 0.5 else -1
+    if kind != 1 and kind != 2:
+        return -1
+    h = math.radians(heading)
+    s, co = math.sin(h), math.cos(h)
+    lx, ly = _to_robot(qx, qy, x, y, s, co)
+    unit = c[_UNIT]
+    route = int(c[_ROUTE])
+    if kind == 1 and route:
+        at = int(c[_ROUTE_AT])
+        if f[at + 2] > 0:
+            d = math.hypot(np.float64(f[at]) * unit - lx, np.float64(f[at + 1]) * unit - ly)
+            if d <= _MATCH_M:
+                return 0
+    if kind == 1:
+        k = _nearest_slot(f, int(c[_RING_AT]), int(c[_RINGS]), lx, ly, unit)
+        return -1 if k < 0 else route + k
+    k = _nearest_slot(f, int(c[_GOAL_AT]), int(c[_GOALS]), lx, ly, unit)
+    return -1 if k < 0 else route + int(c[_RINGS]) + k
+
+
+@nb.njit(cache=True, parallel=True)
+def _labels(intent, point, pose, obs, c, n_options):
+    """_option for every match as rollout.intent_label's label: (B, n_options) float32."""
+    n_match = intent.shape[0]
+    out = np.empty((n_match, n_options), dtype=np.float32)
+    for b in nb.prange(n_match):
+        k = _option(
+            intent[b], point[b, 0], point[b, 1], pose[b, 0], pose[b, 1], pose[b, 2], obs[b], c,
+            n_options,
+        )  # fmt: skip
+        for j in range(n_options):
+            out[b, j] = np.nan if k < 0 else (1.0 if j == k else -1.0)
+    return out

@@ -1,0 +1,181 @@
+"""The batched skills' controller (sim.fast.skills.FastSkillDrivers) against SkillDriver, one per
+robot fed the same observations and scores, command for command through every skill, back-offs
+and committed goal manoeuvres; and the batched teacher's label (option_labels) against
+rollout.intent_label. Commands agree to 1e-12, not bit for bit: pursuit_point's numpy 2-vector
+dot products may fuse a multiply and an add (OpenBLAS's kernel on this CPU), the compiled
+port's arithmetic does not (sim.fast.planner's test holds them to the same 1e-12)."""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from jetson.autonomy.geometry import robot_to_field
+from jetson.autonomy.skills import SkillDriver
+from sim.fast.matches import FastMatches
+from sim.fast.planner import INTENTS
+from sim.fast.skills import FastSkillDrivers, option_labels
+from sim.match import EnvConfig
+from sim.training.config import load_config
+from sim.training.rollout import RolloutConfig, intent_label
+from sim.world.state import DriveCommand
+
+
+def _matches(n: int, max_steps: int, seed: int) -> tuple[EnvConfig, FastMatches]:
+    """default.toml's skill game on n fast matches, every opponent a policy."""
+    env = replace(load_config("default").env_config(), max_steps=max_steps)
+    fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=n), seed=seed)
+    fm.set_kinds([("policy", -1)] * n)
+    return env, fm
+
+
+def _python_drivers(fm: FastMatches) -> list[list[SkillDriver]]:
+    """A fresh SkillDriver per robot of every match (MatchCore.skill_driver's configs)."""
+    assert fm._drivers is not None
+    return [[SkillDriver(c, fm.spec) for c in fm._drivers.configs] for _ in range(fm.n)]
+
+
+def test_the_batched_controller_drives_as_skill_driver_step_for_step() -> None:
+    """6 matches x 2 robots, each robot holding a random skill for a few steps, some steps
+    without a command (non-finite scores), matches ending and starting again: every command
+    and every committed() equal to SkillDriver's, through every branch."""
+    n = 6
+    env, fm = _matches(n, max_steps=150, seed=5)
+    assert env.skills is not None
+    n_opt = env.skills.n_options
+    rng = np.random.default_rng(0)
+    fm.reset()
+    batched = FastSkillDrivers(fm._drivers.configs, fm.spec, n, fm.world.dt)  # type: ignore[union-attr]
+    python = _python_drivers(fm)
+    pick = rng.integers(0, n_opt, (n, 2))
+    seen: Counter[str] = Counter()
+    rows = np.arange(n)
+    for step in range(420):
+        change = rng.random((n, 2)) < 0.08
+        pick = np.where(change, rng.integers(0, n_opt, (n, 2)), pick)
+        scores = rng.normal(0.0, 0.3, (n, 2, n_opt))
+        scores[rows[:, None], [0, 1], pick] += 2.0
+        scores[rng.random((n, 2)) < 0.03] = 0.5  # ties: the first of the highest
+        active = rng.random((n, 2)) > 0.03
+        for i in (0, 1):
+            who = np.full(n, i)
+            obs = fm.obs[:, i]
+            busy = batched.committed(obs, who, active[:, i])
+            lin, ang = batched.command(obs, scores[:, i], who, active[:, i])
+            for k in range(n):
+                where = f"step {step}, match {k}, robot {i}"
+                driver = python[k][i]
+                if not active[k, i]:
+                    assert not busy[k] and lin[k] == 0.0 and ang[k] == 0.0, where
+                    continue
+                assert busy[k] == driver.committed(obs[k]), where
+                now = float(obs[k, 0]) * fm.spec.match_length_s
+                seen["committed"] += int(busy[k])
+                seen["backing off"] += int(driver._backoff_until > now)
+                seen[env.skills.option_names()[driver.option(scores[k, i])]] += 1
+                want = driver.command(obs[k], scores[k, i])
+                assert (lin[k], ang[k]) == pytest.approx(want, rel=0, abs=1e-12), where
+        assert not batched.overflow.any()
+        # The match's own robots drive the same scores (its controllers are batched too).
+        step_result = fm.step(scores[rows, fm.learner], scores[rows, 1 - fm.learner])
+        for k in np.flatnonzero(step_result.dones):
+            batched.reset(np.array([k]))
+            python[k] = [SkillDriver(c, fm.spec) for c in fm._drivers.configs]  # type: ignore[union-attr]
+            seen["restarts"] += 1
+    for what in ("route", "ring0", "ring3", "goal0", "goal1", "platform", "committed"):
+        assert seen[what] > 20, (what, seen)
+    assert seen["backing off"] > 0 and seen["restarts"] >= n, seen
+
+
+def test_fast_matches_drive_their_robots_with_the_controllers() -> None:
+    """FastMatches' learner and opponent commands are the controllers' (a SkillDriver per robot
+    through matches that restart), and its deciding flags are not committed()."""
+    n = 4
+    env, fm = _matches(n, max_steps=60, seed=2)
+    assert env.skills is not None
+    commands: list[tuple[np.ndarray, ...]] = []
+    original = fm._commands
+
+    def spy(actions: np.ndarray, who: np.ndarray) -> tuple[np.ndarray, ...]:
+        commands.append(original(actions, who))
+        return commands[-1]
+
+    fm._commands = spy  # type: ignore[method-assign]
+    step = fm.reset()
+    python = _python_drivers(fm)
+    rng = np.random.default_rng(1)
+    rows = np.arange(n)
+    for t in range(200):
+        mine, theirs = rng.normal(size=(2, n, env.action_size))
+        for k in range(n):
+            me = int(fm.learner[k])
+            assert step.deciding[k] == (not python[k][me].committed(step.learner_obs[k])), t
+        want = [
+            [python[k][int(who[k])].command(fm.obs[k, int(who[k])], a[k, : env.skills.n_options])
+             for k in range(n)]
+            for a, who in ((mine, fm.learner), (theirs, 1 - fm.learner))
+        ]  # fmt: skip
+        commands.clear()
+        step = fm.step(mine, theirs)
+        for (lin, ang, *_), expected in zip(commands, want, strict=True):
+            got = [(lin[k], ang[k]) for k in rows]
+            np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12, err_msg=str(t))
+        for k in np.flatnonzero(step.dones):
+            python[k] = [SkillDriver(c, fm.spec) for c in fm._drivers.configs]  # type: ignore[union-attr]
+
+
+def test_option_labels_equal_intent_label() -> None:
+    """Intents of every kind at points near the observation's slots (the route's first stop,
+    ring and goal slots: some within option_for's 0.3 m, some not) and far from them."""
+    n = 8
+    env, fm = _matches(n, max_steps=400, seed=9)
+    skills = env.skills
+    assert skills is not None
+    spec = fm.spec
+    rng = np.random.default_rng(3)
+    fm.reset()
+    labelled: Counter[int] = Counter()
+    rows = np.arange(n)
+    for t in range(120):
+        route = np.zeros((n, env.action_size))
+        route[:, 0] = 1.0
+        fm.step(route, route)
+        if t % 4:
+            continue
+        me = fm.learner
+        obs = fm.obs[rows, me]
+        pose = np.stack(
+            [fm.world.x[rows, me], fm.world.y[rows, me], fm.world.heading[rows, me]], -1
+        )
+        for _ in range(6):
+            intent = rng.integers(0, len(INTENTS), n)
+            point = np.full((n, 2), np.nan)
+            for k in range(n):
+                if intent[k] == 0:
+                    continue
+                frame = obs[k, : spec.frame_size].astype(np.float64)
+                slot = rng.choice(
+                    [spec.route_offset, spec.ring_offset + 3 * int(rng.integers(0, 4)),
+                     spec.goal_offset + 3 * int(rng.integers(0, 2))]
+                )  # fmt: skip
+                local = frame[slot : slot + 2] * spec.length_unit_m + rng.normal(0, 0.2, 2)
+                if rng.random() < 0.2:
+                    local = rng.uniform(-2, 2, 2)
+                point[k] = robot_to_field(local[None], pose[k, :2], pose[k, 2])[0]
+            got = option_labels(intent, point, pose, obs, spec, skills)
+            for k in range(n):
+                kind = INTENTS[int(intent[k])]
+                plan = (kind, None if kind == "other" else point[k].copy())
+                want = intent_label(
+                    DriveCommand(0.0, 0.0), plan, fm.world.robot_configs[int(me[k])],
+                    (float(pose[k, 0]), float(pose[k, 1]), float(pose[k, 2])), obs[k], spec,
+                    skills,
+                )  # fmt: skip
+                np.testing.assert_array_equal(got[k], want, err_msg=f"{t}, {k}, {kind}")
+                labelled[int(np.argmax(want)) if np.isfinite(want).all() else -1] += 1
+    for option in range(skills.n_options):
+        assert labelled[option] > 0, labelled
+    assert labelled[-1] > 0, labelled
