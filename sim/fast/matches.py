@@ -37,6 +37,7 @@ from sim.errors import ConfigError
 from sim.fast.observe import FastObserver, unsupported_spec
 from sim.fast.planner import FastPlanner
 from sim.fast.players import FastCore, command_row
+from sim.fast.shaping import learner_potentials
 from sim.fast.skills import FastSkillDrivers, option_labels
 from sim.fast.world import FastWorld, unsupported
 from sim.match import (
@@ -49,7 +50,6 @@ from sim.match import (
     with_prior,
 )
 from sim.players import Player, ScriptedPlayer
-from sim.rewards import goal_potential, park_potential, ring_potential
 from sim.training.rollout import (
     ROUTE_ACTION,
     ROUTE_SKILL,
@@ -132,6 +132,8 @@ class FastMatches:
             ]
         )
         self._rewards = {False: config.reward, True: config.match_reward(True)}
+        plats = [self.world.field.platform(a) for a in ("red", "blue")]
+        self._platforms = np.array([[*p.center, *p.size] for p in plats])  # by learner side
         self.steps = np.zeros(n, dtype=np.int64)
         self.total = np.zeros(n)
         self.totals = np.zeros((n, len(REWARD_COMPONENTS)))
@@ -394,41 +396,31 @@ class FastMatches:
         return any(getattr(r, name) for r in self._rewards.values())
 
     def _potential_now(self) -> dict[str, F64]:
-        """The learner's shaping potentials now, (B,) each (MatchCore._shapings); a shaping
-        neither reward pays is 0 and not worked out."""
+        """The learner's shaping potentials now, (B,) each (MatchCore._shapings: sim.rewards'
+        potentials, sim.fast.shaping's loop); a shaping neither reward pays is 0."""
         w = self.world
         rows = np.arange(self.n)
         me = self.learner
-        out = {name: np.zeros(self.n) for name in ("approach", "goal_approach", "park")}
-        # The learner only: (B, 1, ...) batches of sim.rewards' functions.
-        x, y = w.x[rows, me][:, None], w.y[rows, me][:, None]
-        rad = np.radians(w.heading[rows, me])[:, None]
-        length = w.half_l[me][:, None]
-        if self._paid("approach"):
-            front = np.stack([x + length * np.sin(rad), y + length * np.cos(rad)], -1)
-            rings = ring_potential(front, w.room[rows, me][:, None], w.ring_xy, w.ring_floor)
-            out["approach"] = np.where(self._reward_config("approach") != 0, rings[:, 0], 0.0)
-        if self._paid("goal_approach") and w.n_goals:
-            offsets = w.clamp_offsets[me]  # (B, G): signed, behind the back for a back clamp
-            cx = x + offsets * np.sin(rad)
-            cy = y + offsets * np.cos(rad)
-            clamp = np.stack([cx, cy], -1)[:, None]  # (B, 1, G, 2)
-            goals = np.stack([w.gx, w.gy], -1)
-            eligible = (self._scores_for[me] & (w.carrier < 0))[:, None, :]
-            holding = (w.carried[rows, me] >= 0)[:, None]
-            pot = goal_potential(clamp, goals, eligible, holding)[:, 0]
-            out["goal_approach"] = np.where(self._reward_config("goal_approach") != 0, pot, 0.0)
+        rad = np.radians(w.heading[rows, me])
+        approach = self._paid("approach") & (self._reward_config("approach") != 0)
+        goal = (self._paid("goal_approach") and w.n_goals > 0) & (
+            self._reward_config("goal_approach") != 0
+        )
+        park = np.zeros(self.n, dtype=bool)
+        platform = np.zeros((self.n, 4))
         if self._paid("park"):
             park_from = self._reward_config("park_from_s")
-            margin = self._reward_config("park_margin_m")[:, None, None]  # by match's reward
-            active = (self._reward_config("park") != 0) & (w.time_s >= w.match_length_s - park_from)
-            plats = [w.field.platform(a) for a in ("red", "blue")]
-            centre = np.array([p.center for p in plats])[me][:, None]  # (B, 1, 2)
-            size = np.array([p.size for p in plats])[me][:, None]
-            half = np.maximum(size / 2 - margin, 0.0)
-            xy = np.stack([x, y], -1)
-            out["park"] = park_potential(xy, centre, half, active[:, None])[:, 0]
-        return out
+            park = (self._reward_config("park") != 0) & (w.time_s >= w.match_length_s - park_from)
+            margin = self._reward_config("park_margin_m")[:, None]  # by match's reward
+            platform[:, :2] = self._platforms[me, :2]
+            platform[:, 2:] = np.maximum(self._platforms[me, 2:] / 2 - margin, 0.0)
+        out = learner_potentials(
+            w.x[rows, me], w.y[rows, me], np.sin(rad), np.cos(rad), w.half_l[me],
+            w.room[rows, me], w.ring_xy, w.ring_floor, w.clamp_offsets[me],
+            np.stack([w.gx, w.gy], -1), self._scores_for[me] & (w.carrier < 0),
+            w.carried[rows, me] >= 0, platform, approach, goal, park,
+        )  # fmt: skip
+        return {"approach": out[:, 0], "goal_approach": out[:, 1], "park": out[:, 2]}
 
     def _margin_now(self) -> F64:
         """The learner alliance's lead in match score (0 when no reward pays it)."""

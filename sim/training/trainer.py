@@ -94,6 +94,15 @@ def observation_spec(cfg: TrainConfig) -> ObservationSpec:
         core.close()
 
 
+@torch.no_grad()
+def opponent_action(net: Agent, obs: torch.Tensor, generator: torch.Generator) -> torch.Tensor:
+    """Agent.act's action alone, the same draw from `generator`: a frozen opponent never uses
+    the log-probability and the value that act works out too (they cost half of it)."""
+    dist = net.distribution(obs)
+    noise = torch.randn(dist.mean.shape, generator=generator)
+    return dist.mean + dist.stddev * noise
+
+
 def _weights(agent: Agent) -> dict[str, torch.Tensor]:
     return {k: v.detach().clone() for k, v in agent.state_dict().items()}
 
@@ -419,7 +428,7 @@ def train(
                         i for i, (kind, tg) in enumerate(active) if kind == "policy" and tg == tag
                     ]
                     net = run.opponent_net(tag)
-                    a, _, _ = net.act(torch.from_numpy(opp_obs[idx]), run.gen)
+                    a = opponent_action(net, torch.from_numpy(opp_obs[idx]), run.gen)
                     opp_actions[idx] = a.numpy()
                 res = vec.step(action.numpy(), opp_actions)
                 rewards = run.scaler(res.rewards, res.dones)
