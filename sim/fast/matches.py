@@ -8,19 +8,17 @@ Every slot is one 1v1 match of one FastWorld; `rollout.n_envs` slots, all steppe
 learner's side is drawn per match as VecMatches draws it (learner_side), from the same per-match
 generator np.random.default_rng((seed, slot, match number)), which then starts the world as
 World.reset would. Rewards are MatchCore's components (sim.match.REWARD_COMPONENTS) for the
-learner, the shaping potentials from sim.rewards; the start curricula (goal_start_share,
-midgame_start_share) are drawn as MatchCore draws them. Opponents: "policy" (the caller's
-actions), "random", "idle", "planner" (sim.fast.planner: the planner for every match at once)
-and "scripted" (the greedy chaser, written against MatchCore, playing its match through
-sim.fast.players.FastCore); "none" (no opponent robot) stays on the PyBullet backend
-(ConfigError names it). The ring and goal memories and the route slots are
-batched (sim.fast.memory). A skill policy's scores drive each robot's SkillDriver
-(jetson.autonomy.skills, one per robot and match as MatchCore keeps them), and intake and clamp
-actions run the actuators as MatchCore.command does. Teachers: the route skill's controller, one
-per match as VecMatches keeps them, and the planner, batched (its label: rollout.intent_label).
-Controllers, the chaser and the route teacher are a Python call per match and step: they cost
-about what stepping the batch does at a few hundred matches and far more at thousands (they suit
-capped.toml's and default.toml's 16).
+learner, the shaping potentials sim.rewards' (sim.fast.shaping: compiled); the start curricula
+(goal_start_share, midgame_start_share) are drawn as MatchCore draws them. Opponents: "policy"
+(the caller's actions), "random", "idle", "planner" (sim.fast.planner: the planner for every
+match at once) and "scripted" (the greedy chaser, written against MatchCore, playing its match
+through sim.fast.players.FastCore, a Python call per match and step); "none" (no opponent robot)
+stays on the PyBullet backend (ConfigError names it). The ring and goal memories and the route
+slots are batched (sim.fast.memory). A skill policy's scores drive each robot's SkillDriver
+(jetson.autonomy.skills) for every robot of every match at once (sim.fast.skills), and intake and
+clamp actions run the actuators as MatchCore.command does. Teachers: the route skill's
+controller (sim.fast.skills, one for each match's learner) and the planner (sim.fast.planner),
+batched, its label rollout.intent_label's (sim.fast.skills.OptionLabels for a skill policy).
 """
 
 from __future__ import annotations
@@ -38,7 +36,7 @@ from sim.fast.observe import FastObserver, unsupported_spec
 from sim.fast.planner import FastPlanner
 from sim.fast.players import FastCore, command_row
 from sim.fast.shaping import learner_potentials
-from sim.fast.skills import FastSkillDrivers, option_labels
+from sim.fast.skills import FastSkillDrivers, OptionLabels
 from sim.fast.world import FastWorld, unsupported
 from sim.match import (
     REWARD_COMPONENTS,
@@ -63,6 +61,7 @@ from sim.training.rollout import (
 )
 
 FAST_OPPONENTS = ("policy", "random", "idle", "planner", "scripted")
+_COLUMNS = {name: i for i, name in enumerate(REWARD_COMPONENTS)}  # reward components' columns
 F64 = NDArray[np.float64]
 Commands = tuple[F64, F64, NDArray[np.bool_], NDArray[np.int8]]  # linear, angular, intake, clamp
 
@@ -132,6 +131,7 @@ class FastMatches:
             ]
         )
         self._rewards = {False: config.reward, True: config.match_reward(True)}
+        self._per_match: dict[str, NDArray[Any]] = {}  # rewards by match: _reward_config's
         plats = [self.world.field.platform(a) for a in ("red", "blue")]
         self._platforms = np.array([[*p.center, *p.size] for p in plats])  # by learner side
         self.steps = np.zeros(n, dtype=np.int64)
@@ -165,6 +165,8 @@ class FastMatches:
         self._teacher: FastPlanner | None = None
         if teacher == "planner":
             self._teacher = FastPlanner(self.world, self._teacher_configs[False])
+        if config.skills is not None:  # the planner's label for a skill policy
+            self._labels = OptionLabels(self.spec, config.skills)
 
     # --- VecMatches' interface ---------------------------------------------------------------
 
@@ -258,6 +260,7 @@ class FastMatches:
             if uncapped:
                 self.world.room_cap[k] = 1 << 30
             self._curricula(int(k), rng)
+        self._per_match.clear()  # the matches' rewards change with their intakes
         for drivers in (self._routers, self._drivers):
             if drivers is not None:  # fresh controllers (MatchCore.skill_driver)
                 drivers.reset(which)
@@ -384,12 +387,18 @@ class FastMatches:
     # --- rewards ----------------------------------------------------------------------------
 
     def _reward_config(self, name: str) -> F64:
-        """A RewardConfig weight per match (uncapped matches have their own reward)."""
-        return np.where(
-            self.uncapped,
-            float(getattr(self._rewards[True], name) or 0.0),
-            float(getattr(self._rewards[False], name) or 0.0),
-        )
+        """A RewardConfig weight per match (uncapped matches have their own reward), read-only:
+        kept until a match starts."""
+        weight = self._per_match.get(name)
+        if weight is None:
+            weight = np.where(
+                self.uncapped,
+                float(getattr(self._rewards[True], name) or 0.0),
+                float(getattr(self._rewards[False], name) or 0.0),
+            )
+            weight.flags.writeable = False
+            self._per_match[name] = weight
+        return weight
 
     def _paid(self, name: str) -> bool:
         """Whether either of this run's rewards pays RewardConfig weight `name`."""
@@ -442,7 +451,7 @@ class FastMatches:
         rows = np.arange(self.n)
         me = self.learner
         comp = np.zeros((self.n, len(REWARD_COMPONENTS)))
-        col = {name: i for i, name in enumerate(REWARD_COMPONENTS)}
+        col = _COLUMNS
         cap = self._ring_cap()
         now = w.collected[rows, me]
         counted = np.where(cap < 0, now - before, np.minimum(now, cap) - np.minimum(before, cap))
@@ -479,9 +488,14 @@ class FastMatches:
         return comp.sum(axis=1), comp
 
     def _ring_cap(self) -> NDArray[np.int64]:
-        """RewardConfig.ring_cap per match, -1 for none."""
-        caps = {u: (-1 if r.ring_cap is None else r.ring_cap) for u, r in self._rewards.items()}
-        return np.where(self.uncapped, caps[True], caps[False])
+        """RewardConfig.ring_cap per match, -1 for none (read-only, kept as _reward_config's)."""
+        cap = self._per_match.get(" ring_cap")
+        if cap is None:
+            caps = {u: -1 if r.ring_cap is None else r.ring_cap for u, r in self._rewards.items()}
+            cap = np.where(self.uncapped, caps[True], caps[False])
+            cap.flags.writeable = False
+            self._per_match[" ring_cap"] = cap
+        return cap
 
     def _goals_counting(self) -> F64:
         """Goals counting for the learner's alliance in its own zone (MatchCore.goals_counting)."""
@@ -564,7 +578,7 @@ class FastMatches:
                 return drive_label(plan.linear, plan.angular, self._max_v[me], self._max_w[me])
             rows = np.arange(self.n)
             pose = np.stack([w.x[rows, me], w.y[rows, me], w.heading[rows, me]], -1)
-            return option_labels(plan.intent, plan.point, pose, mine, self.spec, self.config.skills)
+            return self._labels(plan.intent, plan.point, pose, mine)
         if self._routers is None:
             return out
         actions = np.broadcast_to(ROUTE_ACTION, (self.n, len(ROUTE_ACTION)))

@@ -5,7 +5,7 @@ planner teacher's skill label (option_for), compiled.
     drivers.reset(rows)                                        # matches `rows` start afresh
     busy = drivers.committed(obs, who, active)                 # SkillDriver.committed
     linear, angular = drivers.command(obs, actions, who, active)
-    labels = option_labels(intent, point, pose, obs, spec, skills)
+    labels = OptionLabels(spec, skills)(intent, point, pose, obs)
 
 A skill policy's action is one score per skill, and each robot's SkillDriver drives the best
 one: a Python call per robot and step. FastSkillDrivers is the same controller for robot who[b]
@@ -13,7 +13,8 @@ of every match b at once (numba): the same state (the trail of positions, the ba
 manoeuvre committed to) and the same arithmetic, on the observation rows the robots' own
 controllers read. skills' turn_first, arc_through, pursuit_point, back_onto and Trail are
 sim.fast.planner's compiled ports; tests/sim/fast/test_skills.py holds the whole controller to
-SkillDriver command for command, and option_labels to rollout.intent_label.
+SkillDriver command for command (to 1e-12: numpy's two-element dot products in pursuit_point may
+fuse a multiply and an add, this arithmetic does not), and OptionLabels to rollout.intent_label.
 """
 
 from __future__ import annotations
@@ -124,27 +125,27 @@ class FastSkillDrivers:
             )  # fmt: skip
 
 
-def option_labels(
-    intent: I64,
-    point: F64,
-    pose: F64,
-    obs: F32,
-    spec: ObservationSpec,
-    skills: SkillConfig,
-) -> F32:
+class OptionLabels:
     """rollout.intent_label of a skill policy for every match at once: the option that does what
-    the planner intends (option_for) as a label (1 for it, -1 for the others), NaN where no
-    option does. intent (B,) indexes sim.fast.planner.INTENTS, point (B, 2) its point in the
-    field frame, pose (B, 3) the robot's field pose (x, y, heading in degrees), obs (B,
-    spec.size) the robot's observation."""
-    skills.check(spec)
-    assert INTENTS == ("other", "ring", "goal", "home")
-    with threads_for(len(intent)):
-        return _labels(
-            np.asarray(intent, dtype=np.int64), np.asarray(point, dtype=np.float64),
-            np.asarray(pose, dtype=np.float64), np.asarray(obs, dtype=np.float32),
-            np.array(config_row(skills, spec), dtype=np.float64), skills.n_options,
-        )  # fmt: skip
+    the planner intends (option_for) as a label, 1 for it and -1 for the others, NaN where no
+    option does it."""
+
+    def __init__(self, spec: ObservationSpec, skills: SkillConfig) -> None:
+        skills.check(spec)
+        assert INTENTS == ("other", "ring", "goal", "home")  # _option's kinds
+        self.n_options = skills.n_options
+        self._cfg = np.array(config_row(skills, spec), dtype=np.float64)
+
+    def __call__(self, intent: I64, point: F64, pose: F64, obs: F32) -> F32:
+        """(B, n_options) labels: intent (B,) indexes sim.fast.planner.INTENTS, point (B, 2)
+        its point in the field frame, pose (B, 3) the robot's field pose (x, y, heading in
+        degrees), obs (B, spec.size) the robot's observation."""
+        with threads_for(len(intent)):
+            return _labels(
+                np.asarray(intent, dtype=np.int64), np.asarray(point, dtype=np.float64),
+                np.asarray(pose, dtype=np.float64), np.asarray(obs, dtype=np.float32),
+                self._cfg, self.n_options,
+            )  # fmt: skip
 
 
 # --- the controller, one robot --------------------------------------------------------------

@@ -227,7 +227,7 @@ def intent_label(
 ) -> np.ndarray:
     """planner_label from what the planner did: its `command` and `intent` (Planner.intent)
     for a robot of config `robot` at `pose` (field frame, as the world has it). The fast
-    backend labels every match at once with sim.fast.skills.option_labels, held to this by
+    backend labels every match at once with sim.fast.skills.OptionLabels, held to this by
     tests/sim/fast/test_skills.py."""
     if skills is None:
         return drive_label(

@@ -1,6 +1,6 @@
 """The batched skills' controller (sim.fast.skills.FastSkillDrivers) against SkillDriver, one per
 robot fed the same observations and scores, command for command through every skill, back-offs
-and committed goal manoeuvres; and the batched teacher's label (option_labels) against
+and committed goal manoeuvres; and the batched teacher's label (OptionLabels) against
 rollout.intent_label. Commands agree to 1e-12, not bit for bit: pursuit_point's numpy 2-vector
 dot products may fuse a multiply and an add (OpenBLAS's kernel on this CPU), the compiled
 port's arithmetic does not (sim.fast.planner's test holds them to the same 1e-12)."""
@@ -17,7 +17,7 @@ from jetson.autonomy.geometry import robot_to_field
 from jetson.autonomy.skills import SkillDriver
 from sim.fast.matches import FastMatches
 from sim.fast.planner import INTENTS
-from sim.fast.skills import FastSkillDrivers, option_labels
+from sim.fast.skills import FastSkillDrivers, OptionLabels
 from sim.match import EnvConfig
 from sim.training.config import load_config
 from sim.training.rollout import RolloutConfig, intent_label
@@ -127,7 +127,7 @@ def test_fast_matches_drive_their_robots_with_the_controllers() -> None:
             python[k] = [SkillDriver(c, fm.spec) for c in fm._drivers.configs]  # type: ignore[union-attr]
 
 
-def test_option_labels_equal_intent_label() -> None:
+def test_the_batched_labels_equal_intent_label() -> None:
     """Intents of every kind at points near the observation's slots (the route's first stop,
     ring and goal slots: some within option_for's 0.3 m, some not) and far from them."""
     n = 8
@@ -137,6 +137,7 @@ def test_option_labels_equal_intent_label() -> None:
     spec = fm.spec
     rng = np.random.default_rng(3)
     fm.reset()
+    labels = OptionLabels(spec, skills)
     labelled: Counter[int] = Counter()
     rows = np.arange(n)
     for t in range(120):
@@ -165,7 +166,7 @@ def test_option_labels_equal_intent_label() -> None:
                 if rng.random() < 0.2:
                     local = rng.uniform(-2, 2, 2)
                 point[k] = robot_to_field(local[None], pose[k, :2], pose[k, 2])[0]
-            got = option_labels(intent, point, pose, obs, spec, skills)
+            got = labels(intent, point, pose, obs)
             for k in range(n):
                 kind = INTENTS[int(intent[k])]
                 plan = (kind, None if kind == "other" else point[k].copy())
