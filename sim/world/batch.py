@@ -4,8 +4,8 @@ World's state packed as a batch of one.
 The whole game's rules (sim.world.rules: the score, the fouls, the autonomous period), the see-saw
 (sim.world.seesaw) and the mechanisms (sim.world.mechanisms: tugs of war, where a ring goes) are
 compiled loops over a batch of B matches. The twin's World calls them on itself packed as B = 1
-(`pack`); the batched backend (sim.fast) keeps its matches in these arrays and calls them on all
-of them at once: one definition of each rule for both.
+(sim.world.rules.pack); the batched backend (sim.fast) keeps its matches in these arrays and
+calls them on all of them at once: one definition of each rule for both.
 
 Alliances are codes (0 red, 1 blue, -1 none); a robot's index is World's (red first); goals are
 in the field file's order. `GameConsts` holds what does not change in a match: the field's
@@ -24,7 +24,6 @@ from numpy.typing import NDArray
 from jetson.autonomy.geometry import AllianceName
 from sim.config import RobotConfig, WorldConfig
 from sim.field import FieldSpec
-from sim.world.state import WorldState
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -227,46 +226,3 @@ class GameBatch(NamedTuple):
     fouls: I64
     auto_bonus: I64
     auto_win_point: I64
-
-
-def _code(alliance: str | None) -> int:
-    return -1 if alliance is None else ALLIANCE_CODES[alliance]
-
-
-def pack(world: WorldState) -> GameBatch:
-    """One World's state as a batch of one."""
-    robots, goals = world.robots, world.goals
-    tilt = np.zeros((1, 2))
-    for name, state in world.platforms.items():
-        tilt[0, ALLIANCE_CODES[name]] = state.tilt
-    fouls = np.zeros((1, 2, 3), dtype=np.int64)
-    for f in world.fouls:
-        fouls[0, ALLIANCE_CODES[f.alliance], FOUL_KINDS.index(f.kind)] += 1
-    bonus = np.zeros((1, 2), dtype=np.int64)
-    win = np.zeros((1, 2), dtype=np.int64)
-    if world.autonomous:
-        for name, res in world.autonomous.items():
-            bonus[0, ALLIANCE_CODES[name]] = res.bonus
-            win[0, ALLIANCE_CODES[name]] = int(res.win_point)
-
-    def row(values: list[float], dtype: type = np.float64) -> NDArray:
-        return np.array(values, dtype=dtype).reshape(1, -1)
-
-    return GameBatch(
-        x=row([r.x for r in robots]),
-        y=row([r.y for r in robots]),
-        heading=row([r.heading for r in robots]),
-        v=row([r.v for r in robots]),
-        on_platform=row([_code(r.on_platform) for r in robots], np.int64),
-        gx=row([g.x for g in goals]),
-        gy=row([g.y for g in goals]),
-        carrier=row([-1 if g.carried_by is None else g.carried_by for g in goals], np.int64),
-        contester=row([-1 if g.contested_by is None else g.contested_by for g in goals], np.int64),
-        rings=row([g.rings for g in goals], np.int64),
-        rings_high=row([g.rings_high for g in goals], np.int64),
-        rings_base=row([g.rings_base for g in goals], np.int64),
-        tilt=tilt,
-        fouls=fouls,
-        auto_bonus=bonus,
-        auto_win_point=win,
-    )

@@ -52,7 +52,7 @@ from sim.config import RobotConfig, WorldConfig
 from sim.errors import WorldError
 from sim.field import FieldSpec, load_field
 from sim.world import mechanisms, rules, seesaw
-from sim.world.batch import ALLIANCE_CODES, game_consts, pack
+from sim.world.batch import ALLIANCE_CODES, game_consts
 from sim.world.start import floor_rings, robot_starts
 from sim.world.state import (
     POST_RADIUS,
@@ -607,7 +607,7 @@ class World:
     def _board_contacts(self, before: list[tuple[float, float, float]]) -> None:
         """The whole game: robots drive onto a see-saw over its lowered field-side edge, leave it
         when they are off it, and are pushed back from it anywhere else (seesaw.board_contacts)."""
-        state = pack(self)
+        state = rules.pack(self)
         x0 = np.array([[x for x, _, _ in before]])
         y0 = np.array([[y for _, y, _ in before]])
         moved = seesaw.board_contacts(self.game_consts, state, x0, y0, _ONE)
@@ -622,7 +622,7 @@ class World:
         """The whole game: a free goal goes onto a see-saw only up its lowered field-side edge;
         one resting on the board stays; anywhere else the board stops it
         (seesaw.goal_board_contacts). Goals a robot holds move with it."""
-        state = pack(self)
+        state = rules.pack(self)
         gx0 = np.array([[x for x, _ in before]])
         gy0 = np.array([[y for _, y in before]])
         moved = seesaw.goal_board_contacts(self.game_consts, state, gx0, gy0, _ONE)
@@ -635,7 +635,7 @@ class World:
     def _step_tilts(self) -> None:
         """The whole game: every see-saw swings one control step under its loads
         (seesaw.step_tilts)."""
-        state = pack(self)
+        state = rules.pack(self)
         carried = np.array(
             [[-1 if r.carried_goal is None else r.carried_goal for r in self.robots]],
             dtype=np.int64,

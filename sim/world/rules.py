@@ -38,7 +38,6 @@ from sim.world.batch import (
     SCORE_FIELDS,
     GameBatch,
     GameConsts,
-    pack,
 )
 from sim.world.seesaw import robot_extents
 from sim.world.state import (
@@ -240,6 +239,49 @@ def pin_step(
 def pin_timer(world: WorldState, red_index: int, blue_index: int) -> float:
     """How long the two robots have been in contact, s (0 when apart or just pinned)."""
     return world.pin_timers.get((red_index, blue_index), 0.0)
+
+
+def _alliance_code(alliance: str | None) -> int:
+    return -1 if alliance is None else ALLIANCE_CODES[alliance]
+
+
+def pack(world: WorldState) -> GameBatch:
+    """One World's state as a batch of one."""
+    robots, goals = world.robots, world.goals
+    tilt = np.zeros((1, 2))
+    for name, state in world.platforms.items():
+        tilt[0, ALLIANCE_CODES[name]] = state.tilt
+    fouls = np.zeros((1, 2, 3), dtype=np.int64)
+    for f in world.fouls:
+        fouls[0, ALLIANCE_CODES[f.alliance], FOUL_KINDS.index(f.kind)] += 1
+    bonus = np.zeros((1, 2), dtype=np.int64)
+    win = np.zeros((1, 2), dtype=np.int64)
+    if world.autonomous:
+        for name, res in world.autonomous.items():
+            bonus[0, ALLIANCE_CODES[name]] = res.bonus
+            win[0, ALLIANCE_CODES[name]] = int(res.win_point)
+
+    def row(values: list[float], dtype: type = np.float64) -> NDArray:
+        return np.array(values, dtype=dtype).reshape(1, -1)
+
+    return GameBatch(
+        x=row([r.x for r in robots]),
+        y=row([r.y for r in robots]),
+        heading=row([r.heading for r in robots]),
+        v=row([r.v for r in robots]),
+        on_platform=row([_alliance_code(r.on_platform) for r in robots], np.int64),
+        gx=row([g.x for g in goals]),
+        gy=row([g.y for g in goals]),
+        carrier=row([-1 if g.carried_by is None else g.carried_by for g in goals], np.int64),
+        contester=row([-1 if g.contested_by is None else g.contested_by for g in goals], np.int64),
+        rings=row([g.rings for g in goals], np.int64),
+        rings_high=row([g.rings_high for g in goals], np.int64),
+        rings_base=row([g.rings_base for g in goals], np.int64),
+        tilt=tilt,
+        fouls=fouls,
+        auto_bonus=bonus,
+        auto_win_point=win,
+    )
 
 
 # --- the whole game ---------------------------------------------------------------------------

@@ -8,16 +8,14 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal, Protocol
+from typing import Literal, Protocol
 
 import numpy as np
 
 from jetson.autonomy.geometry import AllianceName
 from sim.config import RobotConfig, WorldConfig
 from sim.field import FieldSpec, GoalSpec
-
-if TYPE_CHECKING:
-    from sim.world.batch import GameConsts
+from sim.world.batch import GameConsts
 
 RING_FLOOR = 0
 RING_HELD = 1
