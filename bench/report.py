@@ -193,6 +193,11 @@ HEADLINES: tuple[Headline, ...] = (
         "{fast_competence_wall_s} s vs {pybullet_competence_wall_s} s",
     ),
     Headline(
+        "The whole 2v2 game on the fast backend vs on PyBullet, robot steps with observations",
+        "fastpath",
+        "{fast_game_2v2_robot_steps_per_s} vs {pybullet_game_2v2_robot_steps_per_s} /s",
+    ),
+    Headline(
         "Full stack over the policy directly in the simulator: rings, points",
         "match",
         "{rings_full_over_sim}, {score_full_over_sim}",
