@@ -126,7 +126,7 @@ class FastRingMemory(_Known):
         if not use_camera:
             self._cam = np.zeros((world.n_robots, 19))
         t = spec.tour
-        self._tour = np.array([t.candidates, t.turn_cost_m_per_rad, t.switch_margin_m])
+        self.compiled_tour = np.array([t.candidates, t.turn_cost_m_per_rad, t.switch_margin_m])
         self.reset()
 
     def _restart(self, rows: NDArray[np.int64]) -> None:
@@ -143,7 +143,7 @@ class FastRingMemory(_Known):
             rings, ok, route, n_route = _memory_step(
                 self.known, self.count, self.target, self.has_target, self.overflow,
                 np.asarray(active, dtype=np.bool_), w.x, w.y, w.heading, pose, self._blue,
-                w.ring_xy, visible, w.held, fills, self._view, self._cam, self._tour,
+                w.ring_xy, visible, w.held, fills, self._view, self._cam, self.compiled_tour,
                 s.n_rings, s.route_slots, s.ring_capacity_norm, SEEN, REMEMBERED,
             )  # fmt: skip
         return MemorySlots(rings, ok, route, n_route)
@@ -252,14 +252,14 @@ def _memory_step(
                         dist = math.hypot(lx, ly)
                         bearing = math.degrees(abs(math.atan2(lx, ly)))
                         in_view = bearing <= view[1] / 2 and dist >= view[2] and dist <= view[3]
-                    matched = _near_any(kn[k, 0], kn[k, 1], field_seen, ns, merge)
+                    matched = near_any(kn[k, 0], kn[k, 1], field_seen, ns, merge)
                     gone[k] = (in_view and not matched) or taken
                 k_n = _compact(kn, k_n, gone)
             added = 0
             if ns > 0:
                 if k_n > 0:
                     for k in range(k_n):  # replaced by their fresh sighting
-                        gone[k] = _near_any(kn[k, 0], kn[k, 1], field_seen, ns, merge)
+                        gone[k] = near_any(kn[k, 0], kn[k, 1], field_seen, ns, merge)
                     k_n = _compact(kn, k_n, gone)
                 for j in range(ns):
                     if k_n < cap:
@@ -301,7 +301,7 @@ def _memory_step(
 
 
 @nb.njit(cache=True, inline="always")
-def _near_any(x, y, pts, n, radius):
+def near_any(x, y, pts, n, radius):
     """Whether any of pts[:n] lies within `radius` of (x, y) (RingMemory's norm <= merge)."""
     for j in range(n):
         ex = x - pts[j, 0]
@@ -369,7 +369,7 @@ def _route(kn, k_n, target, has_target, b, i, px, py, s, c, room, tour_cfg, merg
                 best_d, current = d, k
         if not best_d <= merge:
             current = -1
-    order = _tour(kn, k_n, px, py, s, c, room, tour_cfg, current)
+    order = compiled_tour(kn, k_n, px, py, s, c, room, tour_cfg, current)
     if len(order):
         target[b, i, 0] = kn[order[0], 0]
         target[b, i, 1] = kn[order[0], 1]
@@ -380,7 +380,7 @@ def _route(kn, k_n, target, has_target, b, i, px, py, s, c, room, tour_cfg, merg
 
 
 @nb.njit(cache=True)
-def _tour(kn, k_n, px, py, s, c, stops, tour_cfg, current):
+def compiled_tour(kn, k_n, px, py, s, c, stops, tour_cfg, current):
     """jetson.autonomy.route.tour over kn[:k_n] from the pose (px, py; heading's sin, cos)."""
     if k_n == 0 or stops < 1:
         return np.zeros(0, dtype=np.int64)

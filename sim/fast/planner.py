@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from jetson.autonomy.camera import robot_to_camera_rotation
 from sim.baselines.planner import PlannerConfig
 from sim.fast.kernels import threads_for
-from sim.fast.memory import _near_any, _tour
+from sim.fast.memory import compiled_tour, near_any
 from sim.fast.world import FastWorld
 
 F64 = NDArray[np.float64]
@@ -89,7 +89,7 @@ class FastPlanner:
             ],
             dtype=np.float64,
         )  # fmt: skip
-        self._tour = np.array([c.route_rings, c.turn_cost_m_per_rad, c.switch_margin_m])
+        self.compiled_tour = np.array([c.route_rings, c.turn_cost_m_per_rad, c.switch_margin_m])
         self._robots = np.array([_robot_row(world, i) for i in range(world.n_robots)])
         field = world.field
         self._platforms = np.array(
@@ -150,7 +150,7 @@ class FastPlanner:
                 w.x, w.y, w.heading, np.asarray(pose, dtype=np.float64), w.ring_xy,
                 np.asarray(seen, dtype=np.bool_), room.astype(np.int64), w.carried, w.carrier,
                 w.gx, w.gy, w.time_s, w.match_length_s, self._robots, self._goal_side,
-                self._platforms, self._ring_z, self._cfg, self._tour,
+                self._platforms, self._ring_z, self._cfg, self.compiled_tour,
             )  # fmt: skip
         return PlannerCommands(lin, ang, intent, point)
 
@@ -229,7 +229,7 @@ def back_onto(gx, gy, max_linear_mps, max_angular_rad_s, turn_gain):
 
 
 @nb.njit(cache=True)
-def _trail_push(trail, trail_n, overflow, b, now, x, y, window):
+def trail_push(trail, trail_n, overflow, b, now, x, y, window):
     """Trail.push: append (now, x, y), drop the rows older than the window."""
     n = trail_n[b]
     if n == trail.shape[1]:  # no room: the oldest goes (counted; a window never fills it)
@@ -249,7 +249,7 @@ def _trail_push(trail, trail_n, overflow, b, now, x, y, window):
 
 
 @nb.njit(cache=True)
-def _trail_stuck(trail, trail_n, b, now, speed, window, min_distance):
+def trail_stuck(trail, trail_n, b, now, speed, window, min_distance):
     """Trail.stuck: commanded to drive (speed >= 0.2) for a whole window without moving."""
     n = trail_n[b]
     if speed < 0.2 or n < 2 or now - trail[b, 0, 0] < window * 0.95:
@@ -366,7 +366,7 @@ def _update_map(
         for k in range(k_n):
             kx, ky = known[b, k, 0], known[b, k, 1]
             in_view = _in_view(rob, px, py, cs, cc, kx, ky, ring_z, cfg[_FORGET])
-            matched = _near_any(kx, ky, fs, ns, merge)
+            matched = near_any(kx, ky, fs, ns, merge)
             dx, dy = kx - px, ky - py
             lx = dx * c - dy * s
             ly = dx * s + dy * c
@@ -411,7 +411,7 @@ def _ignore(known, until, count, b, qx, qy, t, merge):
 
 
 @nb.njit(cache=True)
-def _to_robot(qx, qy, px, py, s, c):
+def to_robot(qx, qy, px, py, s, c):
     """geometry.field_to_robot of one point (s, c: the heading's sine and cosine)."""
     dx, dy = qx - px, qy - py
     return dx * c - dy * s, dx * s + dy * c
@@ -425,9 +425,9 @@ def _pursue(
     """Planner._pursue: turn first, or the pure-pursuit arc along target -> after; a robot
     stuck while driving backs off and leaves its target for a while."""
     path = np.empty((2 if has_after else 1, 2))
-    path[0, 0], path[0, 1] = _to_robot(tx, ty, px, py, s, c)
+    path[0, 0], path[0, 1] = to_robot(tx, ty, px, py, s, c)
     if has_after:
-        path[1, 0], path[1, 1] = _to_robot(ax, ay, px, py, s, c)
+        path[1, 0], path[1, 1] = to_robot(ax, ay, px, py, s, c)
     lx, ly = path[0, 0], path[0, 1]
     bearing = math.atan2(lx, ly)
     v_max = cfg[_MAX_SPEED] * rob[_MAX_V]
@@ -439,7 +439,7 @@ def _pursue(
         return v, w
     qx, qy = pursuit_point(path, cfg[_LOOKAHEAD])
     v, w = arc_through(qx, qy, v_max, w_max)
-    if _trail_stuck(trail, trail_n, b, now, v, cfg[_WINDOW], cfg[_STUCK_M]):
+    if trail_stuck(trail, trail_n, b, now, v, cfg[_WINDOW], cfg[_STUCK_M]):
         st[b, _BACKOFF_UNTIL] = now + cfg[_BACKOFF]
         st[b, _BACKOFF_TURN] = -1.0 if bearing > 0 else 1.0
         _ignore(known, until, count, b, tx, ty, now + cfg[_GIVE_UP], cfg[_MERGE])
@@ -478,9 +478,9 @@ def _reverse_onto(
             b, px, py, s, c, sx, sy, False, 0.0, 0.0, now, known, until, count, trail, trail_n,
             st, rob, cfg,
         )  # fmt: skip
-    lx, ly = _to_robot(goal_x, goal_y, px, py, s, c)
+    lx, ly = to_robot(goal_x, goal_y, px, py, s, c)
     v, w = back_onto(lx, ly, rob[_MAX_V], rob[_MAX_W], cfg[_TURN_GAIN])
-    if _trail_stuck(trail, trail_n, b, now, abs(v), cfg[_WINDOW], cfg[_STUCK_M]):
+    if trail_stuck(trail, trail_n, b, now, abs(v), cfg[_WINDOW], cfg[_STUCK_M]):
         st[b, _BACKOFF_UNTIL] = now + cfg[_BACKOFF] / 2
         st[b, _BACKOFF_TURN] = 1.0
         trail_n[b] = 0
@@ -540,7 +540,7 @@ def _choose(b, px, py, s, c, known, until, count, st, room, now, cfg, tour_cfg):
         if nxt < 0:
             return True, pts[best, 0], pts[best, 1], False, 0.0, 0.0
         return True, pts[best, 0], pts[best, 1], True, pts[nxt, 0], pts[nxt, 1]
-    order = _tour(pts, m, px, py, s, c, room, tour_cfg, current)
+    order = compiled_tour(pts, m, px, py, s, c, room, tour_cfg, current)
     t = order[0]
     if len(order) > 1:
         return True, pts[t, 0], pts[t, 1], True, pts[order[1], 0], pts[order[1], 1]
@@ -553,7 +553,7 @@ def _nearest_choice(pts, m, px, py, s, c, current, cfg):
     kept unless another is cheaper by the switch margin."""
     cost = np.empty(m)
     for k in range(m):
-        lx, ly = _to_robot(pts[k, 0], pts[k, 1], px, py, s, c)
+        lx, ly = to_robot(pts[k, 0], pts[k, 1], px, py, s, c)
         cost[k] = math.hypot(lx, ly) + cfg[_TURN_COST] * abs(math.atan2(lx, ly))
     best = int(np.argmin(cost))
     if current >= 0 and cost[current] <= cost[best] + cfg[_SWITCH]:
@@ -570,7 +570,7 @@ def _drive(
     rob = robots[i]
     h = math.radians(ph)
     s, c = math.sin(h), math.cos(h)
-    _trail_push(trail, trail_n, overflow, b, now, px, py, cfg[_WINDOW])
+    trail_push(trail, trail_n, overflow, b, now, px, py, cfg[_WINDOW])
     if now < st[b, _BACKOFF_UNTIL]:
         return -0.6 * rob[_MAX_V], st[b, _BACKOFF_TURN] * 0.5 * rob[_MAX_W], _OTHER, 0.0, 0.0
     side = int(rob[_BLUE])

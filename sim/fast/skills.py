@@ -31,12 +31,12 @@ from jetson.autonomy.spec import ObservationSpec
 from sim.fast.kernels import threads_for
 from sim.fast.planner import (
     INTENTS,
-    _to_robot,
-    _trail_push,
-    _trail_stuck,
     arc_through,
     back_onto,
     pursuit_point,
+    to_robot,
+    trail_push,
+    trail_stuck,
     turn_first,
 )
 
@@ -183,7 +183,7 @@ def _pursue(tx, ty, now, has_after, ax, ay, r, c, trail, trail_n, st):
         d = math.hypot(tx, ty)
         px, py = (tx, ty) if d <= look else (tx * look / d, ty * look / d)
     v, w = arc_through(px, py, c[_MAX_V], c[_MAX_W])
-    if _trail_stuck(trail, trail_n, r, now, v, c[_WINDOW], c[_STUCK_M]):
+    if trail_stuck(trail, trail_n, r, now, v, c[_WINDOW], c[_STUCK_M]):
         st[r, _BACKOFF_UNTIL] = now + c[_BACKOFF]
         st[r, _BACKOFF_TURN] = -1.0 if math.atan2(tx, ty) > 0 else 1.0
         trail_n[r] = 0
@@ -199,7 +199,7 @@ def _reverse_onto(gx, gy, now, r, c, trail, trail_n, st):
         k = 1.0 - 0.5 / dist
         return _pursue(gx * k, gy * k, now, False, 0.0, 0.0, r, c, trail, trail_n, st)
     v, w = back_onto(gx, gy, c[_MAX_V], c[_MAX_W], c[_TURN_GAIN])
-    if _trail_stuck(trail, trail_n, r, now, abs(v), c[_WINDOW], c[_STUCK_M]):
+    if trail_stuck(trail, trail_n, r, now, abs(v), c[_WINDOW], c[_STUCK_M]):
         st[r, _BACKOFF_UNTIL] = now + c[_BACKOFF] / 2
         st[r, _BACKOFF_TURN] = 1.0
         trail_n[r] = 0
@@ -224,10 +224,10 @@ def _command(f, a, r, c, trail, trail_n, overflow, st):
     now = np.float64(f[0]) * c[_MATCH_LENGTH]
     p0, p1 = np.float64(f[1]) * unit, np.float64(f[2]) * unit
     cos_h, sin_h = np.float64(f[3]), np.float64(f[4])
-    _trail_push(trail, trail_n, overflow, r, now, p0, p1, c[_WINDOW])
+    trail_push(trail, trail_n, overflow, r, now, p0, p1, c[_WINDOW])
     backoff = -0.6 * c[_MAX_V], st[r, _BACKOFF_TURN] * 0.5 * c[_MAX_W]
     if _is_committed(f, st, r, c):
-        lx, ly = _to_robot(st[r, _COMMIT_X], st[r, _COMMIT_Y], p0, p1, sin_h, cos_h)
+        lx, ly = to_robot(st[r, _COMMIT_X], st[r, _COMMIT_Y], p0, p1, sin_h, cos_h)
         if now < st[r, _BACKOFF_UNTIL]:
             return backoff
         return _reverse_onto(lx, ly, now, r, c, trail, trail_n, st)
@@ -271,7 +271,7 @@ def _command(f, a, r, c, trail, trail_n, overflow, st):
     # The platform: stop well inside it, else drive onto its centre.
     if abs(p0 - c[_BOX_X]) < c[_BOX_HX] - 0.2 and abs(p1 - c[_BOX_Y]) < c[_BOX_HY] - 0.2:
         return 0.0, 0.0
-    lx, ly = _to_robot(c[_BOX_X], c[_BOX_Y], p0, p1, sin_h, cos_h)
+    lx, ly = to_robot(c[_BOX_X], c[_BOX_Y], p0, p1, sin_h, cos_h)
     return _pursue(lx, ly, now, False, 0.0, 0.0, r, c, trail, trail_n, st)
 
 
@@ -328,7 +328,7 @@ def _option(kind, qx, qy, x, y, heading, f, c, n_options):
         return -1
     h = math.radians(heading)
     s, co = math.sin(h), math.cos(h)
-    lx, ly = _to_robot(qx, qy, x, y, s, co)
+    lx, ly = to_robot(qx, qy, x, y, s, co)
     unit = c[_UNIT]
     route = int(c[_ROUTE])
     if kind == 1 and route:

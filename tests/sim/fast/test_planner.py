@@ -151,10 +151,10 @@ def test_the_compiled_trail_equals_skills_trail() -> None:
         now += rng.uniform(0.01, 0.2)
         x += rng.normal(0.0, 0.01) + rng.choice([0.0, 0.2], p=[0.95, 0.05])
         trail.push(now, x, y)
-        fp._trail_push(rows, count, overflow, 0, now, x, y, window)
+        fp.trail_push(rows, count, overflow, 0, now, x, y, window)
         speed = rng.uniform(0.0, 0.5)
         want = trail.stuck(now, speed)
-        assert fp._trail_stuck(rows, count, 0, now, speed, window, distance) == want
+        assert fp.trail_stuck(rows, count, 0, now, speed, window, distance) == want
         stuck += want
         if rng.random() < 0.02:
             trail.clear()
