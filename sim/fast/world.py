@@ -45,7 +45,7 @@ from numpy.typing import NDArray
 
 from jetson.autonomy.geometry import AllianceName, wrap_heading
 from sim.config import RobotConfig, WorldConfig
-from sim.errors import ConfigError
+from sim.errors import ConfigError, WorldError
 from sim.fast import kernels
 from sim.field import FieldSpec, load_field
 from sim.world import mechanisms, rules, seesaw
@@ -315,7 +315,7 @@ class FastWorld:
     def place_goal(self, k: int, g: int, x: float, y: float) -> None:
         """Put free goal g of match k at (x, y), at rest, as World.place_goal does."""
         if self.carrier[k, g] >= 0:
-            raise ValueError(f"goal {self.field.goals[g].name} is carried; release it first")
+            raise WorldError(f"goal {self.field.goals[g].name} is carried; release it first")
         self.gx[k, g], self.gy[k, g] = float(x), float(y)
         self.gvx[k, g] = self.gvy[k, g] = 0.0
 

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from sim.config import ROBOTS, WORLD_PRESETS, WorldConfig, world_preset
+from sim.errors import WorldError
 from sim.fast.matches import FastMatches
 from sim.fast.world import FastWorld
 from sim.match import make_config
@@ -380,3 +381,14 @@ def test_the_trainer_plays_the_whole_game_on_the_fast_backend(tmp_path: Path) ->
     result = train(cfg, tmp_path / "run", progress=False, export=False)
     assert result.steps == 2048 and result.episodes >= 8
     assert result.history[-1]["charts/steps_per_s"] > 0
+
+
+def test_a_carried_goal_cannot_be_placed_by_hand() -> None:
+    """As World.place_goal: a goal in a clamp is released first (a clear error, nothing moved)."""
+    f = FastWorld(world_preset("tipping_point_1v1", preloads=False), 1)
+    f.reset([0])
+    f.carrier[0, 2], f.carried[0, 0] = 0, 2
+    before = (f.gx[0, 2], f.gy[0, 2])
+    with pytest.raises(WorldError, match="carried; release it first"):
+        f.place_goal(0, 2, 0.0, 0.0)
+    assert (f.gx[0, 2], f.gy[0, 2]) == before
