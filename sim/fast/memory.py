@@ -221,22 +221,9 @@ def _memory_step(
         gone = np.empty(cap, dtype=np.bool_)
         for i in range(n_robot):
             px, py, s, c = _alliance_pose(gps, blue, b, i)
-            # The rings seen, in the robot's frame from its true pose (sensors.rings_in_robot_
-            # frame), placed on the field from the GPS pose (robot_to_field).
-            th = math.radians(heading[b, i])
-            ts, tc = math.sin(th), math.cos(th)
-            ns = 0
-            for n in range(n_ring):
-                if seen[b, i, n]:
-                    dx = ring_xy[b, n, 0] - x[b, i]
-                    dy = ring_xy[b, n, 1] - y[b, i]
-                    lx = dx * tc - dy * ts
-                    ly = dx * ts + dy * tc
-                    local_seen[ns, 0] = lx
-                    local_seen[ns, 1] = ly
-                    field_seen[ns, 0] = (lx * c + ly * s) + px
-                    field_seen[ns, 1] = (-lx * s + ly * c) + py
-                    ns += 1
+            ns = place_seen(
+                b, i, x, y, heading, ring_xy, seen, px, py, s, c, local_seen, field_seen
+            )
             k_n = count[b, i]
             kn = known[b, i]
             if k_n > 0:
@@ -298,6 +285,28 @@ def _memory_step(
                     d2, rings_out[b, i], ok_out[b, i], filled, lx * lx + ly * ly, lx, ly, okv
                 )
     return rings_out, ok_out, route_out, route_n
+
+
+@nb.njit(cache=True)
+def place_seen(b, i, x, y, heading, ring_xy, seen, px, py, s, c, local, field):
+    """The rings robot i of match b sees (seen (B, R, N)): in its frame from its true pose
+    (sensors.rings_in_robot_frame) into local, and placed on the field from its GPS pose (px,
+    py; the GPS heading's sine and cosine s, c: robot_to_field) into field. Returns how many."""
+    th = math.radians(heading[b, i])
+    ts, tc = math.sin(th), math.cos(th)
+    ns = 0
+    for n in range(ring_xy.shape[1]):
+        if seen[b, i, n]:
+            dx = ring_xy[b, n, 0] - x[b, i]
+            dy = ring_xy[b, n, 1] - y[b, i]
+            lx = dx * tc - dy * ts
+            ly = dx * ts + dy * tc
+            local[ns, 0] = lx
+            local[ns, 1] = ly
+            field[ns, 0] = (lx * c + ly * s) + px
+            field[ns, 1] = (-lx * s + ly * c) + py
+            ns += 1
+    return ns
 
 
 @nb.njit(cache=True, inline="always")

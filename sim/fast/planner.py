@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from jetson.autonomy.camera import robot_to_camera_rotation
 from sim.baselines.planner import PlannerConfig
 from sim.fast.kernels import threads_for
-from sim.fast.memory import compiled_tour, near_any
+from sim.fast.memory import compiled_tour, near_any, place_seen
 from sim.fast.world import FastWorld
 
 F64 = NDArray[np.float64]
@@ -343,20 +343,9 @@ def _update_map(
     merge = cfg[_MERGE]
     n_ring = ring_xy.shape[1]
     fs = np.empty((n_ring, 2))  # the rings seen, placed from the GPS pose
-    th = math.radians(heading[b, i])
-    ts, tc = math.sin(th), math.cos(th)
     h = math.radians(ph)
     s, c = math.sin(h), math.cos(h)
-    ns = 0
-    for n in range(n_ring):
-        if seen[b, i, n]:
-            dx = ring_xy[b, n, 0] - x[b, i]
-            dy = ring_xy[b, n, 1] - y[b, i]
-            lx = dx * tc - dy * ts
-            ly = dx * ts + dy * tc
-            fs[ns, 0] = (lx * c + ly * s) + px
-            fs[ns, 1] = (-lx * s + ly * c) + py
-            ns += 1
+    ns = place_seen(b, i, x, y, heading, ring_xy, seen, px, py, s, c, np.empty((n_ring, 2)), fs)
     k_n = count[b]
     if k_n > 0:
         # The camera's pose from the GPS heading as numpy computes it (heading_vector).
