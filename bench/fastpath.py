@@ -40,19 +40,22 @@ Rows:
               every --competence-every steps as bench.train checks it (20 matches against the
               planner in PyBullet's training fidelity); the training wall time until the check
               passes, evaluation excluded (target <= 10 s), beside the same row on PyBullet
-              (--skip-competence-pybullet leaves it out). default.toml trains on the fast
-              backend unchanged (skills, memories, the planner as teacher and opponent), but
-              its strength check (bench.train's strength rows, hours of matches) is not run here:
-              fast_default_retrain_s is not measured and its target stands unmet. Beside it,
-              default.toml's training speed on both backends (--default-steps steps each, its
+              (--skip-competence-pybullet leaves it out).
+  default     default.toml's training speed on both backends (--default-steps steps each, its
               own settings, the fast backend sized by its [fast]: the same rollouts), from
               which its retraining time follows.
+  retrain     default.toml retrained on the fast backend, whole (--retrain-steps to shorten),
+              its periodic evaluation off; then bench.train's strength and head-to-head rows
+              on its policy in training fidelity (--retrain-matches, --retrain-matches-h2h).
+              fast_default_retrain_s (target <= 180 s) is its training wall time, written only
+              when every strength target holds (--skip-retrain leaves the row out).
 Results: bench/results/fastpath.json (RESULTS.md). A GPU is never needed (numpy on the CPU).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import multiprocessing as mp
 import os
 import statistics
@@ -430,6 +433,52 @@ def default_rows(result: Result, args: argparse.Namespace) -> None:
     )
 
 
+def retrain_rows(result: Result, args: argparse.Namespace) -> None:
+    """default.toml retrained on the fast backend (its own settings; its periodic evaluation off,
+    which is not training), then bench.train's strength and head-to-head rows on the policy in
+    training fidelity. fast_default_retrain_s is the training's wall time, written only when
+    every strength target holds (the target is a retraining to bench.train's strength)."""
+    from bench import train as bench_train
+    from sim.training.config import load_config
+    from sim.training.trainer import train
+
+    cfg = load_config("default")
+    cfg = replace(
+        cfg,
+        backend="fast",
+        total_steps=args.retrain_steps or cfg.total_steps,
+        evaluation=replace(cfg.evaluation, every_steps=0),
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        run = train(cfg, Path(tmp) / "run", progress=False, export=True)
+        if run.policy is None:
+            print("retrain: the run exported no policy", file=sys.stderr)
+            return
+        result.add("fast_default_retrain_steps", run.steps)
+        result.add("fast_default_retrain_wall_s", round(run.wall_s, 1))
+        print(f"retrain: {run.steps:,} steps in {run.wall_s:.0f} s; its strength on PyBullet")
+        bench_train.main(
+            [
+                "--policy", str(run.policy), "--skip-competence", "--fidelity", "training",
+                "--rows", "strength,h2h", "--players", "ours,planner,collector,original",
+                "--matches", str(args.retrain_matches),
+                "--matches-h2h", str(args.retrain_matches_h2h),
+                "--name", "retrain_strength", "--results-dir", tmp,
+            ]
+        )  # fmt: skip
+        strength = json.loads((Path(tmp) / "retrain_strength.json").read_text())
+    targets = strength["targets"]
+    met = bool(targets) and all(t["met"] for t in targets.values())
+    for key in ("uncapped_rings_ours_minus_planner", "uncapped_rings_ours_minus_collector"):
+        result.add(f"retrain_{key}", strength["metrics"][key])
+    result.add(
+        "retrain_h2h_win_rate_vs_planner", strength["metrics"]["h2h_win_rate_ours_vs_planner"]
+    )
+    result.add("fast_default_retrain_strength_met", float(met))
+    if met:
+        result.add("fast_default_retrain_s", round(run.wall_s, 1))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m bench.fastpath", description=__doc__)
     parser.add_argument("--matches", type=int, default=8192, help="fast matches at once, 1v1")
@@ -452,6 +501,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--skip-competence", action="store_true")
     parser.add_argument("--skip-competence-pybullet", action="store_true")
     parser.add_argument("--skip-default", action="store_true")
+    parser.add_argument("--skip-retrain", action="store_true")
+    parser.add_argument(
+        "--retrain-steps", type=int, default=None, help="default: default.toml's total_steps"
+    )
+    parser.add_argument("--retrain-matches", type=int, default=100, help="its strength rows")
+    parser.add_argument("--retrain-matches-h2h", type=int, default=40)
     parser.add_argument(
         "--default-steps", type=int, default=16_384, help="default.toml steps per backend"
     )
@@ -474,6 +529,8 @@ def main(argv: list[str] | None = None) -> int:
         competence_rows(result, args)
     if not args.skip_default:
         default_rows(result, args)
+    if not args.skip_retrain:
+        retrain_rows(result, args)
     result.target("fast_game_2v2_robot_steps_per_s", 200_000, ">=")
     result.target("fast_ppo_steps_per_s", 50_000, ">=")
     result.target("fast_competence_wall_s", 10.0, "<=")

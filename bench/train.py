@@ -52,7 +52,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from bench.common import Result
+from bench.common import RESULTS_DIR, Result
 from jetson.models import DEFAULT_POLICY
 
 REPO = Path(__file__).resolve().parent.parent
@@ -250,6 +250,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--skip-high", action="store_true", help="the same as --fidelity training")
     parser.add_argument("--skip-no-teacher", action="store_true")
     parser.add_argument("--name", default="train")
+    parser.add_argument(
+        "--results-dir", type=Path, default=RESULTS_DIR, help="where NAME.json goes"
+    )
     parser.add_argument("--jobs", type=int, default=2, help="evaluation processes")
     args = parser.parse_args(argv)
 
@@ -294,7 +297,7 @@ def main(argv: list[str] | None = None) -> int:
 
     if not args.policy.is_file():
         print(f"no shipped policy at {args.policy}: stopping after competence", file=sys.stderr)
-        result.report()
+        result.report(args.results_dir)
         return 1
 
     def words_of(text: str, known: set[str], what: str) -> set[str]:
@@ -375,10 +378,10 @@ def main(argv: list[str] | None = None) -> int:
                     result.target(f"h2h_win_rate_ours_vs_{opp}{tag}", 0.6, ">=")
                 print(f"head-to-head, {name} vs {opp}:\n{s.table()}\n", flush=True)
 
-    path = result.report()
+    path = result.report(args.results_dir)
     detail_path = path.with_name(f"{args.name}_details.json")
     detail_path.write_text(json.dumps(details, indent=1, default=str) + "\n")
-    print(f"wrote {detail_path.relative_to(REPO)}")
+    print(f"wrote {detail_path}")
     return 0
 
 
