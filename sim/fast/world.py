@@ -296,9 +296,7 @@ class FastWorld:
         self.prev_pose[k, i] = (self.x[k, i], self.y[k, i], self.heading[k, i])
         if self.game:  # set down by hand: on a board it overlaps, as World.place_robot
             self.on_platform[k, i] = -1
-            h = np.radians(self.heading[k, i])
-            ex = self.half_w[i] * abs(np.cos(h)) + self.half_l[i] * abs(np.sin(h))
-            ey = self.half_w[i] * abs(np.sin(h)) + self.half_l[i] * abs(np.cos(h))
+            ex, ey = (float(e[0]) for e in self._extents(np.array([i]), self.heading[k, i : i + 1]))
             for code in self.consts.plat_order:
                 cx, cy, hx, hy, _ = self.consts.plat[code]
                 ox = min(x + ex, cx + hx) - max(x - ex, cx - hx)
@@ -432,8 +430,7 @@ class FastWorld:
         """The whole game's end of a step: the boards swing, fouls are called, and where the
         isolation period ended its bonus and win point are judged (World's order)."""
         gs = self.game_batch()
-        carried = self.carried.copy()
-        seesaw.step_tilts(self.consts, gs, carried, self.dt, live)
+        seesaw.step_tilts(self.consts, gs, self.carried, self.dt, live)
         contact = -self._overlap_matrix() <= self.config.pin_contact_m
         events.fouls = rules.game_fouls(
             self.consts, gs, self.time_s, contact, self.foul_contacts, live
@@ -444,6 +441,14 @@ class FastWorld:
             bonus, win, _ = rules.game_autonomous(self.consts, gs, points)
             self.auto_bonus[judged] = bonus[judged]
             self.auto_win_point[judged] = win[judged]
+
+    def _extents(self, robots: I64, heading_deg: F64) -> tuple[F64, F64]:
+        """Half the x and y extents of robots' footprints' bounding boxes at headings (deg),
+        as seesaw.robot_extents works them out for one."""
+        rad = np.radians(heading_deg)
+        c, s = np.abs(np.cos(rad)), np.abs(np.sin(rad))
+        hw, hl = self.half_w[robots], self.half_l[robots]
+        return hw * c + hl * s, hw * s + hl * c
 
     def _moving_clamps(self) -> I64:
         """(B, R): the goal each robot's clamp moves through the substeps, -1 none (a tug of
@@ -456,8 +461,7 @@ class FastWorld:
     def _barrier(self, isolation: Bool) -> None:
         """The isolation period's centre-line wall that only robots hit (World's 2 cm thick
         body): a robot's footprint stays on its side of it."""
-        rad = np.radians(self.heading)
-        ex = self.half_w * np.abs(np.cos(rad)) + self.half_l * np.abs(np.sin(rad))
+        ex, _ = self._extents(np.arange(self.n_robots), self.heading)
         wall = _BARRIER_HALF + ex
         right = self.x >= 0
         x = np.where(right, np.maximum(self.x, wall), np.minimum(self.x, -wall))
@@ -526,8 +530,7 @@ class FastWorld:
         rad = np.radians(h)
         x = self.gx[bi, g] - back * np.sin(rad)
         y = self.gy[bi, g] - back * np.cos(rad)
-        ex = self.half_w[lose] * np.abs(np.cos(rad)) + self.half_l[lose] * np.abs(np.sin(rad))
-        ey = self.half_w[lose] * np.abs(np.sin(rad)) + self.half_l[lose] * np.abs(np.cos(rad))
+        ex, ey = self._extents(lose, h)
         lim = self.field.half
         sx = np.maximum(0.0, -lim - (x - ex)) - np.maximum(0.0, x + ex - lim)
         sy = np.maximum(0.0, -lim - (y - ey)) - np.maximum(0.0, y + ey - lim)
