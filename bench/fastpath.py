@@ -212,10 +212,11 @@ def _fast_score(checkpoint: Path | None, matches: int, seed: int) -> tuple[float
     from sim.training.checkpoint import agent_from_checkpoint, load_checkpoint
     from sim.training.rollout import RolloutConfig
 
-    agent, spec = None, ObservationSpec(n_stack=0)
+    agent, spec, skills = None, ObservationSpec(n_stack=0), None
     if checkpoint is not None:
-        agent, spec, _ = agent_from_checkpoint(load_checkpoint(checkpoint))
-    env = make_config({"world": EVAL_WORLD, **SCENARIOS["capped"]}, observation=spec)
+        agent, spec, cfg = agent_from_checkpoint(load_checkpoint(checkpoint))
+        skills = cfg.env_config().skills  # a skill policy's network picks skills
+    env = make_config({"world": EVAL_WORLD, **SCENARIOS["capped"]}, observation=spec, skills=skills)
     fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=matches), seed=seed)
     fm.set_kinds([("idle", -1)] * matches)
     res = fm.reset()

@@ -616,7 +616,9 @@ class World:
             r.on_platform = None if code < 0 else rules.ALLIANCES[code]
             if moved[0, r.index]:
                 r.x, r.y = float(state.x[0, r.index]), float(state.y[0, r.index])
-                self._place(r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading))
+                self._place(
+                    r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading), True
+                )
 
     def _goal_board_contacts(self, before: list[tuple[float, float]]) -> None:
         """The whole game: a free goal goes onto a see-saw only up its lowered field-side edge;
@@ -630,7 +632,7 @@ class World:
             if moved[0, g.index]:
                 g.x, g.y = float(state.gx[0, g.index]), float(state.gy[0, g.index])
                 pos, q = p.getBasePositionAndOrientation(g.body, physicsClientId=self.client)
-                self._place(g.body, g.x, g.y, pos[2], quaternion_yaw(q))
+                self._place(g.body, g.x, g.y, pos[2], quaternion_yaw(q), stop=True)
 
     def _step_tilts(self) -> None:
         """The whole game: every see-saw swings one control step under its loads
@@ -705,10 +707,18 @@ class World:
             if self.training and abs(pos[2]) > 1e-3:
                 self._place(g.body, g.x, g.y, 0.0, quaternion_yaw(q))
 
-    def _place(self, body: int, x: float, y: float, z: float, yaw: float) -> None:
+    def _place(
+        self, body: int, x: float, y: float, z: float, yaw: float, stop: bool = False
+    ) -> None:
+        """Set a body's pose. `stop`: it was set back out of an obstacle (a wall, a board) and
+        stops there, as a body pinned against it does; otherwise it keeps its motion in the
+        plane (its vertical velocity and tilt rate dropped): a goal set back on the floor
+        slides on as it was sliding. (The velocity is read before the reset, which zeroes it.)"""
         cid = self.client
-        p.resetBasePositionAndOrientation(body, (x, y, z), yaw_quaternion(yaw), physicsClientId=cid)
         lin, ang = p.getBaseVelocity(body, physicsClientId=cid)
+        p.resetBasePositionAndOrientation(body, (x, y, z), yaw_quaternion(yaw), physicsClientId=cid)
+        if stop:
+            lin, ang = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         p.resetBaseVelocity(body, (lin[0], lin[1], 0.0), (0.0, 0.0, ang[2]), physicsClientId=cid)
 
     def _contain(self) -> None:
@@ -723,7 +733,9 @@ class World:
             if sx or sy:
                 r.x += sx
                 r.y += sy
-                self._place(r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading))
+                self._place(
+                    r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading), True
+                )
         for g in self.goals:
             if g.carried_by is not None:
                 continue
@@ -733,7 +745,7 @@ class World:
             if nx != g.x or ny != g.y:
                 g.x, g.y = nx, ny
                 pos, q = p.getBasePositionAndOrientation(g.body, physicsClientId=self.client)
-                self._place(g.body, nx, ny, pos[2], quaternion_yaw(q))
+                self._place(g.body, nx, ny, pos[2], quaternion_yaw(q), stop=True)
 
     def _inside_walls(self, r: RobotState, with_goal: bool = False) -> tuple[float, float]:
         """The smallest move (dx, dy) that takes the robot's footprint (and with_goal, the goal
@@ -843,7 +855,7 @@ class World:
                     r.y += sy
                     xy = (xy[0] + sx, xy[1] + sy)
                     self._place(
-                        r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading)
+                        r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading), True
                     )
             g.x, g.y = xy
             pos, _ = p.getBasePositionAndOrientation(g.body, physicsClientId=cid)
@@ -873,7 +885,7 @@ class World:
         sx, sy = self._inside_walls(r)
         r.x += sx
         r.y += sy
-        self._place(r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading))
+        self._place(r.body, r.x, r.y, self._robot_z(r.config), self._body_yaw(r.heading), True)
         return sx, sy
 
     # --- rings --------------------------------------------------------------------------------

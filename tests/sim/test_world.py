@@ -134,6 +134,35 @@ def test_pushes_a_free_goal(solo: World) -> None:
     assert g.x - r.x >= r.config.length_m / 2 + g.spec.base_radius - 0.03
 
 
+def test_a_sliding_goal_set_back_on_the_floor_slides_on(solo: World) -> None:
+    """Training fidelity sets a goal that rose off the floor (a robot's push lifts it a little)
+    back down each step; it slides on as it was sliding, rather than stopping dead."""
+    import pybullet as p
+
+    g = solo.goals[6]
+    solo.place_goal(6, 0.0, 0.0)
+    cid = solo.client
+    p.resetBasePositionAndOrientation(g.body, (0.0, 0.0, 0.004), (0, 0, 0, 1), physicsClientId=cid)
+    p.resetBaseVelocity(g.body, (0.5, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=cid)
+    run(solo, DriveCommand(0.0, 0.0), 1)
+    x1 = g.x
+    run(solo, DriveCommand(0.0, 0.0), 2)
+    assert g.x - x1 > 0.02, f"the goal stopped dead at x = {x1:.3f} m"
+
+
+def test_a_goal_pinned_against_a_wall_stays_inside(solo: World) -> None:
+    """A goal pushed hard into a wall is set back inside it and stops there."""
+    import pybullet as p
+
+    g = solo.goals[6]
+    lim = solo.field.half - g.spec.base_radius
+    solo.place_goal(6, lim - 0.01, 0.0)
+    p.resetBaseVelocity(g.body, (3.0, 0.0, 0.0), (0.0, 0.0, 0.0), physicsClientId=solo.client)
+    for _ in range(3):
+        run(solo, DriveCommand(0.0, 0.0), 1)
+        assert g.x <= lim + 1e-9
+
+
 def test_robots_cannot_drive_through_each_other() -> None:
     import pybullet as p
 
