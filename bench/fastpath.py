@@ -26,14 +26,13 @@ Rows:
               (target <= 0.03). Beside them, PyBullet against itself with the red robot's start
               moved 1 cm: how far the twin's own matches move for a centimetre, the floor any
               second model meets.
-  transfer    a drive policy trained for the score on the fast backend
-              (sim/configs/fast_score.toml, or --transfer-config, its own total_steps or
-              --transfer-steps) played deterministically against an idle opponent in whole
+  transfer    a drive policy (the network drives the wheels) trained for the score on the fast
+              backend (sim/configs/fast_score.toml, or --transfer-config, its own total_steps
+              or --transfer-steps), played deterministically against an idle opponent in whole
               matches: the points it earns (its alliance's mean match score less a robot
               standing still's in the same matches) on the fast backend, in PyBullet's training
               fidelity and in high fidelity (--transfer-matches, --transfer-high-matches);
-              target: high fidelity keeps >= 95 % of the fast backend's points
-              (fast_policy_high_fidelity_score_ratio).
+              drive_policy_high_fidelity_score_ratio, for the record.
   competence  bench.train's competence row on the fast path: sim/configs/capped.toml trained
               from scratch on the fast backend (its ring memory, route slot and route teacher
               batched, the planner a quarter of its opponents), checked
@@ -48,7 +47,10 @@ Rows:
               its periodic evaluation off; then bench.train's strength and head-to-head rows
               on its policy in training fidelity (--retrain-matches, --retrain-matches-h2h).
               fast_default_retrain_s (target <= 180 s) is its training wall time, written only
-              when every strength target holds (--skip-retrain leaves the row out).
+              when every strength target holds (--skip-retrain leaves the row out). The same
+              policy is played as the transfer row plays its drive policy; target: high
+              fidelity keeps >= 95 % of the points it earns on the fast backend
+              (fast_policy_high_fidelity_score_ratio).
 Results: bench/results/fastpath.json (RESULTS.md). A GPU is never needed (numpy on the CPU).
 """
 
@@ -257,7 +259,41 @@ def _pybullet_score(
     return side["score"].mean, side["rings"].mean
 
 
+def _transfer(
+    result: Result, args: argparse.Namespace, prefix: str, ckpt: Path, policy: Path
+) -> float | None:
+    """What a fast-trained policy earns, played deterministically against an idle opponent in
+    whole matches: its alliance's mean score less a robot standing still's in the same matches
+    (both alliance goals start in their home zones: 40 points for nothing), on the fast
+    backend, in PyBullet's training fidelity and in high fidelity. Returns high fidelity's
+    share of the fast backend's points."""
+    n, n_high = args.transfer_matches, args.transfer_high_matches
+    fast, fast_rings = _fast_score(ckpt, n, seed=7)
+    fast -= _fast_score(None, n, seed=7)[0]
+    train_fid, train_rings = _pybullet_score(policy, n, 7, "training")
+    # A robot standing still scores the same in every match of a fidelity (its goals stay in
+    # its zone): a few matches measure it.
+    train_fid -= _pybullet_score(None, min(n, 4), 7, "training")[0]
+    high, high_rings = _pybullet_score(policy, n_high, 7, "high")
+    high -= _pybullet_score(None, min(n_high, 4), 7, "high")[0]
+    result.add(f"{prefix}_fast_score", round(fast, 2))
+    result.add(f"{prefix}_fast_rings", round(fast_rings, 2))
+    result.add(f"{prefix}_pybullet_training_score", round(train_fid, 2))
+    result.add(f"{prefix}_pybullet_training_rings", round(train_rings, 2))
+    result.add(f"{prefix}_high_fidelity_score", round(high, 2))
+    result.add(f"{prefix}_high_fidelity_rings", round(high_rings, 2))
+    if fast_rings > 0:
+        result.add(f"{prefix}_high_fidelity_rings_ratio", round(high_rings / fast_rings, 3))
+    print(
+        f"{prefix}: score {fast:.1f} on the fast backend, {train_fid:.1f} in PyBullet's "
+        f"training fidelity, {high:.1f} in high fidelity"
+    )
+    return round(high / fast, 3) if fast > 0 else None
+
+
 def transfer_rows(result: Result, args: argparse.Namespace) -> None:
+    """A drive policy (fast_score.toml) trained on the fast backend and played on both: the
+    record of how a policy that drives the wheels itself carries over."""
     from sim.training.config import load_config
     from sim.training.trainer import train
 
@@ -268,33 +304,11 @@ def transfer_rows(result: Result, args: argparse.Namespace) -> None:
         run = train(cfg, Path(tmp) / "run", progress=False)
         assert run.policy is not None
         ckpt = Path(tmp) / "run" / "checkpoints" / "latest.pt"
-        # What the policy earns: its alliance's score less a robot standing still's in the same
-        # matches (both alliance goals start in their home zones: 40 points for nothing).
-        n, n_high = args.transfer_matches, args.transfer_high_matches
-        fast, fast_rings = _fast_score(ckpt, n, seed=7)
-        fast -= _fast_score(None, n, seed=7)[0]
-        train_fid, train_rings = _pybullet_score(run.policy, n, 7, "training")
-        # A robot standing still scores the same in every match of a fidelity (its goals stay
-        # in its zone): a few matches measure it.
-        train_fid -= _pybullet_score(None, min(n, 4), 7, "training")[0]
-        high, high_rings = _pybullet_score(run.policy, n_high, 7, "high")
-        high -= _pybullet_score(None, min(n_high, 4), 7, "high")[0]
-    result.add("transfer_train_steps", run.steps)
-    result.add("transfer_train_wall_s", round(run.wall_s, 1))
-    result.add("transfer_fast_score", round(fast, 2))
-    result.add("transfer_fast_rings", round(fast_rings, 2))
-    result.add("transfer_pybullet_training_score", round(train_fid, 2))
-    result.add("transfer_pybullet_training_rings", round(train_rings, 2))
-    result.add("transfer_high_fidelity_score", round(high, 2))
-    result.add("transfer_high_fidelity_rings", round(high_rings, 2))
-    if fast > 0:
-        result.add("fast_policy_high_fidelity_score_ratio", round(high / fast, 3))
-    if fast_rings > 0:
-        result.add("fast_policy_high_fidelity_rings_ratio", round(high_rings / fast_rings, 3))
-    print(
-        f"transfer: score {fast:.1f} on the fast backend, {train_fid:.1f} in PyBullet's training "
-        f"fidelity, {high:.1f} in high fidelity"
-    )
+        ratio = _transfer(result, args, "transfer_drive", ckpt, run.policy)
+    result.add("transfer_drive_train_steps", run.steps)
+    result.add("transfer_drive_train_wall_s", round(run.wall_s, 1))
+    if ratio is not None:
+        result.add("drive_policy_high_fidelity_score_ratio", ratio)
 
 
 def _pybullet_match(
@@ -457,7 +471,12 @@ def retrain_rows(result: Result, args: argparse.Namespace) -> None:
             return
         result.add("fast_default_retrain_steps", run.steps)
         result.add("fast_default_retrain_wall_s", round(run.wall_s, 1))
-        print(f"retrain: {run.steps:,} steps in {run.wall_s:.0f} s; its strength on PyBullet")
+        print(f"retrain: {run.steps:,} steps in {run.wall_s:.0f} s; its score on both backends")
+        ckpt = Path(tmp) / "run" / "checkpoints" / "latest.pt"
+        ratio = _transfer(result, args, "transfer", ckpt, run.policy)
+        if ratio is not None:
+            result.add("fast_policy_high_fidelity_score_ratio", ratio)
+        print("retrain: its strength on PyBullet")
         bench_train.main(
             [
                 "--policy", str(run.policy), "--skip-competence", "--fidelity", "training",
