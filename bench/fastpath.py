@@ -44,7 +44,9 @@ Rows:
               own settings, the fast backend sized by its [fast]: the same rollouts), from
               which its retraining time follows.
   retrain     default.toml retrained on the fast backend, whole (--retrain-steps to shorten),
-              its periodic evaluation off; then bench.train's strength and head-to-head rows
+              its periodic evaluation off, in a fresh process (as `pete-sim train` runs; the
+              benchmark's earlier rows leave threads behind in theirs); then bench.train's
+              strength and head-to-head rows
               on its policy in training fidelity (--retrain-matches, --retrain-matches-h2h).
               fast_default_retrain_s (target <= 180 s) is its training wall time, written only
               when every strength target holds (--skip-retrain leaves the row out). The same
@@ -448,12 +450,10 @@ def default_rows(result: Result, args: argparse.Namespace) -> None:
     )
 
 
-def retrain_rows(result: Result, args: argparse.Namespace) -> None:
-    """default.toml retrained on the fast backend (its own settings; its periodic evaluation off,
-    which is not training), then bench.train's strength and head-to-head rows on the policy in
-    training fidelity. fast_default_retrain_s is the training's wall time, written only when
-    every strength target holds (the target is a retraining to bench.train's strength)."""
-    from bench import train as bench_train
+def _retrain(folder: str, steps: int | None) -> tuple[int, float, str | None]:
+    """default.toml trained on the fast backend into folder (its periodic evaluation off):
+    (steps, wall seconds, the exported policy). Run in a fresh process: what a team's
+    `pete-sim train` gets, not a process the benchmark's earlier rows left their threads in."""
     from sim.training.config import load_config
     from sim.training.trainer import train
 
@@ -461,25 +461,39 @@ def retrain_rows(result: Result, args: argparse.Namespace) -> None:
     cfg = replace(
         cfg,
         backend="fast",
-        total_steps=args.retrain_steps or cfg.total_steps,
+        total_steps=steps or cfg.total_steps,
         evaluation=replace(cfg.evaluation, every_steps=0),
     )
+    run = train(cfg, Path(folder) / "run", progress=False, export=True)
+    return run.steps, run.wall_s, None if run.policy is None else str(run.policy)
+
+
+def retrain_rows(result: Result, args: argparse.Namespace) -> None:
+    """default.toml retrained on the fast backend (its own settings; its periodic evaluation off,
+    which is not training), then bench.train's strength and head-to-head rows on the policy in
+    training fidelity. fast_default_retrain_s is the training's wall time, written only when
+    every strength target holds (the target is a retraining to bench.train's strength)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from bench import train as bench_train
+
     with tempfile.TemporaryDirectory() as tmp:
-        run = train(cfg, Path(tmp) / "run", progress=False, export=True)
-        if run.policy is None:
+        with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
+            steps, wall_s, policy = pool.submit(_retrain, tmp, args.retrain_steps).result()
+        if policy is None:
             print("retrain: the run exported no policy", file=sys.stderr)
             return
-        result.add("fast_default_retrain_steps", run.steps)
-        result.add("fast_default_retrain_wall_s", round(run.wall_s, 1))
-        print(f"retrain: {run.steps:,} steps in {run.wall_s:.0f} s; its score on both backends")
+        result.add("fast_default_retrain_steps", steps)
+        result.add("fast_default_retrain_wall_s", round(wall_s, 1))
+        print(f"retrain: {steps:,} steps in {wall_s:.0f} s; its score on both backends")
         ckpt = Path(tmp) / "run" / "checkpoints" / "latest.pt"
-        ratio = _transfer(result, args, "transfer", ckpt, run.policy)
+        ratio = _transfer(result, args, "transfer", ckpt, Path(policy))
         if ratio is not None:
             result.add("fast_policy_high_fidelity_score_ratio", ratio)
         print("retrain: its strength on PyBullet")
         bench_train.main(
             [
-                "--policy", str(run.policy), "--skip-competence", "--fidelity", "training",
+                "--policy", policy, "--skip-competence", "--fidelity", "training",
                 "--rows", "strength,h2h", "--players", "ours,planner,collector,original",
                 "--matches", str(args.retrain_matches),
                 "--matches-h2h", str(args.retrain_matches_h2h),
@@ -496,7 +510,7 @@ def retrain_rows(result: Result, args: argparse.Namespace) -> None:
     )
     result.add("fast_default_retrain_strength_met", float(met))
     if met:
-        result.add("fast_default_retrain_s", round(run.wall_s, 1))
+        result.add("fast_default_retrain_s", round(wall_s, 1))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -528,7 +542,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--retrain-matches", type=int, default=100, help="its strength rows")
     parser.add_argument("--retrain-matches-h2h", type=int, default=40)
     parser.add_argument(
-        "--default-steps", type=int, default=16_384, help="default.toml steps per backend"
+        "--default-steps", type=int, default=65_536, help="default.toml steps per backend"
     )
     parser.add_argument(
         "--competence-every", type=int, default=8192, help="steps between competence checks"
