@@ -42,7 +42,7 @@ from jetson.settings import LinkConfig
 from jetson.stats import Counters, Snapshot, summary_fields, summary_line
 from protocol import framing, messages
 from protocol.framing import LinkError, Received, TextLine, UplinkDecoder
-from protocol.messages import Command, Hello, Log, State
+from protocol.messages import Command, Hello, Log, Partner, PartnerLink, PartnerStatus, State
 
 _LOG_LEVELS = {0: "debug", 1: "info", 2: "warning", 3: "error"}
 
@@ -130,6 +130,10 @@ class Daemon:
         self.last_state: State | None = None
         self.last_command: Command | None = None
         self.last_decision: Decision | None = None
+        # The alliance partner as our Brain hears it over VEXlink: its newest report and the
+        # link's state (a link that is not up means this robot plays alone).
+        self.partner: Partner | None = None
+        self.partner_status: PartnerStatus | None = None
         self._tx_seq = 0
         self._cmd_seq = 0
         self._last_rx_s = 0.0
@@ -377,6 +381,19 @@ class Daemon:
 
     # --- receiving ------------------------------------------------------------------------------
 
+    def _on_partner_status(self, status: PartnerStatus) -> None:
+        before = None if self.partner_status is None else self.partner_status.link
+        self.partner_status = status
+        if status.link == before:
+            return
+        if status.link is PartnerLink.UP:
+            self.log.info("partner_link", "partner link up: playing as an alliance")
+        elif status.link is PartnerLink.LOST:
+            self.partner = None
+            self.log.warning(
+                "partner_link", "partner link lost: playing alone", received=status.received
+            )
+
     def _feed(self, data: bytes, t_rx: float) -> None:
         newest: State | None = None
         for ev in self.decoder.feed(data):
@@ -392,6 +409,10 @@ class Daemon:
                 elif isinstance(msg, Hello):
                     if not self._on_hello(msg):
                         newest = None  # States before a restart or a refusal are not answered
+                elif isinstance(msg, Partner):
+                    self.partner = msg
+                elif isinstance(msg, PartnerStatus):
+                    self._on_partner_status(msg)
                 elif isinstance(msg, Log):
                     level = _LOG_LEVELS.get(int(msg.level), "info")
                     self.log.event(

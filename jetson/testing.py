@@ -222,6 +222,11 @@ class FakeBrain:
         with self._lock:
             self._send(Log(level, int((time.monotonic() - self._t0) * 1000), text))
 
+    def send_message(self, msg: Any) -> None:
+        """Any uplink message, e.g. the partner's Partner or a PartnerStatus."""
+        with self._lock:
+            self._send(msg)
+
     def send_text(self, text: str, stream: bytes = b"sout") -> None:
         with self._lock:
             self.text_sent += 1

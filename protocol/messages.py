@@ -163,7 +163,7 @@ _LOGLEVEL_BY_VALUE = {m.value: m for m in LogLevel}
 
 
 class PartnerLink(IntEnum):
-    """The VEXlink radio link to the alliance partner's Brain as this Brain sees it: no radio configured, a radio but no partner report yet, a report within the last partner_timeout_ms, or none since."""
+    """The VEXlink radio link to the alliance partner's Brain as this Brain sees it: no radio configured, a radio but no partner report yet, a report within the last partner.timeout_ms (brain config), or none since."""
 
     ABSENT = 0
     CONNECTING = 1
@@ -547,7 +547,7 @@ class Partner:
 
 @dataclass(slots=True)
 class PartnerStatus:
-    """The VEXlink link to the partner as the Brain sees it, sent every partner_status_period_ms (and at once when the link's state changes). A Jetson whose link is not up plays alone."""
+    """The VEXlink link to the partner as the Brain sees it, sent every partner.status_period_ms (brain config; and at once when the link's state changes). A Jetson whose link is not up plays alone."""
 
     ID: ClassVar[int] = 6
     NAME: ClassVar[str] = "PartnerStatus"

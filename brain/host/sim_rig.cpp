@@ -34,7 +34,7 @@ std::string fault_names(msg::Fault faults) {
 
 SimRig::SimRig(const core::Config& config, core::SerialLink& serial, uint32_t boot_id)
     : robot(config,
-            core::Hardware{clock, gps, imu, drive, intake, clamp, lift, serial, competition, driver, screen},
+            core::Hardware{clock, gps, imu, drive, intake, clamp, lift, serial, competition, driver, screen, radio},
             boot_id) {
   competition.status.connected = true;
 }

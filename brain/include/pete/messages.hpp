@@ -355,7 +355,7 @@ inline constexpr const char* to_string(LogLevel v) {
   return "?";
 }
 
-/// The VEXlink radio link to the alliance partner's Brain as this Brain sees it: no radio configured, a radio but no partner report yet, a report within the last partner_timeout_ms, or none since.
+/// The VEXlink radio link to the alliance partner's Brain as this Brain sees it: no radio configured, a radio but no partner report yet, a report within the last partner.timeout_ms (brain config), or none since.
 enum class PartnerLink : uint8_t {
   absent = 0,
   connecting = 1,
@@ -784,7 +784,7 @@ inline bool operator==(const Partner& a, const Partner& b) {
 }
 inline bool operator!=(const Partner& a, const Partner& b) { return !(a == b); }
 
-/// The VEXlink link to the partner as the Brain sees it, sent every partner_status_period_ms (and at once when the link's state changes). A Jetson whose link is not up plays alone.
+/// The VEXlink link to the partner as the Brain sees it, sent every partner.status_period_ms (brain config; and at once when the link's state changes). A Jetson whose link is not up plays alone.
 struct PartnerStatus {
   static constexpr uint8_t kId = 6;
   static constexpr std::size_t kBodySize = 23;
