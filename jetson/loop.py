@@ -37,6 +37,7 @@ from jetson.decide import Decider, Decision, PerceptionInput
 from jetson.handshake import Handshake, LinkState
 from jetson.link import LinkClosed, LinkOpenError, PortLocator, SerialLink
 from jetson.log import EventLog, LatencyStats
+from jetson.partner import REPORT_PERIOD_S, partner_report
 from jetson.recorder import CycleRecord, Recorder, RecordingDir
 from jetson.settings import LinkConfig
 from jetson.stats import Counters, Snapshot, summary_fields, summary_line
@@ -134,6 +135,7 @@ class Daemon:
         # link's state (a link that is not up means this robot plays alone).
         self.partner: Partner | None = None
         self.partner_status: PartnerStatus | None = None
+        self._next_partner_report: float | None = None
         self._tx_seq = 0
         self._cmd_seq = 0
         self._last_rx_s = 0.0
@@ -379,6 +381,21 @@ class Daemon:
         self.last_command = cmd
         return cmd
 
+    def _report_to_partner(self, state: State, decision: Decision, now: float) -> None:
+        """Our report for the alliance partner, every REPORT_PERIOD_S (the Brain sends the
+        newest over VEXlink; without a radio it goes no further)."""
+        if self._next_partner_report is not None and now < self._next_partner_report:
+            return
+        self._next_partner_report = now + REPORT_PERIOD_S
+        link = None if self.partner_status is None else self.partner_status.link
+        report = partner_report(state, decision.drove, link)
+        try:
+            self._write(framing.encode_downlink(report, self._tx_seq))
+        except LinkClosed as exc:
+            self._disconnect(str(exc))
+            return
+        self.counters.partner_reports += 1
+
     # --- receiving ------------------------------------------------------------------------------
 
     def _on_partner_status(self, status: PartnerStatus) -> None:
@@ -493,7 +510,8 @@ class Daemon:
             self._disconnect(str(exc))
             return
         t_tx = time.perf_counter()
-        # The Command is on the wire; everything below is bookkeeping.
+        # The Command is on the wire; everything below is bookkeeping (and the partner report).
+        self._report_to_partner(state, decision, now)
         latency = t_tx - t_rx
         self.latency.add(latency)
         self.counters.states += 1

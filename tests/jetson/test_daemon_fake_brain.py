@@ -436,3 +436,16 @@ def test_the_partner_is_heard_and_losing_it_is_said(brain: FakeBrain) -> None:
         assert lost["level"] == "warning" and "playing alone" in lost["msg"]
         assert run.daemon.partner is None
         assert len(brain.commands) >= 5  # and it drives on
+
+
+def test_the_daemon_reports_to_its_partner_ten_times_a_second(brain: FakeBrain) -> None:
+    brain.start()
+    with daemon_on(brain.path):
+        assert wait_for(lambda: len(brain.commands) >= 50)  # a second of States at 50 Hz
+        n_commands = len(brain.commands)
+        reports = list(brain.partner_reports)
+    # One report per 100 ms of answered States (five States), not one per State.
+    assert n_commands / 5 - 2 <= len(reports) <= n_commands / 5 + 2
+    last = reports[-1]
+    assert PartnerFlags.ALONE in last.flags  # no PartnerStatus says the link is up
+    assert last.target is TargetKind.NOTHING
