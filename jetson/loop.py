@@ -37,12 +37,13 @@ from jetson.decide import Decider, Decision, PerceptionInput
 from jetson.handshake import Handshake, LinkState
 from jetson.link import LinkClosed, LinkOpenError, PortLocator, SerialLink
 from jetson.log import EventLog, LatencyStats
+from jetson.partner import REPORT_PERIOD_S, partner_report
 from jetson.recorder import CycleRecord, Recorder, RecordingDir
 from jetson.settings import LinkConfig
 from jetson.stats import Counters, Snapshot, summary_fields, summary_line
 from protocol import framing, messages
 from protocol.framing import LinkError, Received, TextLine, UplinkDecoder
-from protocol.messages import Command, Hello, Log, State
+from protocol.messages import Command, Hello, Log, Partner, PartnerLink, PartnerStatus, State
 
 _LOG_LEVELS = {0: "debug", 1: "info", 2: "warning", 3: "error"}
 
@@ -130,6 +131,11 @@ class Daemon:
         self.last_state: State | None = None
         self.last_command: Command | None = None
         self.last_decision: Decision | None = None
+        # The alliance partner as our Brain hears it over VEXlink: its newest report and the
+        # link's state (a link that is not up means this robot plays alone).
+        self.partner: Partner | None = None
+        self.partner_status: PartnerStatus | None = None
+        self._next_partner_report: float | None = None
         self._tx_seq = 0
         self._cmd_seq = 0
         self._last_rx_s = 0.0
@@ -375,7 +381,35 @@ class Daemon:
         self.last_command = cmd
         return cmd
 
+    def _report_to_partner(self, state: State, decision: Decision, now: float) -> None:
+        """Our report for the alliance partner, every REPORT_PERIOD_S (the Brain sends the
+        newest over VEXlink; without a radio it goes no further)."""
+        if self._next_partner_report is not None and now < self._next_partner_report:
+            return
+        self._next_partner_report = now + REPORT_PERIOD_S
+        link = None if self.partner_status is None else self.partner_status.link
+        report = partner_report(state, decision.drove, link)
+        try:
+            self._write(framing.encode_downlink(report, self._tx_seq))
+        except LinkClosed as exc:
+            self._disconnect(str(exc))
+            return
+        self.counters.partner_reports += 1
+
     # --- receiving ------------------------------------------------------------------------------
+
+    def _on_partner_status(self, status: PartnerStatus) -> None:
+        before = None if self.partner_status is None else self.partner_status.link
+        self.partner_status = status
+        if status.link == before:
+            return
+        if status.link is PartnerLink.UP:
+            self.log.info("partner_link", "partner link up: playing as an alliance")
+        elif status.link is PartnerLink.LOST:
+            self.partner = None
+            self.log.warning(
+                "partner_link", "partner link lost: playing alone", received=status.received
+            )
 
     def _feed(self, data: bytes, t_rx: float) -> None:
         newest: State | None = None
@@ -392,6 +426,10 @@ class Daemon:
                 elif isinstance(msg, Hello):
                     if not self._on_hello(msg):
                         newest = None  # States before a restart or a refusal are not answered
+                elif isinstance(msg, Partner):
+                    self.partner = msg
+                elif isinstance(msg, PartnerStatus):
+                    self._on_partner_status(msg)
                 elif isinstance(msg, Log):
                     level = _LOG_LEVELS.get(int(msg.level), "info")
                     self.log.event(
@@ -472,7 +510,8 @@ class Daemon:
             self._disconnect(str(exc))
             return
         t_tx = time.perf_counter()
-        # The Command is on the wire; everything below is bookkeeping.
+        # The Command is on the wire; everything below is bookkeeping (and the partner report).
+        self._report_to_partner(state, decision, now)
         latency = t_tx - t_rx
         self.latency.add(latency)
         self.counters.states += 1

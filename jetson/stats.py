@@ -24,6 +24,7 @@ class Counters:
     link_errors: Counter[str] = field(default_factory=Counter)  # closed connections only
     lost: int = 0  # closed connections only
     received: int = 0  # closed connections only
+    partner_reports: int = 0  # Partner reports sent to the Brain for the alliance partner
 
     def as_dict(self) -> dict[str, int]:
         return {

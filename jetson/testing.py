@@ -41,6 +41,7 @@ from protocol.messages import (
     LogLevel,
     MatchPeriod,
     MatchPhase,
+    Partner,
     PoseFix,
     Role,
     State,
@@ -117,6 +118,7 @@ class FakeBrain:
     seed: int = 0
     commands: list[BrainCommand] = field(default_factory=list)
     jetson_hellos: list[Hello] = field(default_factory=list)
+    partner_reports: list[Partner] = field(default_factory=list)  # the Jetson's, for VEXlink
     states_sent: dict[int, State] = field(default_factory=dict)
     text_sent: int = 0
 
@@ -222,6 +224,11 @@ class FakeBrain:
         with self._lock:
             self._send(Log(level, int((time.monotonic() - self._t0) * 1000), text))
 
+    def send_message(self, msg: Any) -> None:
+        """Any uplink message, e.g. the partner's Partner or a PartnerStatus."""
+        with self._lock:
+            self._send(msg)
+
     def send_text(self, text: str, stream: bytes = b"sout") -> None:
         with self._lock:
             self.text_sent += 1
@@ -267,6 +274,8 @@ class FakeBrain:
             elif isinstance(msg, Command) and self.connected:
                 self.commands.append(BrainCommand(now, msg))
                 self._last_cmd_seq = msg.seq
+            elif isinstance(msg, Partner) and self.connected:
+                self.partner_reports.append(msg)
         return events
 
     def wait_command(self, timeout_s: float = 1.0) -> Command | None:

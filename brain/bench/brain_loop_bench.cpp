@@ -99,13 +99,14 @@ struct Rig {
   host::FakeCompetition competition;
   host::FakeDriverInput driver;
   host::FakeScreen screen;
+  host::FakeRadio radio;
   BenchSerial serial;
   core::Robot robot;
   uint64_t t_ms = 0;
 
   Rig()
       : robot(core::kRobotConfig,
-              core::Hardware{clock, gps, imu, drive, intake, clamp, lift, serial, competition, driver, screen},
+              core::Hardware{clock, gps, imu, drive, intake, clamp, lift, serial, competition, driver, screen, radio},
               0xB0B0CAFE) {
     drive.calls.reserve(host::FakeDrivetrain::kKeep);
     competition.set_phase(msg::MatchPhase::autonomous);

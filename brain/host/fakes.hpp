@@ -146,6 +146,33 @@ class FakeScreen final : public core::AllianceInput {
   msg::Alliance pick = msg::Alliance::unknown;
 };
 
+/// One end of a VEXlink in memory: what the core writes goes to `sent`; the test (or brain_host's
+/// side channel) puts the partner's bytes in `rx`. `room` is the transmit queue's free bytes.
+class FakeRadio final : public core::Radio {
+ public:
+  bool fitted() override { return is_fitted; }
+  bool connected() override { return is_fitted && linked; }
+  bool write(const uint8_t* data, std::size_t n) override {
+    if (!connected() || n > room) return false;
+    sent.insert(sent.end(), data, data + n);
+    return true;
+  }
+  std::size_t read(uint8_t* buf, std::size_t cap) override {
+    std::size_t k = 0;
+    while (k < cap && !rx.empty()) {
+      buf[k++] = rx.front();
+      rx.pop_front();
+    }
+    return k;
+  }
+
+  bool is_fitted = false;
+  bool linked = false;
+  std::size_t room = 512;
+  std::deque<uint8_t> rx;
+  std::vector<uint8_t> sent;
+};
+
 /// PROS's serial stream framing of one write(): COBS(stream id || payload) || 0x00.
 std::vector<uint8_t> pros_frame(const char (&stream)[5], const uint8_t* data, std::size_t n);
 

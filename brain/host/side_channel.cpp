@@ -17,7 +17,7 @@ constexpr const char* kHelp =
     "measured LEFT_MPS RIGHT_MPS | measured auto | imu ROTATION_DEG | imu off | "
     "screen red|blue|none | "
     "rings N|unknown | clamp 0|1|unknown | "
-    "motor_fault 0|1 | help | quit";
+    "motor_fault 0|1 | radio off|on|unlinked | radio rx HEX | radio tx | help | quit";
 
 std::vector<std::string> split(const std::string& line) {
   std::istringstream in(line);
@@ -33,6 +33,23 @@ bool parse_number(const std::string& s, double& out) {
   const double v = std::strtod(s.c_str(), &end);
   if (errno != 0 || end != s.c_str() + s.size() || !std::isfinite(v)) return false;
   out = v;
+  return true;
+}
+
+bool parse_hex(const std::string& s, std::vector<uint8_t>& out) {
+  if (s.size() % 2 != 0) return false;
+  auto nibble = [](char c) -> int {
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+    return -1;
+  };
+  out.clear();
+  for (std::size_t i = 0; i < s.size(); i += 2) {
+    const int hi = nibble(s[i]), lo = nibble(s[i + 1]);
+    if (hi < 0 || lo < 0) return false;
+    out.push_back(static_cast<uint8_t>((hi << 4) | lo));
+  }
   return true;
 }
 
@@ -222,6 +239,35 @@ std::string SideChannel::handle(const std::string& line) {
     }
     rig_.clamp.sensor = t[1] == "unknown" ? core::kClampUnknown : (t[1] == "1" ? 1 : 0);
     return "ok";
+  }
+  if (cmd == "radio") {
+    // The VEXlink radio: fitted or not, linked to the partner's or not; the partner's bytes in
+    // (as the simulator's radio model delivers them) and this Brain's bytes out.
+    FakeRadio& radio = rig_.radio;
+    if (n == 2 && (t[1] == "off" || t[1] == "on" || t[1] == "unlinked")) {
+      radio.is_fitted = t[1] != "off";
+      radio.linked = t[1] == "on";
+      return "ok";
+    }
+    if (n == 3 && t[1] == "rx") {
+      std::vector<uint8_t> bytes;
+      if (!parse_hex(t[2], bytes)) return error("radio rx: '" + t[2] + "' is not hex bytes");
+      if (!radio.connected()) return "ok delivered=0";  // no link: the bytes never arrive
+      radio.rx.insert(radio.rx.end(), bytes.begin(), bytes.end());
+      return "ok delivered=1";
+    }
+    if (n == 2 && t[1] == "tx") {
+      static constexpr char kHex[] = "0123456789abcdef";
+      std::string out = "ok bytes=";
+      for (uint8_t b : radio.sent) {
+        out += kHex[b >> 4];
+        out += kHex[b & 0x0F];
+      }
+      if (radio.sent.empty()) out += "-";
+      radio.sent.clear();
+      return out;
+    }
+    return error("radio off|on|unlinked | radio rx HEX | radio tx");
   }
   if (cmd == "motor_fault") {
     if (n != 2 || (t[1] != "0" && t[1] != "1")) return error("motor_fault 0|1");

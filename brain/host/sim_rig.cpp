@@ -34,7 +34,7 @@ std::string fault_names(msg::Fault faults) {
 
 SimRig::SimRig(const core::Config& config, core::SerialLink& serial, uint32_t boot_id)
     : robot(config,
-            core::Hardware{clock, gps, imu, drive, intake, clamp, lift, serial, competition, driver, screen},
+            core::Hardware{clock, gps, imu, drive, intake, clamp, lift, serial, competition, driver, screen, radio},
             boot_id) {
   competition.status.connected = true;
 }
@@ -76,7 +76,7 @@ std::string SimRig::report() const {
       "left_rpm=%.6g right_rpm=%.6g left_mps=%.6g right_mps=%.6g linear=%.6g angular=%.6g "
       "intake=%d rings=%u clamp=%u clamp_closed=%d lift_up=%d gps=%s faults=%s last_command_seq=%u "
       "steps=%u timeouts=%u pose=%s pose_x=%.6g pose_y=%.6g pose_heading=%.6g pose_std=%.6g "
-      "period=%s match_ms=%u alliance=%s",
+      "period=%s match_ms=%u alliance=%s partner=%s",
       static_cast<unsigned long long>(now_ms_), s.state.time_ms, msg::to_string(s.phase),
       s.phase_ms, core::to_string(robot.link().state()), core::to_string(s.source),
       s.stopped ? 1 : 0,
@@ -90,7 +90,8 @@ std::string SimRig::report() const {
       s.state.last_command_seq, s.steps, s.command_timeouts, msg::to_string(s.state.pose_fix),
       static_cast<double>(s.state.x), static_cast<double>(s.state.y),
       static_cast<double>(s.state.heading), static_cast<double>(s.state.pose_std),
-      msg::to_string(s.state.period), s.state.match_ms, msg::to_string(s.state.alliance));
+      msg::to_string(s.state.period), s.state.match_ms, msg::to_string(s.state.alliance),
+      msg::to_string(s.partner));
   return buf;
 }
 

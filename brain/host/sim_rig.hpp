@@ -36,6 +36,7 @@ class SimRig {
   FakeCompetition competition;
   FakeDriverInput driver;
   FakeScreen screen;
+  FakeRadio radio;
   core::Robot robot;
 
  private:

@@ -398,6 +398,44 @@ class ProsSerial final : public core::SerialLink {
   int fd_ = -1;
 };
 
+// --- VEXlink ----------------------------------------------------------------------------------
+
+/// The partner link's radio through PROS's raw VEXlink calls (the core frames its own packets).
+/// link_init fails (and the link is absent) when no radio is configured or plugged in; VEXlink
+/// then takes 1-2 s to find the partner, which connected() reports.
+class ProsRadio final : public core::Radio {
+ public:
+  void start() {
+    if (kPorts.radio == 0) return;
+    // PROS's header spells the receiver E_LINK_RECIEVER (every version; E_LINK_RX only in some).
+    const pros::link_type_e_t type =
+        kPorts.radio_transmitter ? pros::E_LINK_TRANSMITTER : pros::E_LINK_RECIEVER;
+    fitted_ = pros::c::link_init(kPorts.radio, kPorts.link_id, type) != PROS_ERR;
+  }
+  bool fitted() override { return fitted_; }
+  bool connected() override { return fitted_ && pros::c::link_connected(kPorts.radio); }
+  bool write(const uint8_t* data, std::size_t n) override {
+    if (!connected() || n > 0xFFFF) return false;
+    const std::uint32_t room = pros::c::link_raw_transmittable_size(kPorts.radio);
+    if (room == PROS_ERR || room < n) return false;  // all or none: EBUSY otherwise
+    const std::uint32_t sent = pros::c::link_transmit_raw(
+        kPorts.radio, const_cast<uint8_t*>(data), static_cast<std::uint16_t>(n));
+    return sent == n;
+  }
+  std::size_t read(uint8_t* buf, std::size_t cap) override {
+    if (!connected()) return 0;
+    const std::uint32_t ready = pros::c::link_raw_receivable_size(kPorts.radio);
+    if (ready == PROS_ERR || ready == 0) return 0;
+    const std::size_t want = ready < cap ? ready : cap;
+    const std::uint32_t got =
+        pros::c::link_receive_raw(kPorts.radio, buf, static_cast<std::uint16_t>(want));
+    return got == PROS_ERR ? 0 : got;
+  }
+
+ private:
+  bool fitted_ = false;
+};
+
 // --- controller ----------------------------------------------------------------------------------
 
 /// opcontrol() publishes controller samples here; the loop reads the newest if it is fresh.
@@ -494,9 +532,10 @@ struct ProsHardware {
   ProsCompetition competition;
   ProsDriverInput driver;
   ProsScreen screen;
+  ProsRadio radio;
 
   core::Hardware hal() {
-    return {clock, gps, imu, drive, intake, clamp, lift, serial, competition, driver, screen};
+    return {clock, gps, imu, drive, intake, clamp, lift, serial, competition, driver, screen, radio};
   }
 };
 
@@ -547,6 +586,7 @@ void initialize() {
   static ProsHardware hardware;
   g_hardware = &hardware;
   hardware.screen.start();
+  hardware.radio.start();
   if (!hardware.serial.open()) {
     std::fputs("pete: cannot open /ser/pete; the Jetson link is down\n", stderr);
   }

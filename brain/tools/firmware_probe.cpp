@@ -59,6 +59,12 @@ struct Sticks final : core::DriverInput {
 struct Screen final : core::AllianceInput {
   msg::Alliance read() override { return msg::Alliance::unknown; }
 };
+struct Radio final : core::Radio {
+  bool fitted() override { return false; }
+  bool connected() override { return false; }
+  bool write(const uint8_t*, std::size_t) override { return false; }
+  std::size_t read(uint8_t*, std::size_t) override { return 0; }
+};
 
 }  // namespace
 
@@ -74,9 +80,10 @@ int main() {
   static Comp comp;
   static Sticks sticks;
   static Screen screen;
+  static Radio radio;
   static core::Robot robot(
       core::kRobotConfig,
-      core::Hardware{clock, gps, imu, drive, intake, clamp, lift, serial, comp, sticks, screen}, 1u);
+      core::Hardware{clock, gps, imu, drive, intake, clamp, lift, serial, comp, sticks, screen, radio}, 1u);
   const uint8_t hello[] = ":00\n";
   serial.rx.push(hello, sizeof hello - 1);
   for (uint32_t i = 0; i < 100; ++i) {

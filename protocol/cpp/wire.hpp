@@ -287,8 +287,9 @@ class SeqTracker {
   bool seen_ = false;
 };
 
-// COBS, as PROS's serial driver applies it to every write() on a stream. The Brain never calls this
-// (PROS does); brain_host and the tests use it to put exactly the real bytes on a host pipe.
+// COBS, as PROS's serial driver applies it to every write() on a stream (brain_host and the tests
+// use it to put exactly the real bytes on a host pipe), and as the Brain frames its partner
+// reports on VEXlink (cobs_frame, below).
 inline std::size_t cobs_encode(const uint8_t* in, std::size_t n, uint8_t* out, std::size_t cap) {
   if (cap < n + n / 254 + 1) return 0;
   std::size_t code_at = 0, k = 1;
@@ -325,5 +326,65 @@ inline std::size_t stream_frame(const char (&stream_id)[kStreamIdSize + 1], cons
   out[k] = 0;
   return k + 1;
 }
+
+// One COBS frame per packet, ended by 0x00: how a packet crosses a byte link with no framing of
+// its own (VEXlink's raw calls). The frame is n + n / 254 + 2 bytes.
+inline std::size_t cobs_frame(const uint8_t* packet, std::size_t n, uint8_t* out, std::size_t cap) {
+  const std::size_t k = cobs_encode(packet, n, out, cap == 0 ? 0 : cap - 1);
+  if (k == 0) return 0;
+  out[k] = 0;
+  return k + 1;
+}
+
+// Turns bytes in any chunking back into the packets cobs_frame framed, whose length and CRC are
+// good. Bounded buffer; a bad frame is counted and the next 0x00 starts afresh.
+class CobsAssembler {
+ public:
+  // Returns true when a packet is ready in packet()/size(); it stays valid until the next feed().
+  bool feed(uint8_t c, ErrorCounters& errors) {
+    if (c != 0) {
+      if (len_ == sizeof buf_) {
+        if (!overflow_) errors.add(Error::oversize);
+        overflow_ = true;
+        return false;
+      }
+      buf_[len_++] = c;
+      return false;
+    }
+    const std::size_t n = len_;
+    const bool overflow = overflow_;
+    len_ = 0;
+    overflow_ = false;
+    if (overflow || n == 0) return false;
+    // Decode in place: the output never runs ahead of the input.
+    std::size_t in = 0, out = 0;
+    while (in < n) {
+      const uint8_t code = buf_[in++];
+      if (in + code - 1 > n) {
+        errors.add(Error::bad_cobs);
+        return false;
+      }
+      for (uint8_t i = 1; i < code; ++i) buf_[out++] = buf_[in++];
+      if (code != 0xFF && in < n) buf_[out++] = 0;
+    }
+    Error err{};
+    const uint8_t* body = nullptr;
+    std::size_t body_len = 0;
+    if (!open_packet(buf_, out, body, body_len, err)) {
+      errors.add(err);
+      return false;
+    }
+    size_ = out;
+    return true;
+  }
+  const uint8_t* packet() const { return buf_; }
+  std::size_t size() const { return size_; }
+
+ private:
+  uint8_t buf_[kMaxPacket + kMaxPacket / 254 + 1] = {};
+  std::size_t len_ = 0;
+  std::size_t size_ = 0;
+  bool overflow_ = false;
+};
 
 }  // namespace pete::wire

@@ -295,14 +295,8 @@ class FastWorld:
         self.v[k, i] = self.w[k, i] = self.measured_v[k, i] = self.measured_w[k, i] = 0.0
         self.prev_pose[k, i] = (self.x[k, i], self.y[k, i], self.heading[k, i])
         if self.game:  # set down by hand: on a board it overlaps, as World.place_robot
-            self.on_platform[k, i] = -1
-            ex, ey = (float(e[0]) for e in self._extents(np.array([i]), self.heading[k, i : i + 1]))
-            for code in self.consts.plat_order:
-                cx, cy, hx, hy, _ = self.consts.plat[code]
-                ox = min(x + ex, cx + hx) - max(x - ex, cx - hx)
-                oy = min(y + ey, cy + hy) - max(y - ey, cy - hy)
-                if ox > 0 and oy > 0:
-                    self.on_platform[k, i] = code
+            ex, ey = seesaw.robot_extents(self.consts, i, float(self.heading[k, i]))
+            self.on_platform[k, i] = seesaw.board_under(self.consts, float(x), float(y), ex, ey)
         g = int(self.carried[k, i])
         if g >= 0:
             back = float(self.clamp_offsets[i, g])

@@ -88,6 +88,7 @@ class BrainReport:
     period: str = "before"  # the State's match period
     match_ms: int = 0
     alliance: str = "unknown"  # the State's alliance
+    partner: str = "absent"  # the VEXlink partner link: absent | connecting | up | lost
 
     @classmethod
     def parse(cls, fields: dict[str, str]) -> BrainReport:
@@ -127,6 +128,7 @@ class BrainReport:
                 period=fields.get("period", "before"),
                 match_ms=int(fields.get("match_ms", 0)),
                 alliance=fields.get("alliance", "unknown"),
+                partner=fields.get("partner", "absent"),
             )
         except (KeyError, ValueError) as exc:
             raise BrainHostError(
@@ -430,6 +432,25 @@ class BrainHost:
 
     def set_motor_fault(self, fault: bool) -> None:
         self.command(f"motor_fault {int(bool(fault))}")
+
+    def set_radio(self, state: str) -> None:
+        """The VEXlink radio: "off" (none fitted), "on" (linked to the partner's) or "unlinked"
+        (fitted, but the partner's radio is out of reach)."""
+        if state not in ("off", "on", "unlinked"):
+            raise ValueError(f"radio must be off, on or unlinked, got {state!r}")
+        self.command(f"radio {state}")
+
+    def radio_rx(self, data: bytes) -> bool:
+        """Hand bytes from the partner's radio to this Brain's; False when its radio is not
+        linked (the bytes are lost, as on the field)."""
+        if not data:
+            return True
+        return self.command(f"radio rx {data.hex()}").get("delivered") == "1"
+
+    def radio_tx(self) -> bytes:
+        """The bytes this Brain has written to its radio since the last call."""
+        hexed = self.command("radio tx").get("bytes", "-")
+        return b"" if hexed == "-" else bytes.fromhex(hexed)
 
     def advance(self, ms: int, rx: int | None = None) -> BrainReport:
         """Lockstep: run the loop for `ms` of simulated time, once brain_host has read `rx`

@@ -1056,11 +1056,9 @@ class World:
         r.history.clear()
         r.history.append((self.time_s, r.x, r.y, r.heading))
         if self.game:  # set down by hand: on a board it overlaps (a scene for tests and tools)
-            r.on_platform = None
-            for plat in self.field.platforms:
-                ox, oy = seesaw.overlap(seesaw.robot_box(r), seesaw.board_box(plat))
-                if ox > 0 and oy > 0:
-                    r.on_platform = plat.alliance
+            ex, ey = seesaw.robot_extents(self.game_consts, r.index, r.heading)
+            code = seesaw.board_under(self.game_consts, r.x, r.y, ex, ey)
+            r.on_platform = None if code < 0 else rules.ALLIANCES[code]
         if r.carried_goal is not None:
             self._carry_goals()
 

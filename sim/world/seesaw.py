@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from sim.field import PlatformSpec, SeesawSpec
 from sim.world.batch import GameBatch, GameConsts
-from sim.world.state import GoalState, PlatformState, RobotState
+from sim.world.state import PlatformState, RobotState
 
 
 def robot_box(r: RobotState) -> tuple[float, float, float, float]:
@@ -40,24 +40,6 @@ def robot_box(r: RobotState) -> tuple[float, float, float, float]:
     hw, hl = r.config.width_m / 2, r.config.length_m / 2
     ex, ey = hw * ac + hl * as_, hw * as_ + hl * ac
     return r.x - ex, r.y - ey, r.x + ex, r.y + ey
-
-
-def board_box(plat: PlatformSpec) -> tuple[float, float, float, float]:
-    hx, hy = plat.size[0] / 2, plat.size[1] / 2
-    return plat.center[0] - hx, plat.center[1] - hy, plat.center[0] + hx, plat.center[1] + hy
-
-
-def overlap(
-    a: tuple[float, float, float, float], b: tuple[float, float, float, float]
-) -> tuple[float, float]:
-    """How far two boxes overlap along x and y (either <= 0: apart)."""
-    return min(a[2], b[2]) - max(a[0], b[0]), min(a[3], b[3]) - max(a[1], b[1])
-
-
-def goal_box(g: GoalState) -> tuple[float, float, float, float]:
-    """The goal's base's bounding box (x0, y0, x1, y1)."""
-    rad = g.spec.base_radius
-    return g.x - rad, g.y - rad, g.x + rad, g.y + rad
 
 
 def start_tilt(plat: PlatformSpec, spec: SeesawSpec) -> float:
@@ -196,6 +178,17 @@ def _push_out(
     if ox <= oy:
         return (ox if x >= cx else -ox), 0.0, True
     return 0.0, (oy if y >= cy else -oy), True
+
+
+@nb.njit(cache=True)
+def board_under(c: GameConsts, x: float, y: float, ex: float, ey: float) -> int:
+    """The board a box (centre x, y, half extents ex, ey) set down by hand overlaps: its
+    alliance code (the last in the field file's order), or -1 for none."""
+    code = -1
+    for a in c.plat_order:
+        if _push_out(c, a, x, y, ex, ey)[2]:
+            code = a
+    return code
 
 
 @nb.njit(cache=True)

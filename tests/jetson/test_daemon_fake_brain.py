@@ -35,7 +35,16 @@ from jetson.recorder import RecordingDir
 from jetson.replay import replay
 from jetson.settings import DecisionConfig, LinkConfig
 from jetson.testing import FakeBrain, ProbePolicy, write_mlp_policy
-from protocol.messages import FINGERPRINT, LogLevel, Role
+from protocol.messages import (
+    FINGERPRINT,
+    LogLevel,
+    Partner,
+    PartnerFlags,
+    PartnerLink,
+    PartnerStatus,
+    Role,
+    TargetKind,
+)
 
 # A daemon or camera thread that dies of an exception fails the test, not just warns.
 pytestmark = pytest.mark.filterwarnings("error::pytest.PytestUnhandledThreadExceptionWarning")
@@ -404,3 +413,39 @@ def test_a_recorded_session_replays_identically_and_changes_are_reported(
     # The command line says the same, with exit status 0 / 1.
     assert cli.main(["replay", str(session)]) == 0
     assert cli.main(["replay", str(session), "--policy", str(path_b)]) == 1
+
+
+def test_the_partner_is_heard_and_losing_it_is_said(brain: FakeBrain) -> None:
+    """The Brain hands over the partner's report and the VEXlink link's state; a lost link is a
+    warning that the robot plays alone, and the partner's last report is forgotten."""
+    brain.start()
+    with daemon_on(brain.path) as run:
+        assert wait_for(lambda: len(brain.commands) >= 5)
+        report = Partner(
+            x_mm=-900, y_mm=350, heading_cdeg=27000, flags=PartnerFlags.POSE_OK, goal=255,
+            rings=4, target=TargetKind.RING, target_id=255, target_x_mm=600, target_y_mm=-1200,
+            match_ms=4000,
+        )  # fmt: skip
+        brain.send_message(PartnerStatus(PartnerLink.UP, 20, 1, 1, 0, 0, 0))
+        brain.send_message(report)
+        assert wait_for(lambda: run.daemon.partner == report)
+        assert run.records("partner_link")[0]["msg"].endswith("playing as an alliance")
+        brain.send_message(PartnerStatus(PartnerLink.LOST, 65535, 9, 9, 0, 0, 0))
+        assert wait_for(lambda: len(run.records("partner_link")) == 2)
+        lost = run.records("partner_link")[1]
+        assert lost["level"] == "warning" and "playing alone" in lost["msg"]
+        assert run.daemon.partner is None
+        assert len(brain.commands) >= 5  # and it drives on
+
+
+def test_the_daemon_reports_to_its_partner_ten_times_a_second(brain: FakeBrain) -> None:
+    brain.start()
+    with daemon_on(brain.path):
+        assert wait_for(lambda: len(brain.commands) >= 50)  # a second of States at 50 Hz
+        n_commands = len(brain.commands)
+        reports = list(brain.partner_reports)
+    # One report per 100 ms of answered States (five States), not one per State.
+    assert n_commands / 5 - 2 <= len(reports) <= n_commands / 5 + 2
+    last = reports[-1]
+    assert PartnerFlags.ALONE in last.flags  # no PartnerStatus says the link is up
+    assert last.target is TargetKind.NOTHING

@@ -308,7 +308,7 @@ def test_info_prints_the_fingerprint_and_every_message(capsys: pytest.CaptureFix
     rows = {
         line.split()[1]: line.split() for line in out.splitlines() if line[:3].strip().isdigit()
     }
-    assert set(rows) == {"Hello", "State", "Command", "Log"}
+    assert set(rows) == {"Hello", "State", "Command", "Log", "Partner", "PartnerStatus"}
     assert rows["Command"][2] == "jetson->brain"
     assert int(rows["State"][3]) == State.BODY_SIZE
     # the downlink column is the exact length of a line

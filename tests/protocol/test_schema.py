@@ -41,7 +41,14 @@ def fingerprint_after(mutate: Callable[[Raw], None]) -> int:
 def test_shipped_schema_loads_with_the_expected_shape() -> None:
     schema = load_schema()
     assert schema.stream == "pete"
-    assert [m.name for m in schema.messages] == ["Hello", "State", "Command", "Log"]
+    assert [m.name for m in schema.messages] == [
+        "Hello",
+        "State",
+        "Command",
+        "Log",
+        "Partner",
+        "PartnerStatus",
+    ]
     hello = schema.message("Hello")
     assert hello.fields[0].name == "fingerprint"
     assert hello.direction == "both"

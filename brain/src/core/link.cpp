@@ -57,6 +57,10 @@ LinkInput Link::receive(SerialLink& serial, uint32_t now_ms) {
         } else {
           ++counters_.commands_ignored;
         }
+      } else if (m.id == msg::Partner::kId && state_ == LinkState::connected) {
+        in.partner = true;
+        in.report = m.partner;
+        ++counters_.partner_reports;
       }
     }
     if (n < want) break;
@@ -137,6 +141,14 @@ void Link::log(msg::LogLevel level, uint32_t now_ms, const char* text) {
   entry.time_ms = now_ms;
   wire::set_text(entry.text, text);
   ++log_count_;
+}
+
+bool Link::send_partner(SerialLink& serial, const msg::Partner& theirs) {
+  return connected() && send(serial, theirs);
+}
+
+bool Link::send_partner_status(SerialLink& serial, const msg::PartnerStatus& status) {
+  return connected() && send(serial, status);
 }
 
 template <class M>

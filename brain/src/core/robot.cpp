@@ -50,7 +50,8 @@ Robot::Robot(const Config& config, const Hardware& hw, uint32_t boot_id)
       drive_(config.drive),
       clamp_(config.clamp),
       pose_(config.pose),
-      alliance_(config.find_alliance, config.alliance) {}
+      alliance_(config.find_alliance, config.alliance),
+      partner_(config.partner) {}
 
 void Robot::step() {
   const uint64_t t0_us = hw_.clock.now_us();
@@ -227,6 +228,20 @@ void Robot::step() {
            : lift_.up()       ? msg::LiftState::up
                               : msg::LiftState::down;
   link_.transmit(hw_.serial, now, s);
+
+  // The partner link: our Jetson's newest report out over VEXlink, the partner's in to our Jetson.
+  if (in.partner) partner_.report(in.report, now);
+  msg::Partner theirs{};
+  if (partner_.step(hw_.radio, now, theirs)) link_.send_partner(hw_.serial, theirs);
+  if (partner_.changed()) {
+    LogText t;
+    t.add("partner link ").add(msg::to_string(partner_.link()));
+    if (partner_.link() == msg::PartnerLink::lost) t.add(": playing alone");
+    const bool bad = partner_.link() == msg::PartnerLink::lost;
+    link_.log(bad ? msg::LogLevel::warning : msg::LogLevel::info, now, t.c_str());
+  }
+  if (partner_.status_due(now)) link_.send_partner_status(hw_.serial, partner_.status(now));
+  status_.partner = partner_.link();
 
   status_.phase = phase;
   status_.phase_ms = s.phase_ms;

@@ -45,6 +45,20 @@ inline msg::Command command(uint32_t seq, float linear, float angular, uint16_t 
   return c;
 }
 
+inline std::string downlink(const msg::Partner& m, uint8_t seq = 0) {
+  char buf[msg::kMaxDownlinkLine];
+  return std::string(buf, msg::encode_downlink(m, seq, buf, sizeof buf));
+}
+
+/// One partner report as a radio frame: COBS(packet) || 0x00.
+inline std::vector<uint8_t> radio_frame(const msg::Partner& m, uint8_t seq = 0) {
+  uint8_t packet[msg::kMaxPacket];
+  uint8_t frame[msg::kMaxPacket + 4];
+  const std::size_t n = msg::encode_packet(m, seq, packet, sizeof packet);
+  const std::size_t k = wire::cobs_frame(packet, n, frame, sizeof frame);
+  return std::vector<uint8_t>(frame, frame + k);
+}
+
 template <class M>
 std::vector<M> only(const std::vector<msg::AnyMessage>& all) {
   std::vector<M> out;
@@ -53,6 +67,8 @@ std::vector<M> only(const std::vector<msg::AnyMessage>& all) {
     if constexpr (M::kId == msg::Hello::kId) out.push_back(m.hello);
     if constexpr (M::kId == msg::State::kId) out.push_back(m.state);
     if constexpr (M::kId == msg::Log::kId) out.push_back(m.log);
+    if constexpr (M::kId == msg::Partner::kId) out.push_back(m.partner);
+    if constexpr (M::kId == msg::PartnerStatus::kId) out.push_back(m.partnerstatus);
   }
   return out;
 }

@@ -22,6 +22,8 @@ using pete::msg::Command;
 using pete::msg::DownlinkDecoder;
 using pete::msg::Hello;
 using pete::msg::Log;
+using pete::msg::Partner;
+using pete::msg::PartnerStatus;
 using pete::msg::State;
 using pete::wire::Error;
 
@@ -82,6 +84,10 @@ bool same(const AnyMessage& a, const AnyMessage& b) {
       return a.command == b.command;
     case Log::kId:
       return a.log == b.log;
+    case Partner::kId:
+      return a.partner == b.partner;
+    case PartnerStatus::kId:
+      return a.partnerstatus == b.partnerstatus;
   }
   return false;
 }
@@ -109,6 +115,12 @@ std::string downlink_of(const AnyMessage& m) {
       break;
     case Log::kId:
       n = pete::msg::encode_downlink(m.log, m.seq, buf, sizeof buf);
+      break;
+    case Partner::kId:
+      n = pete::msg::encode_downlink(m.partner, m.seq, buf, sizeof buf);
+      break;
+    case PartnerStatus::kId:
+      n = pete::msg::encode_downlink(m.partnerstatus, m.seq, buf, sizeof buf);
       break;
   }
   EXPECT_GT(n, 0u);
@@ -299,13 +311,14 @@ INSTANTIATE_TEST_SUITE_P(Vectors, Golden, testing::ValuesIn(kGolden),
                          });
 
 TEST(GoldenSet, CoversEveryMessageAndBothDirections) {
-  bool seen[5] = {};
+  bool seen[7] = {};
   for (const GoldenVector& v : kGolden) {
     ASSERT_GE(v.msg.id, 1);
-    ASSERT_LE(v.msg.id, 4);
+    ASSERT_LE(v.msg.id, 6);
     seen[v.msg.id] = true;
   }
-  EXPECT_TRUE(seen[Hello::kId] && seen[State::kId] && seen[Command::kId] && seen[Log::kId]);
+  EXPECT_TRUE(seen[Hello::kId] && seen[State::kId] && seen[Command::kId] && seen[Log::kId] &&
+              seen[Partner::kId] && seen[PartnerStatus::kId]);
 }
 
 TEST(Schema, FingerprintConstantMatchesTheHelloGolden) {
@@ -418,7 +431,7 @@ TEST(StreamFrame, IsCobsOfStreamIdAndPayloadForEveryLength) {
 // --- packet decoding: values no correct peer sends ------------------------------------------------
 
 TEST(DecodePacket, UnknownIdIsRejected) {
-  for (uint8_t id : {uint8_t{0}, uint8_t{5}, uint8_t{0x70}, uint8_t{255}}) {
+  for (uint8_t id : {uint8_t{0}, uint8_t{7}, uint8_t{0x70}, uint8_t{255}}) {
     std::vector<uint8_t> p = packet_of(golden("Command"));
     p[0] = id;
     reseal(p);

@@ -53,6 +53,14 @@ struct ClampConfig {
   uint32_t confirm_ms;  // ...once the sensor has said "goal" this long without a break (0: at once)
 };
 
+/// The partner link over VEXlink (partner.hpp).
+struct PartnerConfig {
+  uint32_t period_ms;         // our newest report goes over the radio at most this often
+  uint32_t report_max_age_ms; // a report of ours older than this is not sent (the Jetson went quiet)
+  uint32_t timeout_ms;        // no partner report for this long: the link is lost
+  uint32_t status_period_ms;  // PartnerStatus to the Jetson this often (and on every change)
+};
+
 struct Config {
   DriveConfig drive;
   LinkConfig link;
@@ -65,6 +73,7 @@ struct Config {
   MatchTiming match;                 // VEX AI: isolation 15 s, interaction 105 s
   PoseFilterConfig pose;             // the GPS + odometry + IMU filter (pose_filter.hpp)
   AllianceConfig find_alliance;      // how the alliance is found at run time
+  PartnerConfig partner;             // the partner link over VEXlink
 };
 
 /// Motor and sensor ports: used only by src/pros_adapter.cpp. 0 = unused slot; a negative port
@@ -93,6 +102,11 @@ struct Ports {
   float lift_motor_up_deg;   // motor-shaft angle of the raised lift, from the lowered one at power-up
   float actuator_motor_rpm;  // speed of a clamp or lift motor while it moves (green cartridge)
   uint8_t imu;               // the V5 inertial sensor's smart port; 0 = none (wheels alone turn)
+  // VEXlink to the alliance partner's Brain (PROS: one link radio per Brain). The two robots of a
+  // team use the same link_id; one is the transmitter end (twice the bandwidth), the other not.
+  uint8_t radio;             // smart port of the link's V5 radio; 0 = none (the link is absent)
+  bool radio_transmitter;    // this Brain is the link's transmitter end
+  const char* link_id;       // the same text on both robots of the team
 };
 
 // --- this robot ---------------------------------------------------------------------------------
@@ -153,6 +167,12 @@ inline constexpr Config kRobotConfig{
         /*center_margin_m=*/0.3f,
         /*lock_after_ms=*/1000,
     },
+    /*partner=*/{
+        /*period_ms=*/100,          // 26-byte frames: 260 bytes/s of VEXlink's slower 520
+        /*report_max_age_ms=*/500,
+        /*timeout_ms=*/1000,
+        /*status_period_ms=*/200,
+    },
 };
 
 inline constexpr Ports kRobotPorts{
@@ -174,6 +194,9 @@ inline constexpr Ports kRobotPorts{
     /*lift_motor_up_deg=*/600.0f,
     /*actuator_motor_rpm=*/150.0f,
     /*imu=*/11,
+    /*radio=*/12,
+    /*radio_transmitter=*/true,  // false on the partner robot
+    /*link_id=*/"pacman-pete",
 };
 
 // --- checks -------------------------------------------------------------------------------------
@@ -237,6 +260,15 @@ constexpr const char* config_error(const Config& c) {
       c.match.isolation_ms > 600000 || c.match.interaction_ms > 600000) {
     return "match periods must be 1..600000 ms (interaction longer than 5 s)";
   }
+  const PartnerConfig& pc = c.partner;
+  if (pc.period_ms < 50 || pc.period_ms > 1000) return "partner period_ms must be 50..1000";
+  if (pc.report_max_age_ms < pc.period_ms) return "partner report_max_age_ms must be >= period_ms";
+  if (pc.timeout_ms < 2 * pc.period_ms || pc.timeout_ms > 10000) {
+    return "partner timeout_ms must be 2 periods .. 10000";
+  }
+  if (pc.status_period_ms == 0 || pc.status_period_ms > 1000) {
+    return "partner status_period_ms must be 1..1000";
+  }
   return nullptr;
 }
 
@@ -268,6 +300,13 @@ constexpr const char* ports_error(const Ports& p) {
   if (p.gps != 0 && used[p.gps]) return "the gps port is also a motor port";
   if (p.imu > 21) return "imu port out of range 1..21";
   if (p.imu != 0 && (used[p.imu] || p.imu == p.gps)) return "the imu port is used by another device";
+  if (p.radio > 21) return "radio port out of range 1..21";
+  if (p.radio != 0 && (used[p.radio] || p.radio == p.gps || p.radio == p.imu)) {
+    return "the radio port is used by another device";
+  }
+  if (p.radio != 0 && (p.link_id == nullptr || p.link_id[0] == '\0')) {
+    return "a radio needs a link_id";
+  }
   const int piston = adi_port_index(p.clamp_piston);
   const int sensor = adi_port_index(p.clamp_sensor);
   if (piston < 0 || sensor < 0) return "clamp ADI ports must be 0, 1..8 or 'A'..'H'";

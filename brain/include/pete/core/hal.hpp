@@ -137,6 +137,23 @@ class SerialLink {
   ~SerialLink() = default;
 };
 
+/// The V5 radio's VEXlink to the alliance partner's Brain (pros::Link's raw calls; the core frames
+/// its own packets). Reads and writes never block.
+class Radio {
+ public:
+  /// Whether a radio is configured for the partner link (false: the link is absent).
+  virtual bool fitted() = 0;
+  /// Whether the partner's radio is linked to ours (link_connected).
+  virtual bool connected() = 0;
+  /// Queue `n` bytes for the partner, all or none: false when the transmit queue lacks room.
+  virtual bool write(const uint8_t* data, std::size_t n) = 0;
+  /// Copy bytes that have already arrived into `buf`. Returns the count.
+  virtual std::size_t read(uint8_t* buf, std::size_t cap) = 0;
+
+ protected:
+  ~Radio() = default;
+};
+
 /// pros::competition's view of the field: PROS has no match clock, only these bits.
 struct CompetitionStatus {
   bool enabled = false;
@@ -194,6 +211,7 @@ struct Hardware {
   Competition& competition;
   DriverInput& driver;
   AllianceInput& screen;
+  Radio& radio;
 };
 
 }  // namespace pete::core

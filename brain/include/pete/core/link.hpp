@@ -34,6 +34,8 @@ struct LinkInput {
   bool connected = false;       // a matching Hello arrived and the link was not connected to it
   bool peer_restarted = false;  // the Jetson's boot_id changed
   bool mismatch = false;        // a Hello with another schema's fingerprint arrived
+  bool partner = false;         // the Jetson's report for the alliance partner (the newest)
+  msg::Partner report{};
 };
 
 struct LinkCounters {
@@ -46,6 +48,7 @@ struct LinkCounters {
   uint32_t logs_dropped = 0;     // log queue full
   uint32_t commands = 0;         // Commands delivered
   uint32_t commands_ignored = 0; // Commands that arrived before a matching handshake
+  uint32_t partner_reports = 0;  // the Jetson's reports for the partner, once connected
 };
 
 class Link {
@@ -64,6 +67,9 @@ class Link {
   /// Send what is due at now_ms: queued Logs, a Hello (while not connected, or in reply), and a
   /// State when one is due (its seq is filled in here).
   void transmit(SerialLink& serial, uint32_t now_ms, const msg::State& state);
+  /// The partner's report and the partner link's state, for the Jetson (only once connected).
+  bool send_partner(SerialLink& serial, const msg::Partner& theirs);
+  bool send_partner_status(SerialLink& serial, const msg::PartnerStatus& status);
   /// Queue a Log (text cut to the field's 48 bytes). Dropped, and counted, when the queue is full.
   void log(msg::LogLevel level, uint32_t now_ms, const char* text);
 

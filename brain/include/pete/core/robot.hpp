@@ -16,6 +16,7 @@
 #include "pete/core/lift.hpp"
 #include "pete/core/link.hpp"
 #include "pete/core/match_clock.hpp"
+#include "pete/core/partner.hpp"
 #include "pete/core/pose_filter.hpp"
 #include "pete/core/watchdog.hpp"
 #include "pete/messages.hpp"
@@ -39,6 +40,7 @@ struct RobotStatus {
   bool intake = false;
   bool clamp_closed = false;  // what the goal clamp was told
   bool lift_up = false;       // what the lift was told
+  msg::PartnerLink partner = msg::PartnerLink::absent;  // the VEXlink partner link
   msg::State state;      // the State of this step (sent only when one is due)
   uint32_t steps = 0;
   uint32_t command_timeouts = 0;
@@ -60,6 +62,7 @@ class Robot {
   const DriveModel& model() const { return drive_.model(); }
   const PoseFilter& pose() const { return pose_; }
   const AllianceFinder& alliance() const { return alliance_; }
+  const PartnerRelay& partner() const { return partner_; }
 
  private:
   void note_gps(msg::GpsStatus status, uint32_t now_ms);
@@ -78,6 +81,7 @@ class Robot {
   LiftControl lift_;
   PoseFilter pose_;
   AllianceFinder alliance_;
+  PartnerRelay partner_;
   RobotStatus status_;
 
   bool started_ = false;
