@@ -18,7 +18,7 @@ from sim.field import load_field
 from sim.goal_sight import goal_colour, visible_goals
 from sim.match import EnvConfig, MatchCore
 from sim.players import IdlePlayer, Player
-from sim.world import rules
+from sim.world import rules, seesaw
 from sim.world.state import DriveCommand, GoalState
 
 
@@ -88,27 +88,64 @@ def run(core: MatchCore, players: list[Player], seconds: float) -> list[DriveCom
     return commands
 
 
+def _isolation(seed: int, blue: str) -> tuple[MatchCore, list[tuple[float, float, bool]]]:
+    """The isolation period of a 2v2 match, the scripted alliance red against `blue` ("idle":
+    standing in its starting places; "ring_race": the ring-race alliance). Per step: the red
+    robots' farthest reach toward blue's half (x, field frame; red's half is x < 0), and whether
+    a blue robot's centre was in red's half."""
+    core = core_2v2()
+    core.reset(np.random.default_rng(seed))
+    w = core.world
+    players: list[Player] = [
+        AlliancePlayer()
+        if r.alliance == "red"
+        else (IdlePlayer() if blue == "idle" else ring_race_player(r.config.name))
+        for r in w.robots
+    ]
+    for i, p in enumerate(players):
+        p.reset(core, i, np.random.default_rng(i))
+    trace = []
+    while w.time_s < w.isolation_s + 0.1:
+        run(core, players, w.dt)
+        reach = max(seesaw.robot_box(r)[2] for r in w.robots if r.alliance == "red")
+        intruder = any(r.x < 0 for r in w.robots if r.alliance == "blue")
+        trace.append((w.time_s, reach, intruder))
+    return core, trace
+
+
 def test_the_isolation_routine_scores_and_touches_nobody() -> None:
-    """Against the ring-race alliance (which drives into the scripted robots' side): the
-    scripted alliance commits no isolation foul and threads the 15"'s preloads onto an alliance
-    goal; its isolation score counts both alliance goals in its zone and those rings."""
+    """With the other alliance at home: the scripted alliance commits no isolation foul and
+    threads the 15"'s preloads onto an alliance goal; its isolation score counts both alliance
+    goals in its zone and those rings."""
     for seed in (0, 1):
-        core = core_2v2()
+        core, _ = _isolation(seed, "idle")
         try:
-            core.reset(np.random.default_rng(seed))
             w = core.world
-            players: list[Player] = [
-                AlliancePlayer() if r.alliance == "red" else ring_race_player(r.config.name)
-                for r in w.robots
-            ]
-            for i, p in enumerate(players):
-                p.reset(core, i, np.random.default_rng(i))
-            run(core, players, w.isolation_s + 0.1)
             red = [f for f in w.fouls if f.alliance == "red"]
             assert red == [], red
             own = [g for g in w.goals if g.spec.alliance == "red"]
             assert sum(g.rings for g in own) >= 3  # the 15"'s preloads
             assert w.autonomous is not None and w.autonomous["red"].score >= 40 + 9
+        finally:
+            core.close()
+
+
+def test_in_isolation_the_alliance_stays_home_and_touches_only_intruders() -> None:
+    """Against the ring-race alliance, which drives into the scripted robots' half: the scripted
+    robots never reach past the centre line, and any contact charged to them is with a robot
+    of the other alliance inside their own half (they see no robots yet: issue 46's detector).
+    Seeds 0 and 9 are such contacts (the intruder drags its goal across red's lane)."""
+    for seed in (0, 1, 9):
+        core, trace = _isolation(seed, "ring_race")
+        try:
+            w = core.world
+            assert max(reach for _, reach, _ in trace) < 0.0, "a red robot crossed the line"
+            by_time = {round(t, 6): intruder for t, _, intruder in trace}
+            for f in w.fouls:
+                if f.alliance == "red":
+                    assert f.kind == "isolation_contact" and by_time[round(f.time_s, 6)], f
+            own = [g for g in w.goals if g.spec.alliance == "red"]
+            assert sum(g.rings for g in own) >= 3  # the 15"'s preloads
         finally:
             core.close()
 
