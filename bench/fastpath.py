@@ -41,8 +41,8 @@ Rows:
               passes, evaluation excluded (target <= 10 s), beside the same row on PyBullet
               (--skip-competence-pybullet leaves it out).
   default     default.toml's training speed on both backends (--default-steps steps each, its
-              own settings, the fast backend sized by its [fast]: the same rollouts), from
-              which its retraining time follows.
+              own settings, the fast backend sized by its [fast]: the same rollouts), each in a
+              fresh process, from which its retraining time follows.
   retrain     default.toml retrained on the fast backend, whole (--retrain-steps to shorten),
               its periodic evaluation off, in a fresh process (as `pete-sim train` runs; the
               benchmark's earlier rows leave threads behind in theirs); then bench.train's
@@ -422,24 +422,35 @@ def competence_rows(result: Result, args: argparse.Namespace) -> None:
         result.add("competence_wall_speedup", round(walls["pybullet"] / walls["fast"], 2))
 
 
-def default_rows(result: Result, args: argparse.Namespace) -> None:
-    """default.toml's training speed on both backends, the same steps each."""
+def _default_rate(backend: str, steps: int) -> float:
+    """default.toml's training steps per second on a backend (evaluation off, no export)."""
     from sim.training.config import load_config
     from sim.training.trainer import train
 
+    cfg = load_config("default")
+    cfg = replace(
+        cfg,
+        backend=backend,
+        total_steps=steps,
+        checkpoint_steps=steps,
+        evaluation=replace(cfg.evaluation, every_steps=0),
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        run = train(cfg, Path(tmp) / "run", progress=False, export=False)
+    return run.steps / run.wall_s
+
+
+def default_rows(result: Result, args: argparse.Namespace) -> None:
+    """default.toml's training speed on both backends, the same steps each, each in a fresh
+    process (as the retrain row trains)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from sim.training.config import load_config
+
     rates = {}
     for backend in ("fast", "pybullet"):
-        cfg = load_config("default")
-        cfg = replace(
-            cfg,
-            backend=backend,
-            total_steps=args.default_steps,
-            checkpoint_steps=args.default_steps,
-            evaluation=replace(cfg.evaluation, every_steps=0),
-        )
-        with tempfile.TemporaryDirectory() as tmp:
-            run = train(cfg, Path(tmp) / "run", progress=False, export=False)
-        rates[backend] = run.steps / run.wall_s
+        with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
+            rates[backend] = pool.submit(_default_rate, backend, args.default_steps).result()
         result.add(f"default_{backend}_steps_per_s", round(rates[backend], 1))
     total = load_config("default").total_steps
     result.add("default_fast_projected_retrain_s", round(total / rates["fast"], 1))
