@@ -422,35 +422,48 @@ def competence_rows(result: Result, args: argparse.Namespace) -> None:
         result.add("competence_wall_speedup", round(walls["pybullet"] / walls["fast"], 2))
 
 
-def _default_rate(backend: str, steps: int) -> float:
-    """default.toml's training steps per second on a backend (evaluation off, no export)."""
+def _train_default(
+    backend: str, steps: int | None, folder: str, export: bool
+) -> tuple[int, float, str | None]:
+    """default.toml trained on a backend into folder, its periodic evaluation off (steps: None
+    for its own total): (steps, wall seconds, the exported policy or None)."""
     from sim.training.config import load_config
     from sim.training.trainer import train
 
     cfg = load_config("default")
+    total = steps or cfg.total_steps
     cfg = replace(
         cfg,
         backend=backend,
-        total_steps=steps,
-        checkpoint_steps=steps,
+        total_steps=total,
+        checkpoint_steps=total if not export else cfg.checkpoint_steps,
         evaluation=replace(cfg.evaluation, every_steps=0),
     )
-    with tempfile.TemporaryDirectory() as tmp:
-        run = train(cfg, Path(tmp) / "run", progress=False, export=False)
-    return run.steps / run.wall_s
+    run = train(cfg, Path(folder) / "run", progress=False, export=export)
+    return run.steps, run.wall_s, None if run.policy is None else str(run.policy)
+
+
+def _in_fresh_process(
+    backend: str, steps: int | None, folder: str, export: bool
+) -> tuple[int, float, str | None]:
+    """_train_default in a spawned process: what a team's `pete-sim train` gets, not a process
+    the benchmark's earlier rows left their threads in."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
+        return pool.submit(_train_default, backend, steps, folder, export).result()
 
 
 def default_rows(result: Result, args: argparse.Namespace) -> None:
     """default.toml's training speed on both backends, the same steps each, each in a fresh
     process (as the retrain row trains)."""
-    from concurrent.futures import ProcessPoolExecutor
-
     from sim.training.config import load_config
 
     rates = {}
     for backend in ("fast", "pybullet"):
-        with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-            rates[backend] = pool.submit(_default_rate, backend, args.default_steps).result()
+        with tempfile.TemporaryDirectory() as tmp:
+            steps, wall_s, _ = _in_fresh_process(backend, args.default_steps, tmp, False)
+        rates[backend] = steps / wall_s
         result.add(f"default_{backend}_steps_per_s", round(rates[backend], 1))
     total = load_config("default").total_steps
     result.add("default_fast_projected_retrain_s", round(total / rates["fast"], 1))
@@ -461,36 +474,15 @@ def default_rows(result: Result, args: argparse.Namespace) -> None:
     )
 
 
-def _retrain(folder: str, steps: int | None) -> tuple[int, float, str | None]:
-    """default.toml trained on the fast backend into folder (its periodic evaluation off):
-    (steps, wall seconds, the exported policy). Run in a fresh process: what a team's
-    `pete-sim train` gets, not a process the benchmark's earlier rows left their threads in."""
-    from sim.training.config import load_config
-    from sim.training.trainer import train
-
-    cfg = load_config("default")
-    cfg = replace(
-        cfg,
-        backend="fast",
-        total_steps=steps or cfg.total_steps,
-        evaluation=replace(cfg.evaluation, every_steps=0),
-    )
-    run = train(cfg, Path(folder) / "run", progress=False, export=True)
-    return run.steps, run.wall_s, None if run.policy is None else str(run.policy)
-
-
 def retrain_rows(result: Result, args: argparse.Namespace) -> None:
     """default.toml retrained on the fast backend (its own settings; its periodic evaluation off,
     which is not training), then bench.train's strength and head-to-head rows on the policy in
     training fidelity. fast_default_retrain_s is the training's wall time, written only when
     every strength target holds (the target is a retraining to bench.train's strength)."""
-    from concurrent.futures import ProcessPoolExecutor
-
     from bench import train as bench_train
 
     with tempfile.TemporaryDirectory() as tmp:
-        with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-            steps, wall_s, policy = pool.submit(_retrain, tmp, args.retrain_steps).result()
+        steps, wall_s, policy = _in_fresh_process("fast", args.retrain_steps, tmp, True)
         if policy is None:
             print("retrain: the run exported no policy", file=sys.stderr)
             return

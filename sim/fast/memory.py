@@ -126,7 +126,7 @@ class FastRingMemory(_Known):
         if not use_camera:
             self._cam = np.zeros((world.n_robots, 19))
         t = spec.tour
-        self.compiled_tour = np.array([t.candidates, t.turn_cost_m_per_rad, t.switch_margin_m])
+        self._tour_cfg = np.array([t.candidates, t.turn_cost_m_per_rad, t.switch_margin_m])
         self.reset()
 
     def _restart(self, rows: NDArray[np.int64]) -> None:
@@ -143,7 +143,7 @@ class FastRingMemory(_Known):
             rings, ok, route, n_route = _memory_step(
                 self.known, self.count, self.target, self.has_target, self.overflow,
                 np.asarray(active, dtype=np.bool_), w.x, w.y, w.heading, pose, self._blue,
-                w.ring_xy, visible, w.held, fills, self._view, self._cam, self.compiled_tour,
+                w.ring_xy, visible, w.held, fills, self._view, self._cam, self._tour_cfg,
                 s.n_rings, s.route_slots, s.ring_capacity_norm, SEEN, REMEMBERED,
             )  # fmt: skip
         return MemorySlots(rings, ok, route, n_route)

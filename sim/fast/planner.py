@@ -89,7 +89,7 @@ class FastPlanner:
             ],
             dtype=np.float64,
         )  # fmt: skip
-        self.compiled_tour = np.array([c.route_rings, c.turn_cost_m_per_rad, c.switch_margin_m])
+        self._tour_cfg = np.array([c.route_rings, c.turn_cost_m_per_rad, c.switch_margin_m])
         self._robots = np.array([_robot_row(world, i) for i in range(world.n_robots)])
         field = world.field
         self._platforms = np.array(
@@ -150,7 +150,7 @@ class FastPlanner:
                 w.x, w.y, w.heading, np.asarray(pose, dtype=np.float64), w.ring_xy,
                 np.asarray(seen, dtype=np.bool_), room.astype(np.int64), w.carried, w.carrier,
                 w.gx, w.gy, w.time_s, w.match_length_s, self._robots, self._goal_side,
-                self._platforms, self._ring_z, self._cfg, self.compiled_tour,
+                self._platforms, self._ring_z, self._cfg, self._tour_cfg,
             )  # fmt: skip
         return PlannerCommands(lin, ang, intent, point)
 

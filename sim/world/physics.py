@@ -715,10 +715,10 @@ class World:
         plane (its vertical velocity and tilt rate dropped): a goal set back on the floor
         slides on as it was sliding. (The velocity is read before the reset, which zeroes it.)"""
         cid = self.client
-        lin, ang = p.getBaseVelocity(body, physicsClientId=cid)
+        lin, ang = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        if not stop:
+            lin, ang = p.getBaseVelocity(body, physicsClientId=cid)
         p.resetBasePositionAndOrientation(body, (x, y, z), yaw_quaternion(yaw), physicsClientId=cid)
-        if stop:
-            lin, ang = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         p.resetBaseVelocity(body, (lin[0], lin[1], 0.0), (0.0, 0.0, ang[2]), physicsClientId=cid)
 
     def _contain(self) -> None:
