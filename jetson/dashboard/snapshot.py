@@ -260,6 +260,47 @@ def field_view(decider: Any, state: Any, seen_robot_xy: Any = None) -> dict[str,
     return out
 
 
+def partner_view(partner: Any, status: Any, match_ms: int | None) -> dict[str, Any] | None:
+    """The alliance partner as this robot hears it over VEXlink (jetson.partner): the link's
+    state and counts (the Brain's PartnerStatus), and the partner's newest report: its pose,
+    what it holds and carries, and the target it claims (field frame, metres). None when the
+    Brain has reported no partner link at all."""
+    if status is None and partner is None:
+        return None
+    out: dict[str, Any] = {"link": None, "age_ms": None, "report": None}
+    if status is not None:
+        out.update(
+            link=status.link.name.lower(),
+            age_ms=None if status.age_ms == 0xFFFF else int(status.age_ms),
+            received=int(status.received),
+            sent=int(status.sent),
+            busy=int(status.busy),
+            lost=int(status.lost),
+            errors=int(status.errors),
+        )
+    if partner is not None:
+        flags = messages.PartnerFlags(partner.flags)
+        posed = messages.PartnerFlags.POSE_OK in flags
+        target = messages.TargetKind(partner.target)
+        out["report"] = {
+            "pose": [partner.x_mm / 1000.0, partner.y_mm / 1000.0, partner.heading_cdeg / 100.0]
+            if posed
+            else None,
+            "holding": messages.PartnerFlags.HOLDING_GOAL in flags,
+            "on_platform": messages.PartnerFlags.ON_PLATFORM in flags,
+            "driving": messages.PartnerFlags.DRIVING in flags,
+            "alone": messages.PartnerFlags.ALONE in flags,
+            "rings": None if partner.rings == 255 else int(partner.rings),
+            "target": target.name.lower(),
+            "target_xy": None
+            if target == messages.TargetKind.NOTHING
+            else [partner.target_x_mm / 1000.0, partner.target_y_mm / 1000.0],
+            # How old the report is by the two robots' match clocks (both follow field control).
+            "delay_ms": None if match_ms is None else int(match_ms) - int(partner.match_ms),
+        }
+    return out
+
+
 class Forgetting:
     """Rings the memory knew at the last snapshot and no longer does: shown fading for
     FORGOTTEN_KEEP_S. Fed each snapshot's remembered and seen rings."""
@@ -382,6 +423,8 @@ class Observer:
             "recording": None if recorder is None else str(recorder.path),
             "latencies": list(itertools.islice(reversed(daemon.latency.recent), LATENCY_WINDOW)),
             "brain_lines": list(self.brain_lines),
+            "partner": daemon.partner,
+            "partner_status": daemon.partner_status,
             "link": {
                 "state": daemon.state,
                 "connected": daemon.link is not None,
@@ -448,6 +491,11 @@ class Observer:
             "has_camera": raw["has_camera"],
             "frame_id": raw["frame_id"],
             "field": field,
+            "partner": partner_view(
+                raw["partner"],
+                raw["partner_status"],
+                None if state is None else state.match_ms,
+            ),
             "brain_lines": raw["brain_lines"],
             "recording": raw["recording"],
         }

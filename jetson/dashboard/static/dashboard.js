@@ -6,7 +6,7 @@
   const $ = (id) => document.getElementById(id);
   const D = {
     hello: null, state: null, prev: null, frame: null, jetson: null, cursor: null,
-    drawn: { robot: null, rings: { seen: 0, remembered: 0, forgotten: 0 }, goals: 0 },
+    drawn: { robot: null, partner: null, rings: { seen: 0, remembered: 0, forgotten: 0 }, goals: 0 },
     received: { state: 0, frame: 0, jetson: 0 },
     rates: { state_hz: 0, frame_hz: 0 },
     linkRates: { up_hz: null, down_hz: null },
@@ -186,12 +186,33 @@
     text("latency", lat.n ? "p50 " + fmt(lat.p50_ms, 3) + " ms, p99 " + fmt(lat.p99_ms, 3) +
       " ms, max " + fmt(lat.max_ms, 3) + " ms (last " + lat.n + ")" : "-");
     drawHistogram(lat);
+    drawPartner(s.partner);
     const p = s.perception;
     if (p) {
       text("perception", "#" + p.id + ": " + p.rings + " rings of " + p.detections + " detections, " +
         fmt(p.age_ms, 0) + " ms old, " + fmt(p.process_ms, 1) + " ms" + (p.error ? ", ERROR " + p.error : ""),
         p.error ? "bad" : "");
     } else text("perception", s.has_camera ? "no result yet" : "no camera");
+  }
+
+  // The alliance partner over VEXlink (jetson/dashboard/snapshot.py partner_view): the link as
+  // the Brain sees it, and the partner's newest report.
+  function drawPartner(pv) {
+    const cell = $("partner-link");
+    if (!pv) { text("partner-link", "no report from the Brain"); cell.dataset.link = ""; text("partner", "-"); return; }
+    const up = pv.link === "up";
+    text("partner-link", (pv.link || "-") + (pv.link && pv.link !== "absent" ? ", " +
+      pv.received + " in / " + pv.sent + " out, " + pv.lost + " lost, " + pv.errors + " corrupt" +
+      (pv.age_ms === null ? "" : ", newest " + pv.age_ms + " ms ago") : " (no radio)") +
+      (up ? "" : "  playing alone"), up ? "good" : (pv.link === "lost" ? "bad" : "warn"));
+    cell.dataset.link = pv.link || "";
+    const r = pv.report;
+    if (!r) { text("partner", "no report yet"); return; }
+    text("partner", (r.pose ? "(" + fmt(r.pose[0], 2) + ", " + fmt(r.pose[1], 2) + ") " + fmt(r.pose[2], 0) + " deg" : "no pose") +
+      ", " + (r.rings === null ? "?" : r.rings) + " rings" + (r.holding ? ", holding a goal" : "") +
+      (r.on_platform ? ", on the platform" : "") + (r.driving ? "" : ", not driven by its Jetson") +
+      ", claims " + r.target + (r.target_xy ? " (" + fmt(r.target_xy[0], 2) + ", " + fmt(r.target_xy[1], 2) + ")" : "") +
+      (r.delay_ms === null ? "" : ", " + r.delay_ms + " ms old"));
   }
 
   function drawHistogram(lat) {
@@ -290,6 +311,24 @@
     text("goal-counts", (f.goals_seen ? f.goals_seen.length + " seen, " : "") + D.drawn.goals + " remembered" + (f.holding ? ", holding one" : "") +
       (f.goal_memory ? "" : " (no goal memory)"));
     text("skill", f.skill ? f.skill + (f.target ? " -> (" + fmt(f.target[0], 2) + ", " + fmt(f.target[1], 2) + ")" : "") : "-");
+    // the partner (its newest VEXlink report): a hollow square, its claimed target a hollow star
+    D.drawn.partner = null;
+    const pr = s.partner && s.partner.report;
+    if (pr && pr.pose) {
+      const [u, v] = T.px(pr.pose[0], pr.pose[1]);
+      const side = 0.38 * T.scale;
+      g.save(); g.translate(u, v); g.rotate(pr.pose[2] * Math.PI / 180);
+      g.strokeStyle = s.match && s.match.alliance === "blue" ? "#8af" : "#f88";
+      g.lineWidth = 3; g.setLineDash(s.partner.link === "up" ? [] : [4, 4]);
+      g.strokeRect(-side / 2, -side / 2, side, side);
+      g.beginPath(); g.moveTo(0, 0); g.lineTo(0, -side * 0.7); g.stroke(); g.setLineDash([]);
+      g.restore();
+      D.drawn.partner = { x: pr.pose[0], y: pr.pose[1], heading: pr.pose[2] };
+      if (pr.target_xy) {
+        const c = T.px(pr.target_xy[0], pr.target_xy[1]);
+        star(g, c, 9, null); g.strokeStyle = "#fa3"; g.lineWidth = 2; g.stroke();
+      }
+    }
     // the robot, last so it is on top
     const pose = s.pose;
     if (pose) {
@@ -318,7 +357,8 @@
       const q = [c[0] + rr * Math.cos(a), c[1] + rr * Math.sin(a)];
       if (k) g.lineTo(q[0], q[1]); else g.moveTo(q[0], q[1]);
     }
-    g.closePath(); g.fillStyle = colour; g.fill();
+    g.closePath();
+    if (colour) { g.fillStyle = colour; g.fill(); }
   }
 
   // --- the camera -------------------------------------------------------------------------------

@@ -81,6 +81,9 @@ class HeldMatch:
             "received": c.received + daemon.decoder.stats.received,
             "errors": sum(daemon.link_errors().values()),
             "phase_ms": daemon.last_state.phase_ms,
+            "partner_link": None
+            if daemon.partner_status is None
+            else daemon.partner_status.link.name.lower(),
         }
         self.held.set()
         self.release.wait(60)
@@ -137,6 +140,9 @@ def test_dashboard_in_chromium_on_a_full_stack_match(tmp_path: Path) -> None:
                 == (t["errors"])
             )
             assert page["spread"] > 20, "the camera picture is not blank"
+            # The partner link as the Brain reports it (this match's Brain has no radio).
+            link = b.js("return document.getElementById('partner-link').dataset.link")
+            assert link == (t["partner_link"] or ""), (link, t["partner_link"])
             shot = b.screenshot(out / "dashboard.png")
             assert shot.stat().st_size > 20_000
     finally:

@@ -115,6 +115,28 @@ def test_snapshot_equals_the_daemon(live: Any, waiter: Any) -> None:
     assert snap["link"]["errors"] == {}
 
 
+def test_the_partner_over_vexlink_is_in_the_snapshot(live: Any, waiter: Any) -> None:
+    """What the Brain hands over of the alliance partner reaches the page as the daemon keeps it."""
+    from protocol.messages import Partner, PartnerFlags, PartnerLink, PartnerStatus, TargetKind
+
+    report = Partner(
+        x_mm=1200, y_mm=-300, heading_cdeg=9000, flags=PartnerFlags.POSE_OK, goal=255, rings=2,
+        target=TargetKind.RING, target_id=255, target_x_mm=900, target_y_mm=-600, match_ms=0,
+    )  # fmt: skip
+    live.brain.send_message(PartnerStatus(PartnerLink.UP, 30, 5, 6, 0, 0, 0))
+    live.brain.send_message(report)
+    assert waiter(lambda: live.daemon.partner == report)
+
+    def partner() -> Any:
+        snap = json.loads(get(live.url + "api/snapshot")[1])
+        p = snap["partner"]
+        return p if p and p["report"] else None
+
+    p = waiter(partner)
+    assert p and p["link"] == "up" and p["received"] == 5
+    assert p["report"]["pose"] == [1.2, -0.3, 90.0] and p["report"]["target"] == "ring"
+
+
 def test_websocket_from_another_origin_is_refused(live: Any) -> None:
     with pytest.raises(aiohttp.WSServerHandshakeError) as err:
         asyncio.run(collect(live.url, 0.5, origin="http://evil.example"))
