@@ -14,10 +14,9 @@ Two fidelities (WorldConfig.fidelity):
 
 training
     Planar physics: no gravity and no floor contacts, so PyBullet only resolves robot, goal and
-    wall contacts (sim.world.planar stands in for the floor's friction and the robots' drive).
-    Rings are not bodies at all: their positions live in numpy, pickup is a rectangle test in
-    the robot frame and visibility is the prism geometry of sim.visibility. This is what makes
-    a 1260-step match take under a second.
+    wall contacts (sim.world.planar stands in for the floor and the robots' drive). Rings are not bodies at all: their
+    positions live in numpy, pickup is a rectangle test in the robot frame and visibility is the
+    prism geometry of sim.visibility. This is what makes a 1260-step match take under a second.
 high
     Gravity, a floor, 240 Hz physics and every ring a dynamic body that robots push around; pickup
     uses the rings' real positions and visibility uses PyBullet ray tests.

@@ -154,9 +154,7 @@ def test_a_skill_player_collects_rings_and_takes_a_goal() -> None:
         robot = core.world.robots[0]
         assert record.rings[0] >= 4
         assert robot.carried_goal is not None
-        # The rings go onto the goal it holds. (Whether they score is the goal's place: this
-        # rule never takes a goal home, and a neutral goal's rings count only in a home zone.)
-        assert core.world.goals[robot.carried_goal].rings >= 4
+        assert record.score[0] > record.score[1]
     finally:
         for c in cores.values():
             c.close()
