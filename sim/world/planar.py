@@ -3,7 +3,7 @@
 
 Training fidelity is planar: no gravity, no floor, one velocity set per robot per control step.
 High fidelity's robots are driven at 240 Hz against gravity and a floor; these make training
-fidelity's pushes end where high fidelity's do (docs/notes/2026-11-28-goal-pushes.md): a robot
+fidelity's pushes end where high fidelity's do (docs/notes/2026-11-29-goal-pushes.md): a robot
 pushing a goal drives on at its commanded speed, and a goal it lets go of stops within a few
 centimetres, not a third of a metre further on.
 """
