@@ -7,14 +7,13 @@ once what sim.world.physics.World does for one in training fidelity:
 1. the commands pass the acceleration and speed limits (a non-finite command is a stop), and
    each robot's velocity is set once for the step, as World sets its body's;
 2. `substeps` times (sim.fast.kernels.substeps, a compiled loop over the matches): robots move,
-   free goals slide and slow (Bullet's multibody drag), then the
+   free goals slide and slow (Bullet's multibody drag, World's floor friction), then the
    contacts: robot against robot (boxes: the axis of least overlap, the point where the faces
    meet), robot against goal (box against disc), goal against goal, each an inelastic impulse
    and a position correction through both bodies' masses and inertias; a goal in a clamp
    pushes with its own mass without moving its robot (World puts it back in the clamp); a body
    pushed against a wall stands like the wall across it and slides along it against the
-   wall's friction; the walls stop robots' corners and keep everything in; after them the
-   floor's friction slows free goals (sim.world.planar: the training fidelity's stand-ins);
+   wall's friction; the walls stop robots' corners and keep everything in;
 3. the clamps take and let go of goals, carried goals follow their clamps, intakes take the
    rings their zones reach (nearest the bumper first), held rings move onto carried goals, in
    numpy, one array operation per rule;
@@ -49,7 +48,7 @@ from sim.config import RobotConfig, WorldConfig
 from sim.errors import ConfigError, WorldError
 from sim.fast import kernels
 from sim.field import FieldSpec, load_field
-from sim.world import mechanisms, planar, rules, seesaw
+from sim.world import mechanisms, rules, seesaw
 from sim.world.batch import GameBatch, game_consts
 from sim.world.sensors import interpolate_pose
 from sim.world.start import floor_rings, robot_starts
@@ -58,6 +57,10 @@ F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 Bool = NDArray[np.bool_]
 
+# World's linear damping of a goal in training fidelity (its floor friction). PyBullet's bodies
+# are multibodies, whose damping is a drag d (1 + |v|) v per unit mass (Bullet's btMultiBody:
+# DAMPING_K1_LINEAR and DAMPING_K2_LINEAR are both the damping), integrated each substep.
+_GOAL_DAMPING = 0.99
 # How much of a wall contact's overlap the contact itself undoes, by turning and moving the
 # robot together; the walls' clamp (_contain) moves it out of the rest. Fitted to PyBullet's
 # training fidelity (a robot turning against a wall).
@@ -134,7 +137,7 @@ class FastWorld:
         self.n_robots = len(rcs)
         self.half_w = np.array([rc.width_m / 2 for rc in rcs])
         self.half_l = np.array([rc.length_m / 2 for rc in rcs])
-        self.mass = np.array([rc.mass_kg * planar.ROBOT_DRIVE_MASS for rc in rcs])
+        self.mass = np.array([rc.mass_kg for rc in rcs])
         self.max_v = np.array([rc.max_linear_mps for rc in rcs])
         self.max_w = np.array([rc.max_angular_rad_s for rc in rcs])
         self.acc_v = np.array([rc.max_linear_accel for rc in rcs]) * self.dt
@@ -361,10 +364,9 @@ class FastWorld:
             kernels.substeps(
                 state, self.half_w, self.half_l, self.mass, self.radius, self.clamp_offsets,
                 self.goal_radius, self.goal_mass, self.field.half, self.dt / self.substeps,
-                self.substeps, planar.GOAL_DAMPING, _POSITION_SHARE, _GOAL_WALL_FRICTION,
+                self.substeps, _GOAL_DAMPING, _POSITION_SHARE, _GOAL_WALL_FRICTION,
                 _ROBOT_WALL_FRICTION,
             )  # fmt: skip
-        self._floor_friction()
         self.heading = np.asarray(wrap_heading(self.heading), dtype=np.float64)
         isolation = live & (self.time_s < self.isolation_s)
         if self.barrier and isolation.any():
@@ -408,16 +410,6 @@ class FastWorld:
         self.over |= ended
         events.match_over = self.over.copy()
         return events
-
-    def _floor_friction(self) -> None:
-        """Each free goal's planar speed loses planar.GOAL_FLOOR_DECEL x dt (to rest at most),
-        after the substeps, as World takes it."""
-        speed = np.hypot(self.gvx, self.gvy)
-        loss = planar.GOAL_FLOOR_DECEL * self.dt
-        k = np.where(speed > 0.0, np.maximum(0.0, 1.0 - loss / np.maximum(speed, 1e-300)), 0.0)
-        k = np.where(self.carrier < 0, k, 1.0)
-        self.gvx *= k
-        self.gvy *= k
 
     def game_batch(self) -> GameBatch:
         """The whole game's state of every match as its rules read it (the arrays themselves,

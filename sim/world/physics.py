@@ -14,7 +14,7 @@ Two fidelities (WorldConfig.fidelity):
 
 training
     Planar physics: no gravity and no floor contacts, so PyBullet only resolves robot, goal and
-    wall contacts (sim.world.planar stands in for the floor and the robots' drive). Rings are not bodies at all: their
+    wall contacts (floor friction on goals is linear damping). Rings are not bodies at all: their
     positions live in numpy, pickup is a rectangle test in the robot frame and visibility is the
     prism geometry of sim.visibility. This is what makes a 1260-step match take under a second.
 high
@@ -51,7 +51,7 @@ from jetson.autonomy.geometry import (
 from sim.config import RobotConfig, WorldConfig
 from sim.errors import WorldError
 from sim.field import FieldSpec, load_field
-from sim.world import mechanisms, planar, rules, seesaw
+from sim.world import mechanisms, rules, seesaw
 from sim.world.batch import ALLIANCE_CODES, game_consts
 from sim.world.start import floor_rings, robot_starts
 from sim.world.state import (
@@ -71,6 +71,7 @@ from sim.world.state import (
 
 _PARK_Z = -5.0  # collected ring bodies wait here, under the floor and out of every ray
 _ONE = np.ones(1, dtype=bool)  # a World is a live batch of one for the compiled rules
+_GOAL_DAMPING = 0.99  # training: stands in for floor friction (a pushed goal slides ~0.2 m)
 
 
 class World:
@@ -368,8 +369,8 @@ class World:
                 -1,
                 localInertiaDiagonal=[inertia_xy, inertia_xy, 0.5 * g.mass_kg * g.base_radius**2],
                 lateralFriction=0.5,
-                linearDamping=planar.GOAL_DAMPING if self.training else 0.04,
-                angularDamping=planar.GOAL_DAMPING if self.training else 0.04,
+                linearDamping=_GOAL_DAMPING if self.training else 0.04,
+                angularDamping=_GOAL_DAMPING if self.training else 0.04,
                 physicsClientId=cid,
             )
             self.goals.append(GoalState(i, g, body, g.position[0], g.position[1]))
@@ -400,7 +401,7 @@ class World:
             # Box local frame: x across, y along the heading, so yaw = heading_to_yaw - 90 deg
             # makes local +y point along the heading.
             body = p.createMultiBody(
-                rc.mass_kg * (planar.ROBOT_DRIVE_MASS if self.training else 1.0),
+                rc.mass_kg,
                 col,
                 vis,
                 basePosition=(x, y, self._robot_z(rc)),
@@ -560,7 +561,6 @@ class World:
         if self.training:
             self._set_velocities()
             p.stepSimulation(physicsClientId=cid)
-            self._floor_friction()
         else:
             for _ in range(self.substeps):
                 self._set_velocities()
@@ -687,20 +687,6 @@ class World:
                 (0.0, 0.0, -w),
                 physicsClientId=cid,
             )
-
-    def _floor_friction(self) -> None:
-        """Training: each free goal's planar speed loses planar.GOAL_FLOOR_DECEL x dt (to rest
-        at most), as a floor's friction would take it."""
-        cid, loss = self.client, planar.GOAL_FLOOR_DECEL * self.dt
-        for g in self.goals:
-            if g.carried_by is not None:
-                continue
-            lin, ang = p.getBaseVelocity(g.body, physicsClientId=cid)
-            speed = math.hypot(lin[0], lin[1])
-            if speed == 0.0:
-                continue
-            k = max(0.0, 1.0 - loss / speed)
-            p.resetBaseVelocity(g.body, (lin[0] * k, lin[1] * k, lin[2]), ang, physicsClientId=cid)
 
     def _read_poses(self) -> None:
         cid = self.client
