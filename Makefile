@@ -98,9 +98,9 @@ test: venv build browser-deps check firmware-check wheel-check  ## everything: l
 wheel-check: venv  ## build the wheel, install it with .[jetson] in a fresh venv, run detect and run elsewhere
 	PYTHON=$(PYTHON) BUILD_PYTHON=$(BIN)/python bash .ci/wheel-check
 
-demo: venv build  ## a whole 2v2 VEX AI match, one red robot on the full stack (Brain core + wire + daemon)
+demo: venv build  ## a whole 2v2 VEX AI match, both red robots on the full stack (Brain core + wire + daemon), linked by VEXlink
 	$(BIN)/python -m protocol.demo --tool $(BUILD)/bin/pete_codec_tool
-	$(BIN)/pete-sim match --stack full --world tipping_point_2v2 --opponent alliance --seed 0 \
+	$(BIN)/pete-sim match --stack full --world tipping_point_2v2 --opponent alliance --partner stack --seed 0 \
 	  --brain-host $(BUILD)/bin/brain_host --out runs/demo
 
 bench: venv build browser-deps  ## run every benchmark; results land in bench/results/

@@ -122,8 +122,10 @@ def add_match_command(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--partner",
         default="alliance",
-        help="the whole game (--world): who drives our robot's partner in the twin (a player "
-        'name; our robot is the red 24" on the full stack) (default: alliance)',
+        help="the whole game (--world): who drives our robot's partner (our robot is the red "
+        '24" on the full stack): a player name in the twin, or "stack": the partner on the full '
+        "stack too, its own Brain, daemon and camera, the two Brains linked by VEXlink "
+        "(default: alliance)",
     )
     p.add_argument("--out", type=Path, default=None, help="run folder (default: runs/match-...)")
     p.add_argument("--brain-host", type=Path, default=None, help="the brain_host binary")

@@ -21,6 +21,9 @@
     brain-reboot     the Brain's program restarts (brain_host ends and starts again with a new
                      boot id; the USB port stays): the daemon sees the new boot, starts its
                      memories afresh and drives again within 1 s
+    vexlink-lost     the radio between the alliance's two Brains goes silent for good (--partner
+                     stack): both Brains call the link lost within its timeout, both daemons say
+                     they play alone, and both robots drive on
 
 jetson-sigterm, jetson-sigkill and disk-full need the daemon as its own process (`--daemon
 process`, chosen for them by default: sim/fullstack/daemon_process.py). In a schedule
@@ -927,6 +930,90 @@ class BrainReboot(Scenario):
         return {"reconnect_ms": self.back.took_ms}
 
 
+VEXLINK_NOTICE_S = 1.5  # the Brain's partner timeout (1 s) and status period (0.2 s), and slack
+
+
+class VexlinkLost(Scenario):
+    """The VEXlink radio between our Brain and the partner's stops carrying anything."""
+
+    name = "vexlink-lost"
+    lockstep_only = True
+
+    def __init__(self, *args: Any, **kw: Any) -> None:
+        super().__init__(*args, **kw)
+        self.at_clock: float | None = None
+        self.steps = [0, 0]  # match steps after the cut: ours, the partner's
+        self.jetson_steps = [0, 0]
+
+    @property
+    def span_ms(self) -> int:
+        return round((VEXLINK_NOTICE_S + SETTLE_S) * 1000)
+
+    def before_tick(self, m: RunningMatch) -> None:
+        if self.due(m, self.at_ms):
+            if m.vexlink is None:
+                raise MatchError("vexlink-lost cuts the radio between two Brains: --partner stack")
+            m.vexlink.cut = True
+            self.at_clock = m.clock.now()
+            m.replay.event(self.at_ms / 1000, "VEXlink lost")
+
+    def after_tick(self, m: RunningMatch, report: BrainReport) -> None:
+        if self.at_clock is None or m.match_ms <= self.at_ms or m.partner is None:
+            return
+        for k, r in enumerate((report, m.partner.last_report)):
+            if r is not None:
+                self.steps[k] += 1
+                self.jetson_steps[k] += r.source == "jetson"
+
+    def _alone_after_s(self, log: list[dict[str, Any]]) -> float | None:
+        """How long after the cut a daemon's log said it plays alone (None: it never did)."""
+        if self.at_clock is None:
+            return None
+        for e in log:
+            t = float(e.get("t") or 0.0)
+            if (
+                e.get("event") == "partner_link"
+                and "playing alone" in str(e.get("msg"))
+                and t >= self.at_clock - 1e-9
+            ):
+                return t - self.at_clock
+        return None
+
+    def _alone(self, m: RunningMatch) -> tuple[float | None, float | None]:
+        return (
+            self._alone_after_s(_log(m)),
+            self._alone_after_s(read_log(m.folder / "partner_daemon.jsonl")),
+        )
+
+    def own_checks(self, m: RunningMatch) -> list[Check]:
+        ours, theirs = self._alone(m)
+        shares = [_share(n, j) for n, j in zip(self.steps, self.jetson_steps, strict=True)]
+        said = ours is not None and theirs is not None
+        late = said and max(ours or 0.0, theirs or 0.0) > VEXLINK_NOTICE_S
+        return [
+            Check(
+                "both_play_alone",
+                said and not late,
+                "after the radio went silent: our daemon said it plays alone "
+                + ("never" if ours is None else f"{ours:.2f} s later")
+                + ", the partner's "
+                + ("never" if theirs is None else f"{theirs:.2f} s later")
+                + f" (within {VEXLINK_NOTICE_S:g} s)",
+            ),
+            Check(
+                "both_drive_on",
+                min(self.steps) > 0 and min(shares) >= 0.95,
+                f"after the cut the Jetsons drove {shares[0]:.0%} (ours) and {shares[1]:.0%} "
+                "(the partner's) of the time",
+            ),
+        ]
+
+    def measures(self, m: RunningMatch) -> dict[str, Any]:
+        ours, theirs = self._alone(m)
+        pairs = zip(self.steps, self.jetson_steps, strict=True)
+        return {"alone_after_s": [ours, theirs], "jetson_share": [_share(n, j) for n, j in pairs]}
+
+
 class Schedule(Scenario):
     """Several faults in one match, in time order, none overlapping another's span."""
 
@@ -970,7 +1057,7 @@ FAULTS: dict[str, type[Scenario]] = {
     c.name: c
     for c in (
         LinkCut, Corruption, JetsonKilled, SchemaMismatch, CameraStops, JetsonSigterm,
-        JetsonSigkill, DiskFull, BrainReboot,
+        JetsonSigkill, DiskFull, BrainReboot, VexlinkLost,
     )
 }  # fmt: skip
 
@@ -1022,6 +1109,11 @@ def _make(
         raise MatchError(f"unknown fault {name!r}; choose from {', '.join(FAULTS)}")
     if name == "camera-stops" and not options.camera:
         raise MatchError("the camera-stops fault needs the camera (drop --no-camera)")
+    if name == "vexlink-lost" and options.partner != "stack":
+        raise MatchError(
+            "the vexlink-lost fault cuts the radio between our Brain and the partner's: "
+            "--world tipping_point_2v2 --partner stack"
+        )
     cls = FAULTS[name]
     duration = cls.window_s if scheduled else None
     return cls(at_s, match_s, seed=options.seed, duration_s=duration)

@@ -70,6 +70,8 @@ class MatchOptions:
     # a whole-game world (tipping_point_2v2) plays VEX AI's match, our robot the red 24" run by
     # the daemon with the scripted alliance ([decision] player = "alliance"), its partner in
     # the twin by `partner`, the blue alliance by `opponent` (a side: NAME or NAME,NAME).
+    # partner = "stack": the partner runs the full stack too (its own brain_host, daemon and
+    # camera; sim.fullstack.partner_stack), the two Brains linked by VEXlink.
     world: str | None = None
     partner: str = "alliance"
 
@@ -116,6 +118,14 @@ class MatchOptions:
                 raise MatchError(
                     f"world must be one of {', '.join(WORLD_PRESETS)}, got {self.world!r}"
                 )
+        if self.partner == "stack":
+            if self.stack != "full" or not self.whole_game:
+                raise MatchError(
+                    "--partner stack runs our partner on the full stack: it needs --stack full "
+                    "and a whole-game --world (tipping_point_2v2)"
+                )
+            if self.realtime:
+                raise MatchError("--partner stack runs in lockstep only: drop --realtime")
 
     @property
     def whole_game(self) -> bool:
@@ -195,6 +205,8 @@ class RunningMatch(Protocol):
     clock: Clock  # the daemon's clock
     replay: MatchEvents
     brain_track: BrainRecord
+    vexlink: Any  # sim.fullstack.vexlink.Vexlink between the alliance's Brains (--partner stack)
+    partner: Any  # sim.fullstack.partner_stack.PartnerStack, None without --partner stack
 
     @property
     def match_ms(self) -> int: ...

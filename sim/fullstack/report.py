@@ -174,6 +174,9 @@ class MatchResult:
     # The whole game: each alliance's score by element and its fouls
     # (sim.evaluate.element_breakdown); None in the ring race.
     game: dict[str, Any] | None = None
+    # --partner stack: the partner's full stack (sim.fullstack.partner_stack.PartnerStack.as_dict)
+    # and the VEXlink radio between the two Brains (VexlinkStats).
+    partner: dict[str, Any] | None = None
 
     @property
     def passed(self) -> bool:
@@ -209,6 +212,8 @@ class MatchResult:
                         f"rejected {m['rejected']}",
                     )
                 )
+        if self.partner is not None:
+            rows += partner_rows(self.partner)
         lat = self.latency
         what = "State -> Command" if self.stack == "full" else "policy call"
         if lat.get("n"):
@@ -252,6 +257,37 @@ class MatchResult:
             rows.append((f"check {c.name}", f"{'PASS' if c.passed else 'FAIL'}: {c.detail}"))
         width = max(len(r[0]) for r in rows)
         return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
+
+
+def partner_rows(p: dict[str, Any]) -> list[tuple[str, str]]:
+    """The summary's rows for the partner on the full stack and the VEXlink radio."""
+    v = p["vexlink"]
+    lat = p["latency"]
+    share = p["jetson_share"]
+
+    def links(changes: list[list[Any]]) -> str:
+        return " -> ".join(f"{state} ({t / 1000:.1f} s)" for t, state in changes) or "-"
+
+    rows = [
+        (
+            "partner (full stack)",
+            f"{p['robot']}: its Jetson drove "
+            + ("-" if share is None else f"{share:.0%}")
+            + " of the match, State -> Command p50 "
+            + (f"{lat['p50_ms']:.2f} ms" if lat.get("n") else "-"),
+        ),
+        ("VEXlink (ours)", links(p["our_partner_link"])),
+        ("VEXlink (partner's)", links(p["partner_link"])),
+        (
+            "VEXlink radio",
+            f"{v['frames']} frames, {v['delivered']} delivered, {v['lost']} lost, "
+            f"{v['late']} late (max delay {v['max_delay_ms']:.0f} ms)",
+        ),
+    ]
+    alone = [state for _, state in p["our_partner_link"] + p["partner_link"]]
+    if "lost" in alone:
+        rows.append(("alliance", "the partner link was lost: each robot played on alone"))
+    return rows
 
 
 # --- the replay ---------------------------------------------------------------------------------

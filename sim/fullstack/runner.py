@@ -39,6 +39,7 @@ import numpy as np
 from jetson.autonomy.geometry import field_to_robot
 from sim.errors import MatchError
 from sim.fullstack.options import LOOP_MS, MatchOptions
+from sim.fullstack.partner_stack import service_daemon, step_brain
 from sim.fullstack.report import (
     MatchResult,
     PerceptionScore,
@@ -328,6 +329,12 @@ class FullStackMatch:
         self.brain_statuses: list[int | None] = []
         self.cable: Any = None
         self.others: list[_Driven] = []  # the robots the twin drives
+        # --partner stack: the alliance partner on the full stack too, linked by VEXlink.
+        self.partner_index: int | None = None
+        self.partner: Any = None  # sim.fullstack.partner_stack.PartnerStack
+        self.vexlink: Any = None  # sim.fullstack.vexlink.Vexlink between the two Brains
+        self._partner_report: Any = None
+        self.partner_links: list[tuple[int, str]] = []  # our Brain's link: (match ms, state)
         self._sent_seq = 0
         self._jetson_alive = False
 
@@ -445,6 +452,22 @@ class FullStackMatch:
         self.jetson.start()
         self._jetson_alive = True
         self._accept_camera()
+        if self.partner_index is not None:
+            self._start_partner(tmp, jopts)
+
+    def _start_partner(self, tmp: Path, jopts: Any) -> None:
+        """The partner's full stack, and the VEXlink radio between the two Brains."""
+        from sim.fullstack.partner_stack import PartnerStack
+        from sim.fullstack.vexlink import Vexlink, VexlinkConfig
+
+        assert self.partner_index is not None
+        o = self.options
+        self.partner = PartnerStack.start(
+            self.world, self.partner_index, o, self.folder, tmp, self.clock, jopts
+        )
+        self.vexlink = Vexlink(VexlinkConfig(), np.random.default_rng((o.seed, 46)))
+        self.brain.set_radio("on")
+        self.partner.brain.set_radio("on")
 
     def _setup_game(self) -> None:
         """The whole game (options.world): our robot is the red alliance's first (the 24"), its
@@ -454,8 +477,9 @@ class FullStackMatch:
         from sim.match import MatchCore
 
         o = self.options
+        on_stack = o.partner == "stack"
         try:
-            partner = load_side(o.partner)
+            partner = load_side("alliance" if on_stack else o.partner)
             blue = load_side(o.opponent)
             env = eval_env(o.scenario, "training", world=o.world)
         except (EvalError, ValueError) as exc:
@@ -470,7 +494,12 @@ class FullStackMatch:
         self.ia = reds[0]
         self.ib = blues[0] if blues else None
         self.others = []
-        for robots, side, name in ((reds[1:], partner, "partner"), (blues, blue, "opponent")):
+        twin_reds = reds[1:]
+        if on_stack:
+            if len(reds) < 2:
+                raise MatchError("--partner stack needs a world with two red robots")
+            self.partner_index, twin_reds = reds[1], reds[2:]
+        for robots, side, name in ((twin_reds, partner, "partner"), (blues, blue, "opponent")):
             if len(side) not in (1, len(robots)) and robots:
                 raise MatchError(
                     f"--{name} names {len(side)} players for {len(robots)} robots: give one "
@@ -479,7 +508,8 @@ class FullStackMatch:
             for k, i in enumerate(robots):
                 spec = side[0] if len(side) == 1 else side[k]
                 self.others.append(_Driven(i, spec.make(), spec.spec))
-        self.labels = (f"full stack + {side_label(partner)}", side_label(blue))
+        mate = "full stack" if on_stack else side_label(partner)
+        self.labels = (f"full stack + {mate}", side_label(blue))
 
     def _start_dashboard(self) -> None:
         """The daemon's live dashboard (jetson/dashboard), as `pete-jetson run --dashboard`."""
@@ -560,6 +590,8 @@ class FullStackMatch:
         """The Brain comes back with a new boot id: a new brain_host, its clock from zero, on a
         new pty the cable moves to (the USB port the daemon holds stays)."""
         self._start_brain(boot_id, realtime=False, append_stderr=True)
+        if self.vexlink is not None:
+            self.brain.set_radio("on")
         self.brain_offset_ms = self.t_ms
         self.cable.new_brain(self.brain.pty_path)
         self.hardware.forget_sent()
@@ -587,6 +619,8 @@ class FullStackMatch:
             self._accept_camera()
 
     def _teardown(self) -> None:
+        if self.partner is not None:
+            self.partner.close()
         # The stream first: the camera thread is blocked reading it and ends at its close.
         if self.server is not None:
             with contextlib.suppress(Exception):
@@ -647,9 +681,7 @@ class FullStackMatch:
             lines = self.hardware.sensor_lines(reading) + self.extra_lines
             self.extra_lines = []
             until = t + LOOP_MS - self.brain_offset_ms
-            lines.append(self.brain.step_line("until", until, self.cable.delivered_down))
-            report = BrainReport.parse(self.brain.run_batch(lines)[-1])
-            self.cable.pump_up(report.tx)
+            report = step_brain(self.brain, self.hardware, self.cable, lines, until)
             if self.brain_offset_ms:
                 report = report.shifted(self.brain_offset_ms)
         else:
@@ -658,13 +690,11 @@ class FullStackMatch:
         j = self.jetson
         self._notice_daemon_exit()
         if j.alive:
-            j.service(self.cable.delivered_up_on_connection)
+            service_daemon(j, self.cable)
             seq = j.last_command_seq
             if seq and seq != self._sent_seq:
                 self._sent_seq = seq
                 self.brain_track.answered_at[seq] = t
-            if j.alive and j.connected and self.cable.plugged:
-                self.cable.pump_down(j.tx_on_connection)
             self._notice_daemon_exit()
         if self.brain_track.ledger:
             from protocol.messages import Command
@@ -673,11 +703,19 @@ class FullStackMatch:
                 if isinstance(msg, Command):
                     stop = msg.linear == 0.0 and msg.angular == 0.0
                     self.brain_track.command_delivered(msg.seq, t, stop)
+        if self.partner is not None:
+            self._partner_report = self.partner.tick(phase, t, self.match_ms, started)
+            if self.brain is not None:  # a Brain rebooting has no radio
+                self.vexlink.relay(self.brain, self.partner.brain, t)
+            if not self.partner_links or self.partner_links[-1][1] != report.partner:
+                self.partner_links.append((self.match_ms, report.partner))
         self.brain_track.note(report, started)
         self.scenario.after_tick(self, report)
         if started and not w.over:
             if w.steps == 0 and self.server is not None and self.server.connected:
                 self._send_frame(t / 1000.0)  # the camera is on when the match starts
+                if self.partner is not None:
+                    self.partner.send_frame(self.world, t / 1000.0)
             self._step_world(report)
 
     def _notice_daemon_exit(self) -> None:
@@ -693,6 +731,8 @@ class FullStackMatch:
         w = self.world
         commands: list[Any] = [None] * len(w.robots)
         commands[self.ia] = self.hardware.command(report)
+        if self.partner is not None:
+            commands[self.partner.index] = self.partner.command(self._partner_report)
         for d in self.others:
             commands[d.index] = self._player_command(d)
         w.step(commands)
@@ -704,6 +744,8 @@ class FullStackMatch:
             and world_ms % self.options.frame_period_ms == 0
         ):
             self._send_frame((self.t_ms + LOOP_MS) / 1000.0)
+            if self.partner is not None:
+                self.partner.send_frame(self.world, (self.t_ms + LOOP_MS) / 1000.0)
         if self.replay.sample_due(t_s):
             self._sample(report)
         if self.replay.gif_due(t_s):
@@ -931,6 +973,9 @@ class FullStackMatch:
             from sim.evaluate import element_breakdown
 
             result.game = element_breakdown(w)
+        if self.partner is not None:
+            result.partner = {**self.partner.as_dict(), "vexlink": asdict(self.vexlink.stats)}
+            result.partner["our_partner_link"] = [list(x) for x in self.partner_links]
         result.checks = self.scenario.checks(self)
         result.faults = self.scenario.records(self)
         title = f"full stack, seed {o.seed}" + (f", fault {o.fault}" if o.fault else "")

@@ -1,0 +1,192 @@
+"""The alliance partner on the full stack (`pete-sim match --world ... --partner stack`).
+
+The red alliance's second robot runs what ours runs: its own Brain (a brain_host), USB cable,
+daemon (in this process, the scripted alliance as its role) and camera, stepped in lockstep
+beside ours by sim.fullstack.runner.FullStackMatch. The two Brains' radios are linked by
+sim.fullstack.vexlink.Vexlink, so each daemon hears the other's partner reports as it would on
+the field. Faults act on our robot; `vexlink-lost` cuts the radio between the two.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+from sim.errors import BrainHostError, DaemonError, MatchError
+from sim.fullstack.brain_host import BrainHost, BrainReport
+from sim.fullstack.cable import Cable
+from sim.fullstack.daemon import DaemonHost, DaemonOptions
+from sim.fullstack.hardware import RobotHardware
+from sim.fullstack.options import LOOP_MS
+from sim.fullstack.report import percentiles_ms
+
+
+def step_brain(
+    brain: BrainHost, hardware: RobotHardware, cable: Cable, lines: list[str], until_ms: int
+) -> BrainReport:
+    """One 10 ms step of a Brain: the sensors' and any extra side-channel lines, the step to
+    until_ms (on the Brain's own clock) once the Jetson's bytes sent so far have arrived; what
+    it wrote goes up the cable."""
+    lines = [*lines, brain.step_line("until", until_ms, cable.delivered_down)]
+    report = BrainReport.parse(brain.run_batch(lines)[-1])
+    cable.pump_up(report.tx)
+    return report
+
+
+def service_daemon(jetson: Any, cable: Cable) -> None:
+    """One lockstep turn of a daemon: it reads what the cable delivered and answers; its bytes go
+    down the cable."""
+    jetson.service(cable.delivered_up_on_connection)
+    if jetson.alive and jetson.connected and cable.plugged:
+        cable.pump_down(jetson.tx_on_connection)
+
+
+@dataclass
+class PartnerStack:
+    """One more robot of our alliance on the full stack (lockstep)."""
+
+    index: int  # its robot in the World
+    hardware: RobotHardware
+    brain: BrainHost
+    cable: Cable
+    jetson: DaemonHost
+    log: IO[str]
+    server: Any = None  # its camera's frame stream
+    cam_cfg: Any = None
+    frame_index: int = 0
+    steps: int = 0  # match steps since the start
+    jetson_steps: int = 0  # of them, steps the Jetson's Commands drove its motors
+    links: list[tuple[int, str]] = field(default_factory=list)  # (match ms, state) changes
+    statuses: list[int | None] = field(default_factory=list)
+    last_report: BrainReport | None = None
+
+    @classmethod
+    def start(
+        cls,
+        world: Any,
+        index: int,
+        options: Any,
+        folder: Path,
+        tmp: Path,
+        clock: Any,
+        daemon: DaemonOptions,
+    ) -> PartnerStack:
+        """Its Brain, cable, daemon and camera, started. `daemon`: our robot's daemon options,
+        which it shares but for its role, boot id, camera file and recordings."""
+        from dataclasses import replace
+
+        from jetson.perception.camera import CameraConfig as JetsonCamera
+        from jetson.perception.sources.stream import FrameStreamServer
+        from sim.world import sensors
+
+        robot = world.robots[index]
+        seed = options.seed
+        hardware = RobotHardware(
+            world,
+            index,
+            np.random.default_rng((seed, 78)),
+            options.ring_counter,
+            gps_occlusion=sensors.GpsOcclusion() if options.gps_occlusion else None,
+        )
+        try:
+            brain = BrainHost.start(
+                lockstep=True,
+                alliance=robot.alliance,
+                boot_id=0x5EED1000 + (seed & 0xFFF),
+                phase="disabled",
+                binary=options.brain_host,
+                stderr_path=folder / "partner_brain_host.stderr",
+                track_width_m=robot.config.track_m,
+            )
+        except BrainHostError as exc:
+            raise MatchError(f"the partner's Brain: {exc}") from exc
+        cable = Cable(brain.pty_path, tmp / "partner-usb", seed=seed + 1)
+        server = cam_cfg = address = camera_file = None
+        if daemon.camera:
+            address = f"unix:{tmp / 'partner-frames.sock'}"
+            server = FrameStreamServer(address)
+            cam_cfg = robot.config.camera.scaled(options.camera_width, options.camera_height)
+            camera_file = folder / "partner_camera.json"
+            JetsonCamera(cam_cfg.intrinsics, cam_cfg.mount).save(camera_file)
+        opts = replace(
+            daemon,
+            role=robot.config.name,
+            boot_id=0x7E751000 + (seed & 0xFFF),
+            camera_config=camera_file,
+            record_dir=None,
+        )
+        log = (folder / "partner_daemon.jsonl").open("w")
+        try:
+            jetson = DaemonHost(opts, clock, cable.port_path, address, log)
+        except DaemonError as exc:
+            log.close()
+            cable.close()
+            brain.close()
+            raise MatchError(f"the partner's daemon: {exc}") from exc
+        stack = cls(index, hardware, brain, cable, jetson, log, server, cam_cfg)
+        jetson.start()
+        if server is not None and not server.wait_for_client(10.0):
+            stack.close()
+            raise MatchError("the partner's camera thread never connected to its frame stream")
+        return stack
+
+    def tick(self, phase: str, t_ms: int, match_ms: int, started: bool) -> BrainReport:
+        """Its Brain's step to t_ms + one loop, then its daemon's turn (the clock already set)."""
+        lines = self.hardware.sensor_lines(self.hardware.read(phase))
+        report = step_brain(self.brain, self.hardware, self.cable, lines, t_ms + LOOP_MS)
+        service_daemon(self.jetson, self.cable)
+        if started:
+            self.steps += 1
+            self.jetson_steps += report.source == "jetson"
+        if not self.links or self.links[-1][1] != report.partner:
+            self.links.append((match_ms, report.partner))
+        self.last_report = report
+        return report
+
+    def command(self, report: BrainReport) -> Any:
+        return self.hardware.command(report)
+
+    def send_frame(self, world: Any, stamp_s: float) -> None:
+        """A frame of its camera to its daemon."""
+        from jetson.perception.frame import Frame
+        from sim.camera import render_camera
+
+        if self.server is None or not self.server.connected:
+            return
+        f = render_camera(world, self.index, self.cam_cfg)
+        self.frame_index += 1
+        k = self.frame_index
+        frame = Frame(np.ascontiguousarray(f.rgb[:, :, ::-1]), f.depth, self.cam_cfg.intrinsics,
+                      stamp_s, k)  # fmt: skip
+        if self.server.send(frame):
+            self.jetson.frame_sent(k, stamp_s)
+
+    def close(self) -> None:
+        if self.server is not None:
+            with contextlib.suppress(Exception):
+                self.server.close()
+            self.server = None
+        with contextlib.suppress(Exception):
+            self.jetson.shutdown()
+        self.cable.close()
+        if self.brain is not None:
+            self.statuses.append(self.brain.close())
+        self.log.close()
+
+    def as_dict(self) -> dict[str, Any]:
+        """What the match summary shows of it."""
+        j = self.jetson
+        return {
+            "robot": self.hardware.robot.name,
+            "jetson_share": round(self.jetson_steps / self.steps, 4) if self.steps else None,
+            "latency": percentiles_ms(j.latencies),
+            "counters": j.counters.as_dict(),
+            "messages": self.cable.as_dict(),
+            "partner_link": [[t, s] for t, s in self.links],
+            "frames_sent": self.frame_index,
+            "exit_status": self.statuses[-1] if self.statuses else None,
+        }
