@@ -32,6 +32,7 @@ class Counters:
             "states_unverified": self.states_unverified, "commands": self.commands,
             "stops": self.stops, "errors": self.errors, "connects": self.connects,
             "disconnects": self.disconnects, "tx_dropped": self.tx_dropped,
+            "partner_reports": self.partner_reports,
         }  # fmt: skip
 
 

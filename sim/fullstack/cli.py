@@ -11,7 +11,7 @@ from pathlib import Path
 
 FAULT_NAMES = (
     "link-cut", "corruption", "jetson-killed", "schema-mismatch", "camera-stops",
-    "jetson-sigterm", "jetson-sigkill", "disk-full", "brain-reboot",
+    "jetson-sigterm", "jetson-sigkill", "disk-full", "brain-reboot", "vexlink-lost",
 )  # fmt: skip
 
 

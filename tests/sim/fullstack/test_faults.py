@@ -59,7 +59,7 @@ def checks(result: MatchResult) -> dict[str, str]:
 def test_every_fault_has_a_scenario_and_a_flag() -> None:
     assert set(FAULTS) == {
         "link-cut", "corruption", "jetson-killed", "schema-mismatch", "camera-stops",
-        "jetson-sigterm", "jetson-sigkill", "disk-full", "brain-reboot",
+        "jetson-sigterm", "jetson-sigkill", "disk-full", "brain-reboot", "vexlink-lost",
     }  # fmt: skip
     assert set(cli.FAULT_NAMES) == set(FAULTS)
 
