@@ -66,6 +66,15 @@ class Source:
 # What each committed result measures and the exact command that wrote it. A benchmark missing
 # here is reproduced by `python -m bench.NAME` when bench/NAME.py exists.
 SOURCES: dict[str, Source] = {
+    "alliance": Source(
+        "python -m bench.alliance",
+        "The alliance on the full stack (issue 46): whole-game lockstep matches with both red "
+        "robots on their own `brain_host`, daemon and camera, the two Brains linked by the "
+        "twin's VEXlink, the scripted alliance on both sides: wall time of a match, red's score "
+        "against the twin's own on the same seeds, VEXlink frames lost and late, and a "
+        "`vexlink-lost` match's checks. The learned alliance's rows wait for the learned "
+        "alliance.",
+    ),
     "brain_loop": Source(
         "python -m bench.brain_loop",
         "Host CPU time of one step of the Brain core's 10 ms loop (`brain_loop_bench`, built by "
