@@ -57,6 +57,7 @@ from jetson.autonomy.ring_memory import RingMemory
 from jetson.autonomy.skills import SkillDriver
 from jetson.camera_feed import NO_GOALS, no_goals
 from jetson.errors import SettingsError
+from jetson.partner import NOTHING, Claim
 from jetson.settings import DecisionConfig
 from protocol.messages import (
     Alliance,
@@ -292,6 +293,11 @@ class Decider:
         self._poses = PoseHistory()
         self._next_push_ms = 0.0
         self._phases.reset()
+
+    def claim(self, state: State) -> Claim:
+        """The target this robot claims for its partner (jetson.partner): a policy claims
+        nothing yet (its skill's target is the dashboard's, not a claim)."""
+        return NOTHING
 
     def decide(self, state: State, perception: PerceptionInput | None) -> Decision:
         self.last_obs = self.last_action = None

@@ -388,7 +388,7 @@ class Daemon:
             return
         self._next_partner_report = now + REPORT_PERIOD_S
         link = None if self.partner_status is None else self.partner_status.link
-        report = partner_report(state, decision.drove, link)
+        report = partner_report(state, decision.drove, link, self.decider.claim(state))
         try:
             self._write(framing.encode_downlink(report, self._tx_seq))
         except LinkClosed as exc:

@@ -2,19 +2,34 @@
 
 The Jetson sends its report to its Brain, which keeps the newest and sends it over the radio at
 most every 100 ms (brain/README.md, "The partner link"); sending more often only replaces reports
-the radio never carries, so the daemon reports every REPORT_PERIOD_S. The claimed target stays
-`nothing` until a policy claims targets.
+the radio never carries, so the daemon reports every REPORT_PERIOD_S. The target a robot claims
+is its decider's (`claim(state)`): the scripted alliance's goal, ring or platform; a policy claims
+nothing yet.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from protocol.messages import Partner, PartnerFlags, PartnerLink, PoseFix, State, TargetKind
 
 REPORT_PERIOD_S = 0.1
 NO_INDEX = 255  # Partner.goal / target_id: none
 _I16 = 32767
+
+
+@dataclass(frozen=True)
+class Claim:
+    """What a robot is going for, so its partner can leave it alone: the kind, where it is
+    (field frame, metres) and its index (a goal's in the field file's order; NO_INDEX none)."""
+
+    target: TargetKind = TargetKind.NOTHING
+    xy: tuple[float, float] = (0.0, 0.0)
+    index: int = NO_INDEX
+
+
+NOTHING = Claim()
 
 
 def _mm(metres: float) -> int:
@@ -25,12 +40,7 @@ def _mm(metres: float) -> int:
 
 
 def partner_report(
-    state: State,
-    driving: bool,
-    link: PartnerLink | None,
-    target: TargetKind = TargetKind.NOTHING,
-    target_xy: tuple[float, float] = (0.0, 0.0),
-    target_id: int = NO_INDEX,
+    state: State, driving: bool, link: PartnerLink | None, claim: Claim = NOTHING
 ) -> Partner:
     """This robot's report from the Brain's State: its pose (when it has one), whether it holds
     a goal, its rings, whether its Jetson drives it, whether it plays alone (its partner link is
@@ -53,9 +63,9 @@ def partner_report(
         flags=flags,
         goal=NO_INDEX,
         rings=state.rings_held,
-        target=target,
-        target_id=target_id,
-        target_x_mm=_mm(target_xy[0]),
-        target_y_mm=_mm(target_xy[1]),
+        target=claim.target,
+        target_id=claim.index,
+        target_x_mm=_mm(claim.xy[0]),
+        target_y_mm=_mm(claim.xy[1]),
         match_ms=state.match_ms,
     )

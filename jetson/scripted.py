@@ -32,6 +32,7 @@ from jetson.autonomy.alliance_config import (
     RobotRole,
 )
 from jetson.autonomy.field_layout import FieldLayout, load_layout
+from jetson.autonomy.geometry import to_alliance_frame
 from jetson.autonomy.goal_memory import GoalMemory
 from jetson.autonomy.goal_sightings import off_the_platforms
 from jetson.autonomy.ring_memory import RingMemory
@@ -48,6 +49,7 @@ from jetson.decide import (
     stop,
     why_not_drive,
 )
+from jetson.partner import NOTHING, Claim
 from jetson.settings import DecisionConfig
 from protocol.messages import (
     Alliance,
@@ -57,6 +59,7 @@ from protocol.messages import (
     MatchPeriod,
     MatchPhase,
     State,
+    TargetKind,
 )
 
 # The standard robots of a VEX AI alliance, as the twin builds them (sim/config.py's ROBOTS and
@@ -134,6 +137,19 @@ class ScriptedDecider:
         t = state.phase_ms / 1000.0
         return t + self.layout.isolation_s if state.phase == MatchPhase.DRIVER else t
 
+    def claim(self, state: State) -> Claim:
+        """The strategy's target for the partner report (jetson.partner), in the field frame:
+        the goal it goes for, the ring it drives to or the platform; nothing outside the drive
+        phases or with the alliance unknown."""
+        if state.alliance == Alliance.UNKNOWN or self._action is None:
+            return NOTHING
+        kind, xy = self.strategy.claim()
+        if kind == "nothing" or xy is None:
+            return NOTHING
+        alliance = "red" if state.alliance == Alliance.RED else "blue"
+        fx, fy = to_alliance_frame(np.asarray(xy, dtype=np.float64), None, alliance)[0]
+        return Claim(_CLAIMS[kind], (float(fx), float(fy)))
+
     def decide(self, state: State, perception: PerceptionInput | None) -> Decision:
         step = self._phases.step(state)
         if not step.drive:
@@ -191,6 +207,12 @@ class ScriptedDecider:
             clamp=_clamp(a.clamp),
             lift=_lift(a.lift),
         )
+
+
+_CLAIMS = {
+    "goal": TargetKind.GOAL, "ring": TargetKind.RING, "platform": TargetKind.PLATFORM,
+    "zone": TargetKind.ZONE,
+}  # fmt: skip
 
 
 def _clamp(hold: bool | None) -> ClampAction:

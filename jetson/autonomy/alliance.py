@@ -137,6 +137,10 @@ def default_plan(role: str, layout: FieldLayout) -> _Plan:
     )
 
 
+# The phases in which a robot is on its way onto the platform or on it (claim()).
+_PLATFORM_PHASES = frozenset({"climb", "haul_climb", "balance", "sentry"})
+
+
 def _segment_distance(point: Vec, a: Vec, b: Vec) -> float:
     ab = b - a
     n = float(ab @ ab)
@@ -235,6 +239,24 @@ class AllianceStrategy(StealPhases):
         self._bad_stages: list[Vec] = []  # stages it was blocked on, stealing this goal
         self._reset_steal()
         self.intent = "start"  # what the last step was doing, for logs and tests
+
+    def claim(self) -> tuple[str, Vec | None]:
+        """What this robot is going for, for its partner (alliance frame): ("platform", its
+        centre) while it climbs, balances or waits on it; ("zone", the home zone's centre)
+        while it parks there; ("goal", where the goal is believed to be) while it goes for one
+        and holds none; ("ring", the ring) while it drives to one; else ("nothing", None)."""
+        if self.phase in _PLATFORM_PHASES:
+            return "platform", np.asarray(self.layout.platform.center, dtype=np.float64)
+        if self.phase == "park":
+            x0, y0, x1, y1 = self.layout.home_zone
+            return "zone", np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+        if self.target_goal is not None and self.holding is None:
+            belief = self.goals.get(self.target_goal)
+            if belief is not None and belief.xy is not None:
+                return "goal", np.array(belief.xy, dtype=np.float64)
+        if self._ring_target is not None:
+            return "ring", np.array(self._ring_target, dtype=np.float64)
+        return "nothing", None
 
     def step(self, inputs: AllianceInputs) -> AllianceAction:
         xy, heading = to_alliance_frame((inputs.x, inputs.y), inputs.heading_deg, inputs.alliance)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from jetson.partner import NO_INDEX, partner_report
+from jetson.partner import NO_INDEX, Claim, partner_report
 from jetson.testing import default_state
 from protocol import framing
 from protocol.messages import PartnerFlags, PartnerLink, PoseFix, State, TargetKind
@@ -39,7 +39,7 @@ def test_a_lost_pose_reports_no_position_and_a_link_not_up_says_alone() -> None:
 
 def test_numbers_out_of_range_are_held_to_the_field() -> None:
     s = state(x=1e6, y=-math.inf, heading=359.999, pose_fix=PoseFix.ODOMETRY)
-    r = partner_report(s, True, PartnerLink.UP, TargetKind.GOAL, (40.0, -40.0), 3)
+    r = partner_report(s, True, PartnerLink.UP, Claim(TargetKind.GOAL, (40.0, -40.0), 3))
     assert r.x_mm == 32767 and r.y_mm == 0 and r.heading_cdeg <= 35999
     assert (r.target_x_mm, r.target_y_mm, r.target_id) == (32767, -32767, 3)
     framing.encode_packet(r, 0)

@@ -202,3 +202,27 @@ def test_the_steal_setting_reaches_the_strategy() -> None:
         DecisionConfig(player="alliance", role="15in", steal_s=60, steal_climb=False)
     )
     assert d.strategy.config.steal_s == 60.0 and not d.strategy.config.steal_climb
+
+
+def test_the_claim_for_the_partner_is_the_strategys_target_in_the_field_frame() -> None:
+    """The 15" goes for the alliance goal beside its start in the isolation period: it claims that
+    goal where the strategy believes it is, turned into the field frame (blue's alliance frame is
+    the field's turned half round); before it decides, and with the alliance unknown, nothing."""
+    from jetson.autonomy.geometry import to_alliance_frame
+    from protocol.messages import TargetKind
+
+    for alliance, name, sign in ((Alliance.RED, "red", 1.0), (Alliance.BLUE, "blue", -1.0)):
+        decider = ScriptedDecider(DecisionConfig(role="15in"))
+        start = state(0.0, 1, alliance=alliance, x=sign * RED_START[0], y=sign * RED_START[1])
+        assert decider.claim(start).target is TargetKind.NOTHING
+        decider.decide(start, None)
+        claim = decider.claim(start)
+        kind, xy = decider.strategy.claim()
+        assert kind == "goal" and claim.target is TargetKind.GOAL
+        assert decider.strategy.target_goal is not None
+        want = to_alliance_frame(xy, None, name)[0]
+        assert claim.xy == pytest.approx(tuple(want))
+        # The goal it claims lies on its own side of the field, as the alliance goal does.
+        assert sign * claim.xy[0] < 0
+        unknown = state(0.1, 2, alliance=Alliance.UNKNOWN)
+        assert decider.claim(unknown).target is TargetKind.NOTHING
