@@ -712,8 +712,9 @@ class FullStackMatch:
         self.brain_track.note(report, started)
         self.scenario.after_tick(self, report)
         if started and not w.over:
-            if w.steps == 0 and self.server is not None and self.server.connected:
-                self._send_frame(t / 1000.0)  # the camera is on when the match starts
+            if w.steps == 0:  # the cameras are on when the match starts
+                if self.server is not None and self.server.connected:
+                    self._send_frame(t / 1000.0)
                 if self.partner is not None:
                     self.partner.send_frame(self.world, t / 1000.0)
             self._step_world(report)
@@ -738,13 +739,10 @@ class FullStackMatch:
         w.step(commands)
         t_s = w.time_s
         world_ms = round(t_s * 1000)
-        if (
-            self.server is not None
-            and self.server.connected
-            and world_ms % self.options.frame_period_ms == 0
-        ):
-            self._send_frame((self.t_ms + LOOP_MS) / 1000.0)
-            if self.partner is not None:
+        if world_ms % self.options.frame_period_ms == 0:
+            if self.server is not None and self.server.connected:
+                self._send_frame((self.t_ms + LOOP_MS) / 1000.0)
+            if self.partner is not None:  # its own camera, whatever a fault did to ours
                 self.partner.send_frame(self.world, (self.t_ms + LOOP_MS) / 1000.0)
         if self.replay.sample_due(t_s):
             self._sample(report)
