@@ -27,12 +27,12 @@ from typing import Any
 
 import numpy as np
 
-from jetson.autonomy.geometry import robot_to_field
 from jetson.dashboard.snapshot import (
     FIELD_HALF_M,
     LATENCY_WINDOW,
     Forgetting,
     field_view,
+    goals_field,
     latency_view,
     state_snapshot,
     who_drives,
@@ -235,17 +235,6 @@ def goals_seen(pin: PerceptionInput | None, perception: str | None) -> np.ndarra
     if pin is None or perception != "fresh":
         return np.zeros((0, 3))
     return pin.goals_robot
-
-
-def goals_field(goals_robot: np.ndarray, state: State) -> list[list[float]]:
-    """Goals (robot frame, colour code) -> [x, y, colour code] in the field frame (GPS, metres)."""
-    if not len(goals_robot):
-        return []
-    xy = robot_to_field(goals_robot[:, :2], (float(state.x), float(state.y)), float(state.heading))
-    return [
-        [round(float(x), 3), round(float(y), 3), int(c)]
-        for (x, y), c in zip(xy, goals_robot[:, 2], strict=True)
-    ]
 
 
 class ReplaySource:

@@ -260,6 +260,28 @@ def field_view(decider: Any, state: Any, seen_robot_xy: Any = None) -> dict[str,
     return out
 
 
+def goals_field(goals_robot: np.ndarray, state: Any) -> list[list[float]]:
+    """Goals (robot frame, colour code) -> [x, y, colour code] in the field frame (GPS, metres)."""
+    if not len(goals_robot):
+        return []
+    xy = robot_to_field(goals_robot[:, :2], (float(state.x), float(state.y)), float(state.heading))
+    return [
+        [round(float(x), 3), round(float(y), 3), int(c)]
+        for (x, y), c in zip(xy, goals_robot[:, 2], strict=True)
+    ]
+
+
+def claim_view(claim: Any) -> dict[str, Any] | None:
+    """The target this robot claims for its partner (jetson.partner.Claim): its kind and where
+    (field frame); None when it claims nothing."""
+    if claim is None or claim.target == messages.TargetKind.NOTHING:
+        return None
+    return {
+        "target": messages.TargetKind(claim.target).name.lower(),
+        "xy": [round(float(claim.xy[0]), 3), round(float(claim.xy[1]), 3)],
+    }
+
+
 def partner_view(partner: Any, status: Any, match_ms: int | None) -> dict[str, Any] | None:
     """The alliance partner as this robot hears it over VEXlink (jetson.partner): the link's
     state and counts (the Brain's PartnerStatus), and the partner's newest report: its pose,
@@ -425,6 +447,8 @@ class Observer:
             "brain_lines": list(self.brain_lines),
             "partner": daemon.partner,
             "partner_status": daemon.partner_status,
+            # What our robot claims for its partner now (jetson.partner): cheap, on this thread.
+            "claim": None if daemon.last_state is None else daemon.decider.claim(daemon.last_state),
             "link": {
                 "state": daemon.state,
                 "connected": daemon.link is not None,
@@ -467,9 +491,15 @@ class Observer:
         state, decision, p = raw["state"], raw["decision"], raw["perceived"]
         now = raw["t"]
         fresh = decision is not None and decision.perception == "fresh"
-        seen = p.rings_robot_xy if (p is not None and fresh and p.error is None) else None
+        usable = p is not None and fresh and p.error is None
+        seen = p.rings_robot_xy if usable else None
         field = field_view(view, state, seen)
         field["forgotten"] = self._forgetting.update(now, field)
+        # The goal detector's goals of the same result (jetson/perception/goals.py), when on.
+        field["goals_seen"] = (
+            goals_field(p.goals_robot, state) if p is not None and usable and state else []
+        )
+        field["claim"] = claim_view(raw["claim"])
         perception = None
         if p is not None:
             perception = {

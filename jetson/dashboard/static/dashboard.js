@@ -6,7 +6,7 @@
   const $ = (id) => document.getElementById(id);
   const D = {
     hello: null, state: null, prev: null, frame: null, jetson: null, cursor: null,
-    drawn: { robot: null, partner: null, rings: { seen: 0, remembered: 0, forgotten: 0 }, goals: 0 },
+    drawn: { robot: null, partner: null, claim: null, rings: { seen: 0, remembered: 0, forgotten: 0 }, goals: 0 },
     received: { state: 0, frame: 0, jetson: 0 },
     rates: { state_hz: 0, frame_hz: 0 },
     linkRates: { up_hz: null, down_hz: null },
@@ -302,6 +302,13 @@
     }
     (f.route || []).forEach((p, j) => { const [u, v] = T.px(p[0], p[1]); g.fillStyle = "#3df"; g.fillText(String(j + 1), u + 7, v - 7); });
     if (f.target) star(g, T.px(f.target[0], f.target[1]), 9, "#3df");
+    // what our robot claims for its partner (VEXlink): a hollow star in its colour
+    D.drawn.claim = null;
+    if (f.claim && f.claim.xy) {
+      star(g, T.px(f.claim.xy[0], f.claim.xy[1]), 11, null);
+      g.strokeStyle = "#3df"; g.lineWidth = 2; g.stroke();
+      D.drawn.claim = f.claim;
+    }
     D.drawn.rings = { seen: (f.seen || []).length, remembered: (f.remembered || []).length, forgotten: (f.forgotten || []).length };
     D.drawn.goals = (f.goals || []).length;
     text("ring-counts", D.drawn.rings.seen + " seen, " + D.drawn.rings.remembered + " remembered, " +
@@ -310,7 +317,8 @@
     $("ring-counts").dataset.remembered = D.drawn.rings.remembered;
     text("goal-counts", (f.goals_seen ? f.goals_seen.length + " seen, " : "") + D.drawn.goals + " remembered" + (f.holding ? ", holding one" : "") +
       (f.goal_memory ? "" : " (no goal memory)"));
-    text("skill", f.skill ? f.skill + (f.target ? " -> (" + fmt(f.target[0], 2) + ", " + fmt(f.target[1], 2) + ")" : "") : "-");
+    const claim = f.claim ? "; claims " + f.claim.target + " (" + fmt(f.claim.xy[0], 2) + ", " + fmt(f.claim.xy[1], 2) + ")" : "";
+    text("skill", (f.skill ? f.skill + (f.target ? " -> (" + fmt(f.target[0], 2) + ", " + fmt(f.target[1], 2) + ")" : "") : "-") + claim);
     // the partner (its newest VEXlink report): a hollow square, its claimed target a hollow star
     D.drawn.partner = null;
     const pr = s.partner && s.partner.report;

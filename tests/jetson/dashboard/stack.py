@@ -96,6 +96,7 @@ def live_stack(
     camera: bool = True,
     frames_hz: float = 3.0,
     make_state: Any = None,
+    decision: dict[str, Any] | None = None,
 ) -> Iterator[Live]:
     brain = FakeBrain(**({"make_state": make_state} if make_state else {}))
     out = io.StringIO()
@@ -111,6 +112,7 @@ def live_stack(
         record={"dir": str(tmp / "sessions"), "frames_hz": frames_hz, "compress": False},
         log={"summary": False, "level": "debug"},
         dashboard={"address": dashboard} if dashboard else {},
+        **({"decision": decision} if decision else {}),
     )
     service = build(settings, clock, log_stream=out, perception=worker)
     if worker is not None:
