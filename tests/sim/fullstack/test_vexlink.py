@@ -19,7 +19,7 @@ from protocol.messages import (
 )
 from sim.fullstack.brain_host import DEFAULT_BINARY, BrainHost
 from sim.fullstack.vexlink import Vexlink, VexlinkConfig
-from tests.sim.fullstack.test_brain_host import Port
+from tests.sim.fullstack.pty_port import Port
 
 
 def frame(n: int, fill: int = 0x41) -> bytes:
