@@ -155,7 +155,10 @@ class PartnerStack:
         from jetson.perception.frame import Frame
         from sim.camera import render_camera
 
-        if self.server is None or not self.server.connected:
+        if self.server is None:
+            return
+        self.server.accept_pending()  # a camera thread that gave up and came back
+        if not self.server.connected:
             return
         f = render_camera(world, self.index, self.cam_cfg)
         self.frame_index += 1

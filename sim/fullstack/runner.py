@@ -713,7 +713,7 @@ class FullStackMatch:
         self.scenario.after_tick(self, report)
         if started and not w.over:
             if w.steps == 0:  # the cameras are on when the match starts
-                if self.server is not None and self.server.connected:
+                if self._camera_connected():
                     self._send_frame(t / 1000.0)
                 if self.partner is not None:
                     self.partner.send_frame(self.world, t / 1000.0)
@@ -740,7 +740,7 @@ class FullStackMatch:
         t_s = w.time_s
         world_ms = round(t_s * 1000)
         if world_ms % self.options.frame_period_ms == 0:
-            if self.server is not None and self.server.connected:
+            if self._camera_connected():
                 self._send_frame((self.t_ms + LOOP_MS) / 1000.0)
             if self.partner is not None:  # its own camera, whatever a fault did to ours
                 self.partner.send_frame(self.world, (self.t_ms + LOOP_MS) / 1000.0)
@@ -768,6 +768,15 @@ class FullStackMatch:
                     obs = d.stack.push(frame)
             d.command = d.player.act(self.core, d.index, obs)
         return d.command
+
+    def _camera_connected(self) -> bool:
+        """Whether the frame stream has the daemon's camera thread. One that gave up on a quiet
+        stream (its read timeout is wall time: a loaded machine can take longer than that over
+        the preroll, when no frames are sent) and connected again is taken here."""
+        if self.server is None:
+            return False
+        self.server.accept_pending()
+        return bool(self.server.connected)
 
     def _send_frame(self, stamp_s: float) -> None:
         from jetson.perception.frame import Frame

@@ -140,11 +140,26 @@ class FrameStreamServer:
             client, _ = self._listener.accept()
         except TimeoutError:
             return False
+        self._take(client)
+        return True
+
+    def accept_pending(self) -> bool:
+        """Without waiting: take a client that is waiting to connect (one that gave up on a
+        quiet stream and came back), dropping any previous one; False if none is waiting."""
+        self._listener.settimeout(0.0)
+        try:
+            client, _ = self._listener.accept()
+        except (BlockingIOError, TimeoutError):
+            return False
+        self._drop_client()
+        self._take(client)
+        return True
+
+    def _take(self, client: socket.socket) -> None:
         client.settimeout(None)
         if self._family == socket.AF_INET:
             client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self._client = client
-        return True
 
     def send(self, frame: Frame) -> bool:
         """Send one frame; False (and the client dropped) if the client has gone."""

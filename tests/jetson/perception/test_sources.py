@@ -124,6 +124,25 @@ def test_frame_stream_round_trip(tmp_path: Path, kind: str) -> None:
         assert not (tmp_path / "cam.sock").exists()  # the server cleans up after itself
 
 
+def test_a_client_that_comes_back_is_taken_without_waiting(tmp_path: Path) -> None:
+    """A camera thread that gave up on a quiet stream connects again; the server takes it at its
+    next frame (accept_pending) and the frames flow to the new connection."""
+    server = FrameStreamServer(f"unix:{tmp_path / 'cam.sock'}")
+    try:
+        assert not server.accept_pending()  # nobody waiting: no wait either
+        first = StreamSource(server.address)
+        assert server.accept_pending() and server.connected
+        first.close()  # gave up
+        again = StreamSource(server.address)
+        assert server.accept_pending()
+        frame = make_frame(7, depth=True)
+        assert server.send(frame)
+        assert_same(frame, next(iter(again)))
+        again.close()
+    finally:
+        server.close()
+
+
 def test_a_missing_stream_is_a_clear_error(tmp_path: Path) -> None:
     with pytest.raises(SourceError, match=r"no frame stream at unix:.*is the simulator"):
         StreamSource(f"unix:{tmp_path / 'nobody.sock'}", connect_timeout_s=0.1)

@@ -207,3 +207,24 @@ def test_bench_compares_the_stacks(policy: Path, tmp_path: Path, capsys) -> None
         "rings_full_over_sim", "lockstep_wall_s_median", "loop_latency_p99_ms",
     }  # fmt: skip
     assert "seed 0 full" in capsys.readouterr().out
+
+
+def test_a_camera_thread_that_gives_up_in_the_preroll_is_taken_back(
+    policy: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The frame stream's read timeout is wall time; on a loaded machine the preroll (no frames)
+    can outlast it, and the daemon's camera thread gives up and connects again. The match takes
+    the new connection at its next frame, and the frames flow (none did before)."""
+    from jetson.perception.sources import stream
+
+    real = stream.StreamSource.__init__
+
+    def impatient(self: object, address: str, connect_timeout_s: float = 5.0, *_: object) -> None:
+        real(self, address, connect_timeout_s, 0.05)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(stream.StreamSource, "__init__", impatient)
+    result = run_match(options(policy, tmp_path / "run"))
+    log = [json.loads(x) for x in (tmp_path / "run" / "daemon.jsonl").read_text().splitlines()]
+    events = [e["event"] for e in log]
+    assert "camera_error" in events and events.count("camera_open") >= 2  # it gave up, came back
+    assert result.perception is not None and result.perception["frames"] > 0
