@@ -22,7 +22,8 @@ _I16 = 32767
 @dataclass(frozen=True)
 class Claim:
     """What a robot is going for, so its partner can leave it alone: the kind, where it is
-    (field frame, metres) and its index (a goal's in the field file's order; NO_INDEX none)."""
+    (field frame, metres) and its index (a goal's in the field file's order; NO_INDEX none: the
+    scripted alliance names its goals in the alliance frame and claims no index yet)."""
 
     target: TargetKind = TargetKind.NOTHING
     xy: tuple[float, float] = (0.0, 0.0)

@@ -32,7 +32,7 @@ from jetson.autonomy.alliance_config import (
     RobotRole,
 )
 from jetson.autonomy.field_layout import FieldLayout, load_layout
-from jetson.autonomy.geometry import to_alliance_frame
+from jetson.autonomy.geometry import AllianceName, to_alliance_frame
 from jetson.autonomy.goal_memory import GoalMemory
 from jetson.autonomy.goal_sightings import off_the_platforms
 from jetson.autonomy.ring_memory import RingMemory
@@ -127,6 +127,7 @@ class ScriptedDecider:
         self._phases.reset()
         self._action: AllianceAction | None = None
         self._next_ms = 0.0
+        self._drives = False
 
     def match_time_s(self, state: State) -> float:
         """Seconds since the match started, isolation included: the Brain's VEX AI match clock,
@@ -141,16 +142,21 @@ class ScriptedDecider:
         """The strategy's target for the partner report (jetson.partner), in the field frame:
         the goal it goes for, the ring it drives to or the platform; nothing outside the drive
         phases or with the alliance unknown."""
-        if state.alliance == Alliance.UNKNOWN or self._action is None:
+        if state.alliance == Alliance.UNKNOWN or not self._drives:
             return NOTHING
         kind, xy = self.strategy.claim()
         if kind == "nothing" or xy is None:
             return NOTHING
-        alliance = "red" if state.alliance == Alliance.RED else "blue"
+        alliance: AllianceName = "red" if state.alliance == Alliance.RED else "blue"
         fx, fy = to_alliance_frame(np.asarray(xy, dtype=np.float64), None, alliance)[0]
         return Claim(_CLAIMS[kind], (float(fx), float(fy)))
 
     def decide(self, state: State, perception: PerceptionInput | None) -> Decision:
+        decision = self._decide(state, perception)
+        self._drives = decision.drove  # claim() claims only while the strategy drives
+        return decision
+
+    def _decide(self, state: State, perception: PerceptionInput | None) -> Decision:
         step = self._phases.step(state)
         if not step.drive:
             return stop(f"phase {state.phase.name.lower()}")

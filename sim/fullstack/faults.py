@@ -1023,7 +1023,7 @@ class Schedule(Scenario):
         super().__init__(0.0, match_s, valid_ms)
         self.parts = sorted(parts, key=lambda p: p.at_ms)
         for p in self.parts:
-            if isinstance(p, SchemaMismatch | JetsonKilled):
+            if isinstance(p, SchemaMismatch | JetsonKilled | VexlinkLost):
                 raise MatchError(f"{p.name} lasts the whole match: it cannot be in a schedule")
         for a, b in zip(self.parts, self.parts[1:], strict=False):
             if a.at_ms + a.span_ms > b.at_ms:

@@ -24,10 +24,13 @@ from sim.fullstack.hardware import RobotHardware
 from sim.fullstack.options import LOOP_MS
 from sim.fullstack.report import percentiles_ms
 
+# Boot ids of the partner's Brain and Jetson (ours: 0x5EED0000 and 0x7E750000, plus the seed's
+# low 16 bits), so the two robots' logs never share one.
+PARTNER_BRAIN_BOOT = 0x5EEE0000
+PARTNER_JETSON_BOOT = 0x7E760000
 
-def step_brain(
-    brain: BrainHost, hardware: RobotHardware, cable: Cable, lines: list[str], until_ms: int
-) -> BrainReport:
+
+def step_brain(brain: BrainHost, cable: Cable, lines: list[str], until_ms: int) -> BrainReport:
     """One 10 ms step of a Brain: the sensors' and any extra side-channel lines, the step to
     until_ms (on the Brain's own clock) once the Jetson's bytes sent so far have arrived; what
     it wrote goes up the cable."""
@@ -76,11 +79,14 @@ class PartnerStack:
         daemon: DaemonOptions,
     ) -> PartnerStack:
         """Its Brain, cable, daemon and camera, started. `daemon`: our robot's daemon options,
-        which it shares but for its role, boot id, camera file and recordings."""
+        which it shares but for its role, boot id, camera file, recordings and fingerprint (a
+        fault of ours, schema-mismatch, is not the partner's). What started is stopped again
+        when a later part fails."""
         from dataclasses import replace
 
         from jetson.perception.camera import CameraConfig as JetsonCamera
         from jetson.perception.sources.stream import FrameStreamServer
+        from protocol import messages
         from sim.world import sensors
 
         robot = world.robots[index]
@@ -92,52 +98,58 @@ class PartnerStack:
             options.ring_counter,
             gps_occlusion=sensors.GpsOcclusion() if options.gps_occlusion else None,
         )
-        try:
-            brain = BrainHost.start(
-                lockstep=True,
-                alliance=robot.alliance,
-                boot_id=0x5EED1000 + (seed & 0xFFF),
-                phase="disabled",
-                binary=options.brain_host,
-                stderr_path=folder / "partner_brain_host.stderr",
-                track_width_m=robot.config.track_m,
+        with contextlib.ExitStack() as undo:
+            try:
+                brain = BrainHost.start(
+                    lockstep=True,
+                    alliance=robot.alliance,
+                    boot_id=PARTNER_BRAIN_BOOT + (seed & 0xFFFF),
+                    phase="disabled",
+                    binary=options.brain_host,
+                    stderr_path=folder / "partner_brain_host.stderr",
+                    track_width_m=robot.config.track_m,
+                )
+            except BrainHostError as exc:
+                raise MatchError(f"the partner's Brain: {exc}") from exc
+            undo.callback(brain.close)
+            if brain.period_ms != LOOP_MS:
+                raise MatchError(
+                    f"the partner's brain_host loop period is {brain.period_ms} ms, not {LOOP_MS}"
+                )
+            cable = Cable(brain.pty_path, tmp / "partner-usb", seed=seed + 1)
+            undo.callback(cable.close)
+            server = cam_cfg = address = camera_file = None
+            if daemon.camera:
+                address = f"unix:{tmp / 'partner-frames.sock'}"
+                server = FrameStreamServer(address)
+                undo.callback(server.close)
+                cam_cfg = robot.config.camera.scaled(options.camera_width, options.camera_height)
+                camera_file = folder / "partner_camera.json"
+                JetsonCamera(cam_cfg.intrinsics, cam_cfg.mount).save(camera_file)
+            opts = replace(
+                daemon,
+                role=robot.config.name,
+                boot_id=PARTNER_JETSON_BOOT + (seed & 0xFFFF),
+                camera_config=camera_file,
+                record_dir=None,
+                fingerprint=messages.FINGERPRINT,
             )
-        except BrainHostError as exc:
-            raise MatchError(f"the partner's Brain: {exc}") from exc
-        cable = Cable(brain.pty_path, tmp / "partner-usb", seed=seed + 1)
-        server = cam_cfg = address = camera_file = None
-        if daemon.camera:
-            address = f"unix:{tmp / 'partner-frames.sock'}"
-            server = FrameStreamServer(address)
-            cam_cfg = robot.config.camera.scaled(options.camera_width, options.camera_height)
-            camera_file = folder / "partner_camera.json"
-            JetsonCamera(cam_cfg.intrinsics, cam_cfg.mount).save(camera_file)
-        opts = replace(
-            daemon,
-            role=robot.config.name,
-            boot_id=0x7E751000 + (seed & 0xFFF),
-            camera_config=camera_file,
-            record_dir=None,
-        )
-        log = (folder / "partner_daemon.jsonl").open("w")
-        try:
-            jetson = DaemonHost(opts, clock, cable.port_path, address, log)
-        except DaemonError as exc:
-            log.close()
-            cable.close()
-            brain.close()
-            raise MatchError(f"the partner's daemon: {exc}") from exc
-        stack = cls(index, hardware, brain, cable, jetson, log, server, cam_cfg)
-        jetson.start()
-        if server is not None and not server.wait_for_client(10.0):
-            stack.close()
-            raise MatchError("the partner's camera thread never connected to its frame stream")
-        return stack
+            log = undo.enter_context((folder / "partner_daemon.jsonl").open("w"))
+            try:
+                jetson = DaemonHost(opts, clock, cable.port_path, address, log)
+            except DaemonError as exc:
+                raise MatchError(f"the partner's daemon: {exc}") from exc
+            undo.callback(jetson.shutdown)
+            jetson.start()
+            if server is not None and not server.wait_for_client(10.0):
+                raise MatchError("the partner's camera thread never connected to its frame stream")
+            undo.pop_all()  # all started: close() stops them
+        return cls(index, hardware, brain, cable, jetson, log, server, cam_cfg)
 
     def tick(self, phase: str, t_ms: int, match_ms: int, started: bool) -> BrainReport:
         """Its Brain's step to t_ms + one loop, then its daemon's turn (the clock already set)."""
         lines = self.hardware.sensor_lines(self.hardware.read(phase))
-        report = step_brain(self.brain, self.hardware, self.cable, lines, t_ms + LOOP_MS)
+        report = step_brain(self.brain, self.cable, lines, t_ms + LOOP_MS)
         service_daemon(self.jetson, self.cable)
         if started:
             self.steps += 1
@@ -169,16 +181,19 @@ class PartnerStack:
             self.jetson.frame_sent(k, stamp_s)
 
     def close(self) -> None:
+        """Stop everything, each part whatever the others did."""
         if self.server is not None:
             with contextlib.suppress(Exception):
                 self.server.close()
             self.server = None
         with contextlib.suppress(Exception):
             self.jetson.shutdown()
-        self.cable.close()
-        if self.brain is not None:
+        with contextlib.suppress(Exception):
+            self.cable.close()
+        try:
             self.statuses.append(self.brain.close())
-        self.log.close()
+        finally:
+            self.log.close()
 
     def as_dict(self) -> dict[str, Any]:
         """What the match summary shows of it."""

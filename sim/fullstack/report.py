@@ -284,9 +284,11 @@ def partner_rows(p: dict[str, Any]) -> list[tuple[str, str]]:
             f"{v['late']} late (max delay {v['max_delay_ms']:.0f} ms)",
         ),
     ]
-    alone = [state for _, state in p["our_partner_link"] + p["partner_link"]]
-    if "lost" in alone:
+    ends = [changes[-1][1] for changes in (p["our_partner_link"], p["partner_link"]) if changes]
+    if "lost" in ends:
         rows.append(("alliance", "the partner link was lost: each robot played on alone"))
+    elif any(s == "lost" for _, s in p["our_partner_link"] + p["partner_link"]):
+        rows.append(("alliance", "the partner link was lost for a while and came back"))
     return rows
 
 

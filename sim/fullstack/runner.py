@@ -620,7 +620,8 @@ class FullStackMatch:
 
     def _teardown(self) -> None:
         if self.partner is not None:
-            self.partner.close()
+            with contextlib.suppress(Exception):  # ours is stopped whatever the partner's did
+                self.partner.close()
         # The stream first: the camera thread is blocked reading it and ends at its close.
         if self.server is not None:
             with contextlib.suppress(Exception):
@@ -681,7 +682,7 @@ class FullStackMatch:
             lines = self.hardware.sensor_lines(reading) + self.extra_lines
             self.extra_lines = []
             until = t + LOOP_MS - self.brain_offset_ms
-            report = step_brain(self.brain, self.hardware, self.cable, lines, until)
+            report = step_brain(self.brain, self.cable, lines, until)
             if self.brain_offset_ms:
                 report = report.shifted(self.brain_offset_ms)
         else:
@@ -705,8 +706,10 @@ class FullStackMatch:
                     self.brain_track.command_delivered(msg.seq, t, stop)
         if self.partner is not None:
             self._partner_report = self.partner.tick(phase, t, self.match_ms, started)
-            if self.brain is not None:  # a Brain rebooting has no radio
+            if self.brain is not None:
                 self.vexlink.relay(self.brain, self.partner.brain, t)
+            else:  # our Brain is down (rebooting): its radio hears nothing meanwhile
+                self.vexlink.a_down(t, self.partner.brain.radio_tx())
             if not self.partner_links or self.partner_links[-1][1] != report.partner:
                 self.partner_links.append((self.match_ms, report.partner))
         self.brain_track.note(report, started)

@@ -85,6 +85,14 @@ class Vexlink:
         """What has reached (a, b) by t_ms."""
         return self._take(self._ba, t_ms), self._take(self._ab, t_ms)
 
+    def a_down(self, t_ms: float, from_b: bytes) -> None:
+        """Brain a is off (a reboot): what b writes meanwhile and what was on its way to a are
+        lost, not kept for a's return; a's own half-written frame goes with it."""
+        self._write(self._ba, t_ms, from_b)
+        self.stats.lost += len(self._ba.flight)
+        self._ba.flight.clear()
+        self._ab.pending.clear()
+
     def relay(self, a: BrainHost, b: BrainHost, t_ms: float) -> None:
         """Move what both brain_hosts wrote since the last call, and give each what has arrived."""
         self.carry(t_ms, a.radio_tx(), b.radio_tx())

@@ -226,3 +226,7 @@ def test_the_claim_for_the_partner_is_the_strategys_target_in_the_field_frame() 
         assert sign * claim.xy[0] < 0
         unknown = state(0.1, 2, alliance=Alliance.UNKNOWN)
         assert decider.claim(unknown).target is TargetKind.NOTHING
+        # Disabled (the pause between the periods, the match's end): it goes for nothing.
+        paused = state(15.0, 3, alliance=alliance, phase=MatchPhase.DISABLED, phase_ms=0)
+        assert decider.decide(paused, None).reason == "phase disabled"
+        assert decider.claim(paused).target is TargetKind.NOTHING

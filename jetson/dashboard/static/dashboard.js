@@ -201,9 +201,9 @@
     const cell = $("partner-link");
     if (!pv) { text("partner-link", "no report from the Brain"); cell.dataset.link = ""; text("partner", "-"); return; }
     const up = pv.link === "up";
-    text("partner-link", (pv.link || "-") + (pv.link && pv.link !== "absent" ? ", " +
+    text("partner-link", (pv.link || "no status yet") + (pv.link && pv.link !== "absent" ? ", " +
       pv.received + " in / " + pv.sent + " out, " + pv.lost + " lost, " + pv.errors + " corrupt" +
-      (pv.age_ms === null ? "" : ", newest " + pv.age_ms + " ms ago") : " (no radio)") +
+      (pv.age_ms === null ? "" : ", newest " + pv.age_ms + " ms ago") : (pv.link ? " (no radio)" : "")) +
       (up ? "" : "  playing alone"), up ? "good" : (pv.link === "lost" ? "bad" : "warn"));
     cell.dataset.link = pv.link || "";
     const r = pv.report;
@@ -282,7 +282,7 @@
     (f.goals || []).forEach((p) => {
       hexagon(p, 12); g.strokeStyle = "#fd3"; g.lineWidth = 2; g.stroke();
     });
-    // the goals the camera saw (a recording's; jetson/dashboard/replay.py): [x, y, colour code],
+    // the goals the camera saw (live and in a replay; jetson/dashboard/snapshot.py goals_field): [x, y, colour code],
     // filled in the base's colour (jetson/autonomy/goal_colours.py: yellow, red, blue)
     (f.goals_seen || []).forEach((p) => {
       hexagon(p, 8); g.fillStyle = ["#fd3", "#e33", "#38f"][p[2]] || "#fff"; g.fill();
@@ -332,10 +332,10 @@
       g.beginPath(); g.moveTo(0, 0); g.lineTo(0, -side * 0.7); g.stroke(); g.setLineDash([]);
       g.restore();
       D.drawn.partner = { x: pr.pose[0], y: pr.pose[1], heading: pr.pose[2] };
-      if (pr.target_xy) {
-        const c = T.px(pr.target_xy[0], pr.target_xy[1]);
-        star(g, c, 9, null); g.strokeStyle = "#fa3"; g.lineWidth = 2; g.stroke();
-      }
+    }
+    if (pr && pr.target_xy) {  // its claim, with or without its pose
+      const c = T.px(pr.target_xy[0], pr.target_xy[1]);
+      star(g, c, 9, null); g.strokeStyle = "#fa3"; g.lineWidth = 2; g.stroke();
     }
     // the robot, last so it is on top
     const pose = s.pose;

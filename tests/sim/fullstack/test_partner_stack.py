@@ -83,3 +83,21 @@ def test_the_partner_stack_needs_the_whole_game_in_lockstep(tmp_path: Path) -> N
         options(tmp_path, realtime=True)
     with pytest.raises(MatchError, match="--partner stack"):
         run_match(options(tmp_path, partner="alliance", fault="vexlink-lost", camera=False))
+
+
+@pytest.mark.parametrize("fault", ["schema-mismatch", "brain-reboot"])
+def test_our_faults_leave_the_partner_playing(tmp_path: Path, fault: str) -> None:
+    """A fault of ours is ours: the partner's Jetson keeps driving its robot (schema-mismatch:
+    our Jetson announces another schema, the partner's does not; brain-reboot: our Brain is down
+    a second, and the partner's reports sent meanwhile are lost, not delivered to the new
+    Brain late)."""
+    out = tmp_path / fault
+    result = run_match(options(out, fault=fault, fault_at_s=1.5, camera=False))
+    assert result.passed, [c for c in result.checks if not c.passed]
+    p = result.partner
+    assert p is not None and p["jetson_share"] >= 0.95
+    assert p["messages"]["up"]["rejected"] == 0
+    if fault == "brain-reboot":
+        v = p["vexlink"]
+        assert v["late"] == 0 and v["lost"] >= 5  # a second of the partner's reports
+        assert p["our_partner_link"][-1][1] == "up"  # the new Brain hears the partner again

@@ -38,6 +38,18 @@ def test_a_frame_arrives_after_its_airtime_and_latency() -> None:
     assert link.stats.delivered == 2 and link.stats.lost == 0
 
 
+def test_while_one_brain_is_down_nothing_waits_for_its_return() -> None:
+    """A Brain rebooting hears nothing: what its partner sent meanwhile, and what was on its
+    way, is lost, not delivered when it comes back."""
+    link = Vexlink(VexlinkConfig(latency_ms=15, jitter_ms=0, loss=0.0), np.random.default_rng(0))
+    link.carry(0, b"", frame(26))  # on its way to a
+    link.a_down(10, frame(26, 0x42))  # a goes down: b's next report too
+    link.a_down(20, b"")
+    assert link.stats.lost == 2 and link.stats.frames == 2
+    link.carry(500, b"", frame(26, 0x43))  # a is back: only what b sends now arrives
+    assert link.arrived(1000) == (frame(26, 0x43), b"")
+
+
 def test_a_frame_cut_across_writes_goes_whole() -> None:
     link = Vexlink(VexlinkConfig(jitter_ms=0, loss=0.0), np.random.default_rng(0))
     whole = frame(26)
