@@ -56,7 +56,8 @@ from jetson.perception.prefilter import HsvWindow
 INCH = 0.0254
 
 
-def _default_windows() -> dict[str, tuple[HsvWindow, ...]]:
+def colour_windows() -> dict[str, tuple[HsvWindow, ...]]:
+    """The HSV windows of the field's colours: yellow goals; red and blue goals and plates."""
     # OpenCV hue runs 0-180: red wraps around 0, so it has two windows.
     return {
         "yellow": (HsvWindow((18.0, 35.0), (110.0, 255.0), (90.0, 255.0)),),
@@ -70,7 +71,7 @@ def _default_windows() -> dict[str, tuple[HsvWindow, ...]]:
 
 @dataclass(frozen=True)
 class GoalDetectorConfig:
-    windows: dict[str, tuple[HsvWindow, ...]] = field(default_factory=_default_windows)
+    windows: dict[str, tuple[HsvWindow, ...]] = field(default_factory=colour_windows)
     reference_width: int = 640  # min_area_px is for this image width and scales with it
     min_area_px: float = 400.0  # a goal base 3 m away covers ~1500 px at 640x480
     open_px: int = 3
