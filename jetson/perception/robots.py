@@ -2,7 +2,7 @@
 shape, and the robot behind it.
 
 VEX robots carry licence plates in their alliance's colour (red or blue) on two opposite sides;
-the twin's robots carry them across the front and the back (sim/world/physics.py). The detector
+the twin's robots carry one, across the front (sim/world/physics.py). The detector
 masks both colours in HSV (the goal detector's windows: jetson/perception/goals.py), keeps blobs
 big enough for a plate at the camera's range, and places each blob's pixels with a depth reading
 in the robot frame through the camera model (jetson.autonomy.camera: the one pinhole model and
@@ -18,8 +18,8 @@ The robot stands behind the plate: its middle is the plate's middle moved, away 
 along the plate's normal, by half the robot's depth, taken as the plate's length over
 `plate_share` (a square robot whose plate spans that share of its side). The report is
 (N, 3): x, y robot frame (metres, x right, y forward) and the alliance's code
-(ROBOT_ALLIANCE_CODES). A robot seen side on shows no plate and is not reported; the camera, which
-looks down at the floor for rings, sees plates within about 2 m.
+(ROBOT_ALLIANCE_CODES). A robot seen side on (in the twin, or from behind) shows no plate and is
+not reported; the camera, which looks down at the floor for rings, sees plates within about 2 m.
 """
 
 from __future__ import annotations

@@ -390,14 +390,12 @@ class World:
             half = (rc.width_m / 2, rc.length_m / 2, rc.height_m / 2)
             col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=cid)
             alliance_rgb = (200, 40, 45) if alliance == "red" else (30, 80, 190)
-            plate = [half[0] * 0.9, 0.01, 0.04]
             vis = p.createVisualShapeArray(
-                shapeTypes=[p.GEOM_BOX, p.GEOM_BOX, p.GEOM_BOX],
-                # Alliance-coloured licence plates across the front (below the camera) and the
-                # back, as VEX robots carry them on two opposite sides.
-                halfExtents=[list(half), plate, plate],
-                rgbaColors=[self._rgba(rc.rgb), self._rgba(alliance_rgb), self._rgba(alliance_rgb)],
-                visualFramePositions=[[0, 0, 0], [0, half[1], 0.0], [0, -half[1], 0.0]],
+                shapeTypes=[p.GEOM_BOX, p.GEOM_BOX],
+                # An alliance-coloured bumper stripe across the front, below the camera.
+                halfExtents=[list(half), [half[0] * 0.9, 0.01, 0.04]],
+                rgbaColors=[self._rgba(rc.rgb), self._rgba(alliance_rgb)],
+                visualFramePositions=[[0, 0, 0], [0, half[1], 0.0]],
                 physicsClientId=cid,
             )
             # Box local frame: x across, y along the heading, so yaw = heading_to_yaw - 90 deg
