@@ -49,9 +49,7 @@ def look(w: World, d: float, rel: float, lat: float) -> tuple[list, np.ndarray]:
 
 @pytest.mark.parametrize("d", [1.4, 1.6, 2.0])
 @pytest.mark.parametrize("rel", [180.0, 150.0, 210.0])  # facing us, aslant either way
-def test_a_robot_facing_us_is_placed_behind_its_plate(
-    world: World, d: float, rel: float
-) -> None:
+def test_a_robot_facing_us_is_placed_behind_its_plate(world: World, d: float, rel: float) -> None:
     got, truth = look(world, d, rel, 0.0)
     assert len(got) == 1, got
     s = got[0]
