@@ -49,6 +49,7 @@ from numpy.typing import NDArray
 
 from jetson.autonomy.camera import Intrinsics, project_points
 from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES as COLOUR_CODES
+from jetson.perception.blobs import colour_blobs
 from jetson.perception.camera import CameraConfig
 from jetson.perception.localise import pixel_rays
 from jetson.perception.prefilter import HsvWindow
@@ -153,54 +154,37 @@ class GoalDetector:
         intr = intrinsics or self.camera.intrinsics
         if (intr.width, intr.height) != (w, h):
             intr = intr.scaled(w, h)
-        scale = w / cfg.reference_width
-        hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
-        kernel = np.ones((cfg.open_px, cfg.open_px), np.uint8)
         out: list[tuple[GoalSighting, BlobShape]] = []
-        for colour, windows in cfg.windows.items():
-            mask = np.zeros((h, w), np.uint8)
-            for win in windows:
-                lo, hi = win.bounds()
-                mask |= cv2.inRange(hsv, lo, hi)
-            mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel)
-            n, labels, stats, centroids = cv2.connectedComponentsWithStats(mask)
-            for k in range(1, n):
-                if stats[k, cv2.CC_STAT_AREA] < cfg.min_area_px * scale * scale:
+        for blob in colour_blobs(
+            bgr, depth_m, cfg.windows, cfg.min_area_px, cfg.open_px, cfg.reference_width
+        ):
+            colour, uv, z = blob.colour, blob.uv, blob.depth_m
+            x0, y0, x1, y1 = blob.box
+            vs, us = blob.local
+            height = self._points(uv, z, intr)[:, 2]
+            low = height <= cfg.base_height_m + cfg.height_margin_m
+            if low.sum() < cfg.min_base_points:
+                u, v = blob.centroid
+                nan = float("nan")
+                sighting = GoalSighting(colour, u, v, float(np.median(z)), nan, nan)
+                out.append((sighting, BlobShape(False, "above the floor")))
+                continue
+            # The blob's parts no higher than a base, apart in the image once the posts are
+            # left out: two goals one behind the other (the nearer one's post across the
+            # farther one's base) are two bases.
+            part = np.zeros((y1 - y0, x1 - x0), np.uint8)
+            part[vs[low], us[low]] = 255
+            m, parts = cv2.connectedComponents(part)
+            of = parts[vs[low], us[low]]
+            for j in range(1, m):
+                mine = of == j
+                if mine.sum() < cfg.min_base_points:
                     continue
-                x0, y0 = stats[k, cv2.CC_STAT_LEFT], stats[k, cv2.CC_STAT_TOP]
-                x1 = x0 + stats[k, cv2.CC_STAT_WIDTH]
-                y1 = y0 + stats[k, cv2.CC_STAT_HEIGHT]
-                vs, us = np.nonzero(labels[y0:y1, x0:x1] == k)
-                d = depth_m[vs + y0, us + x0]
-                ok = np.isfinite(d) & (d > 0)
-                if not ok.any():
-                    continue
-                vs, us, z = vs[ok], us[ok], d[ok].astype(np.float64)
-                uv = np.column_stack([us + x0, vs + y0]).astype(np.float64)
-                height = self._points(uv, z, intr)[:, 2]
-                low = height <= cfg.base_height_m + cfg.height_margin_m
-                if low.sum() < cfg.min_base_points:
-                    u, v = (float(c) for c in centroids[k])
-                    nan = float("nan")
-                    sighting = GoalSighting(colour, u, v, float(np.median(z)), nan, nan)
-                    out.append((sighting, BlobShape(False, "above the floor")))
-                    continue
-                # The blob's parts no higher than a base, apart in the image once the posts are
-                # left out: two goals one behind the other (the nearer one's post across the
-                # farther one's base) are two bases.
-                part = np.zeros((y1 - y0, x1 - x0), np.uint8)
-                part[vs[low], us[low]] = 255
-                m, parts = cv2.connectedComponents(part)
-                of = parts[vs[low], us[low]]
-                for j in range(1, m):
-                    mine = of == j
-                    if mine.sum() < cfg.min_base_points:
-                        continue
-                    puv, pz = uv[low][mine], z[low][mine]
-                    shape = self.shape(puv, pz, intr)
-                    u, v = (float(c) for c in puv.mean(axis=0))
-                    sighting = GoalSighting(colour, u, v, float(np.median(pz)), shape.x, shape.y)
-                    out.append((sighting, shape))
+                puv, pz = uv[low][mine], z[low][mine]
+                shape = self.shape(puv, pz, intr)
+                u, v = (float(c) for c in puv.mean(axis=0))
+                sighting = GoalSighting(colour, u, v, float(np.median(pz)), shape.x, shape.y)
+                out.append((sighting, shape))
         return out
 
     def _points(

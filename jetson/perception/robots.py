@@ -26,11 +26,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
 from jetson.autonomy.camera import Intrinsics
+from jetson.perception.blobs import colour_blobs
 from jetson.perception.camera import CameraConfig
 from jetson.perception.goals import colour_windows
 from jetson.perception.localise import pixel_rays
@@ -93,41 +93,23 @@ class RobotDetector:
     ) -> list[RobotSighting]:
         cfg = self.config
         h, w = bgr.shape[:2]
-        if depth_m.shape[:2] != (h, w):
-            raise ValueError(f"depth image {depth_m.shape[:2]} is not the colour's {(h, w)}")
         intr = intrinsics or self.camera.intrinsics
         if (intr.width, intr.height) != (w, h):
             intr = intr.scaled(w, h)
-        scale = w / cfg.reference_width
-        hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
-        kernel = np.ones((cfg.open_px, cfg.open_px), np.uint8)
         out: list[RobotSighting] = []
-        for alliance, windows in cfg.windows.items():
-            mask = np.zeros((h, w), np.uint8)
-            for win in windows:
-                lo, hi = win.bounds()
-                mask |= cv2.inRange(hsv, lo, hi)
-            mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel)
-            n, labels, stats, _ = cv2.connectedComponentsWithStats(mask)
-            for k in range(1, n):
-                if stats[k, cv2.CC_STAT_AREA] < cfg.min_area_px * scale * scale:
-                    continue
-                x0, y0 = stats[k, cv2.CC_STAT_LEFT], stats[k, cv2.CC_STAT_TOP]
-                x1 = x0 + stats[k, cv2.CC_STAT_WIDTH]
-                y1 = y0 + stats[k, cv2.CC_STAT_HEIGHT]
-                vs, us = np.nonzero(labels[y0:y1, x0:x1] == k)
-                d = depth_m[vs + y0, us + x0]
-                ok = np.isfinite(d) & (d > 0)
-                if ok.sum() < cfg.min_points:
-                    continue
-                uv = np.column_stack([us[ok] + x0, vs[ok] + y0]).astype(np.float64)
-                points = self.camera.mount.camera_to_robot(
-                    pixel_rays(uv, intr) * d[ok].astype(np.float64)[:, None]
-                )
-                cut = (x0 < 1, x1 > w - 1)  # the blob runs off the image's left, right side
-                sighting = self.plate(alliance, points, cut)
-                if sighting is not None:
-                    out.append(sighting)
+        for blob in colour_blobs(
+            bgr, depth_m, cfg.windows, cfg.min_area_px, cfg.open_px, cfg.reference_width
+        ):
+            if len(blob.uv) < cfg.min_points:
+                continue
+            points = self.camera.mount.camera_to_robot(
+                pixel_rays(blob.uv, intr) * blob.depth_m[:, None]
+            )
+            x0, _, x1, _ = blob.box
+            cut = (x0 < 1, x1 > w - 1)  # the blob runs off the image's left, right side
+            sighting = self.plate(blob.colour, points, cut)
+            if sighting is not None:
+                out.append(sighting)
         return out
 
     def plate(
