@@ -21,12 +21,14 @@ The learned alliance's targets (win rate and score against the scripted alliance
 fidelity, partner collisions) are issue 46's and wait for the learned alliance; they are not
 measured here yet.
 
-Results: bench/results/alliance.json; the run folders under --out (default runs/bench-alliance/).
+Results: bench/results/alliance.json, each match's figures in alliance_details.json; the run
+folders under --out (default runs/bench-alliance/).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import sys
 import time
@@ -77,6 +79,7 @@ def main(argv: list[str] | None = None) -> int:
     frames = lost = late = 0
     max_delay = 0.0
     shares: list[float] = []
+    rows: list[dict[str, object]] = []
     try:
         for seed in seeds:
             result = run_match(
@@ -95,6 +98,12 @@ def main(argv: list[str] | None = None) -> int:
             max_delay = max(max_delay, v.get("max_delay_ms", 0.0))
             if p.get("jetson_share") is not None:
                 shares.append(p["jetson_share"])
+            rows.append(
+                {
+                    "seed": seed, "red": result.score, "blue": result.opponent_score,
+                    "wall_s": round(result.wall_s, 1), "vexlink": v, "game": result.game,
+                }
+            )  # fmt: skip
             print(
                 f"seed {seed}: red {result.score} - blue {result.opponent_score}, "
                 f"wall {result.wall_s:.1f} s, VEXlink {v.get('delivered', 0)} of "
@@ -102,6 +111,8 @@ def main(argv: list[str] | None = None) -> int:
                 flush=True,
             )
         twin = _twin_red_scores(seeds) if args.seconds is None else []
+        for row, score in zip(rows, twin, strict=False):
+            row["red_twin"] = score
         fault_at = min(FAULT_AT_S, (args.seconds or 105.0) / 3)
         lost_match = run_match(
             MatchOptions(
@@ -140,7 +151,10 @@ def main(argv: list[str] | None = None) -> int:
     r.target("vexlink_lost_both_play_alone", 1.0, ">=")
     r.target("vexlink_lost_both_drive_on", 1.0, ">=")
     print()
-    r.report(args.results)
+    path = r.report(args.results)
+    details = path.with_name(f"{args.name}_details.json")
+    details.write_text(json.dumps({"matches": rows}, indent=1, default=str) + "\n")
+    print(f"wrote {details}")
     return 1 if args.strict and not r.all_met else 0
 
 
