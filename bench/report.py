@@ -212,6 +212,12 @@ HEADLINES: tuple[Headline, ...] = (
         "{rings_full_over_sim}, {score_full_over_sim}",
     ),
     Headline(
+        "Both red robots on the full stack over VEXlink: a 2v2 match's wall time; radio frames "
+        "lost; red's points over the twin's",
+        "alliance",
+        "{full_stack_2v2_wall_s_median} s; {vexlink_lost_share:pct}; {full_stack_score_over_twin}",
+    ),
+    Headline(
         "Ring detector: F1 on real photos (pooled), on simulator frames; speed on one core",
         "perception",
         "{real_cnn_f1} ({real_images} photos), {sim_cnn_f1}; {fps_cnn} frames/s",

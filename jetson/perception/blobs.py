@@ -3,7 +3,8 @@
 Each colour's HSV windows make a mask (opened to drop specks), whose connected blobs big enough
 (`min_area_px` at `reference_width`, scaled with the image's width) are kept with their pixels
 that have a depth reading (finite, positive). jetson/perception/goals.py and robots.py test the
-blobs' shapes in 3D; this finds them, once, for both.
+blobs' shapes in 3D; this finds them, once, for both, and places their pixels in the robot
+frame (`robot_points`, at the image's own intrinsics: `image_intrinsics`).
 """
 
 from __future__ import annotations
@@ -15,6 +16,9 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from jetson.autonomy.camera import Intrinsics
+from jetson.perception.camera import CameraConfig
+from jetson.perception.localise import pixel_rays
 from jetson.perception.prefilter import HsvWindow
 
 
@@ -31,6 +35,22 @@ class Blob:
         """The pixels with depth as rows and columns within the blob's box."""
         x0, y0, _, _ = self.box
         return (self.uv[:, 1] - y0).astype(np.int64), (self.uv[:, 0] - x0).astype(np.int64)
+
+
+def image_intrinsics(
+    camera: CameraConfig, intrinsics: Intrinsics | None, width: int, height: int
+) -> Intrinsics:
+    """The frame's own intrinsics (a RealSense and the simulator's stream send theirs) or the
+    camera config's, scaled to the image's size."""
+    intr = intrinsics or camera.intrinsics
+    return intr if (intr.width, intr.height) == (width, height) else intr.scaled(width, height)
+
+
+def robot_points(
+    camera: CameraConfig, uv: NDArray[np.float64], depth: NDArray[np.float64], intr: Intrinsics
+) -> NDArray[np.float64]:
+    """Pixels (N, 2) at their depths (N,) -> points (N, 3), robot frame, z up."""
+    return camera.mount.camera_to_robot(pixel_rays(uv, intr) * depth[:, None])
 
 
 def colour_blobs(

@@ -49,9 +49,8 @@ from numpy.typing import NDArray
 
 from jetson.autonomy.camera import Intrinsics, project_points
 from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES as COLOUR_CODES
-from jetson.perception.blobs import colour_blobs
+from jetson.perception.blobs import colour_blobs, image_intrinsics, robot_points
 from jetson.perception.camera import CameraConfig
-from jetson.perception.localise import pixel_rays
 from jetson.perception.prefilter import HsvWindow
 
 INCH = 0.0254
@@ -149,11 +148,7 @@ class GoalDetector:
         and the rest: what sim.goal_survey counts)."""
         cfg = self.config
         h, w = bgr.shape[:2]
-        if depth_m.shape[:2] != (h, w):
-            raise ValueError(f"depth image {depth_m.shape[:2]} is not the colour's {(h, w)}")
-        intr = intrinsics or self.camera.intrinsics
-        if (intr.width, intr.height) != (w, h):
-            intr = intr.scaled(w, h)
+        intr = image_intrinsics(self.camera, intrinsics, w, h)
         out: list[tuple[GoalSighting, BlobShape]] = []
         for blob in colour_blobs(
             bgr, depth_m, cfg.windows, cfg.min_area_px, cfg.open_px, cfg.reference_width
@@ -161,7 +156,7 @@ class GoalDetector:
             colour, uv, z = blob.colour, blob.uv, blob.depth_m
             x0, y0, x1, y1 = blob.box
             vs, us = blob.local
-            height = self._points(uv, z, intr)[:, 2]
+            height = robot_points(self.camera, uv, z, intr)[:, 2]
             low = height <= cfg.base_height_m + cfg.height_margin_m
             if low.sum() < cfg.min_base_points:
                 u, v = blob.centroid
@@ -187,12 +182,6 @@ class GoalDetector:
                 out.append((sighting, shape))
         return out
 
-    def _points(
-        self, uv: NDArray[np.float64], depth: NDArray[np.float64], intr: Intrinsics
-    ) -> NDArray[np.float64]:
-        """Pixels (N, 2) at their depths (N,) -> points (N, 3), robot frame, z up."""
-        return self.camera.mount.camera_to_robot(pixel_rays(uv, intr) * depth[:, None])
-
     def shape(
         self, uv: NDArray[np.float64], depth: NDArray[np.float64], intr: Intrinsics
     ) -> BlobShape:
@@ -201,7 +190,7 @@ class GoalDetector:
         cfg = self.config
         r = cfg.base_radius_m
         mount = self.camera.mount
-        points = self._points(uv, depth, intr)
+        points = robot_points(self.camera, uv, depth, intr)
         low = points[:, 2] <= cfg.base_height_m + cfg.height_margin_m
         if low.sum() < cfg.min_base_points:
             return BlobShape(False, "above the floor")

@@ -30,10 +30,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from jetson.autonomy.camera import Intrinsics
-from jetson.perception.blobs import colour_blobs
+from jetson.perception.blobs import colour_blobs, image_intrinsics, robot_points
 from jetson.perception.camera import CameraConfig
 from jetson.perception.goals import colour_windows
-from jetson.perception.localise import pixel_rays
 from jetson.perception.prefilter import HsvWindow
 
 ROBOT_ALLIANCE_CODES = {"red": 1, "blue": 2}
@@ -92,19 +91,15 @@ class RobotDetector:
         intrinsics: Intrinsics | None = None,
     ) -> list[RobotSighting]:
         cfg = self.config
-        h, w = bgr.shape[:2]
-        intr = intrinsics or self.camera.intrinsics
-        if (intr.width, intr.height) != (w, h):
-            intr = intr.scaled(w, h)
+        w = bgr.shape[1]
+        intr = image_intrinsics(self.camera, intrinsics, w, bgr.shape[0])
         out: list[RobotSighting] = []
         for blob in colour_blobs(
             bgr, depth_m, cfg.windows, cfg.min_area_px, cfg.open_px, cfg.reference_width
         ):
             if len(blob.uv) < cfg.min_points:
                 continue
-            points = self.camera.mount.camera_to_robot(
-                pixel_rays(blob.uv, intr) * blob.depth_m[:, None]
-            )
+            points = robot_points(self.camera, blob.uv, blob.depth_m, intr)
             x0, _, x1, _ = blob.box
             cut = (x0 < 1, x1 > w - 1)  # the blob runs off the image's left, right side
             sighting = self.plate(blob.colour, points, cut)

@@ -982,7 +982,7 @@ class VexlinkLost(Scenario):
     def _alone(self, m: RunningMatch) -> tuple[float | None, float | None]:
         return (
             self._alone_after_s(_log(m)),
-            self._alone_after_s(read_log(m.folder / "partner_daemon.jsonl")),
+            self._alone_after_s(read_log(Path(m.partner.log.name)) if m.partner else []),
         )
 
     def own_checks(self, m: RunningMatch) -> list[Check]:

@@ -5,6 +5,10 @@ daemon (in this process, the scripted alliance as its role) and camera, stepped 
 beside ours by sim.fullstack.runner.FullStackMatch. The two Brains' radios are linked by
 sim.fullstack.vexlink.Vexlink, so each daemon hears the other's partner reports as it would on
 the field. Faults act on our robot; `vexlink-lost` cuts the radio between the two.
+
+The lockstep pieces both robots' stacks run are here, one each: a Brain's step (`step_brain`), a
+daemon's turn (`service_daemon`), a camera frame to its daemon (`stream_ready`, `send_frame`),
+a link's changes over the match (`note_change`).
 """
 
 from __future__ import annotations
@@ -38,6 +42,38 @@ def step_brain(brain: BrainHost, cable: Cable, lines: list[str], until_ms: int) 
     report = BrainReport.parse(brain.run_batch(lines)[-1])
     cable.pump_up(report.tx)
     return report
+
+
+def note_change(changes: list[tuple[int, str]], t_ms: int, state: str) -> None:
+    """Keep a state's history as its changes: (t_ms, state) when it differs from the last."""
+    if not changes or changes[-1][1] != state:
+        changes.append((t_ms, state))
+
+
+def stream_ready(server: Any) -> bool:
+    """Whether a frame stream has its daemon's camera thread. One that gave up on a quiet stream
+    (its read timeout is wall time: a loaded machine can take longer than that over the preroll,
+    when no frames are sent) and connected again is taken back here."""
+    if server is None:
+        return False
+    server.accept_pending()
+    return bool(server.connected)
+
+
+def send_frame(
+    server: Any, jetson: Any, world: Any, index: int, cam: Any, stamp_s: float, k: int
+) -> Any:
+    """Robot `index`'s camera frame k, rendered now and sent to its daemon (told when it was
+    taken); the render (sim.camera.CameraFrame), or None when the daemon hung up."""
+    from jetson.perception.frame import Frame
+    from sim.camera import render_camera
+
+    f = render_camera(world, index, cam)
+    frame = Frame(np.ascontiguousarray(f.rgb[:, :, ::-1]), f.depth, cam.intrinsics, stamp_s, k)
+    if not server.send(frame):
+        return None
+    jetson.frame_sent(k, stamp_s)
+    return f
 
 
 def service_daemon(jetson: Any, cable: Cable) -> None:
@@ -154,8 +190,7 @@ class PartnerStack:
         if started:
             self.steps += 1
             self.jetson_steps += report.source == "jetson"
-        if not self.links or self.links[-1][1] != report.partner:
-            self.links.append((match_ms, report.partner))
+        note_change(self.links, match_ms, report.partner)
         self.last_report = report
         return report
 
@@ -164,21 +199,10 @@ class PartnerStack:
 
     def send_frame(self, world: Any, stamp_s: float) -> None:
         """A frame of its camera to its daemon."""
-        from jetson.perception.frame import Frame
-        from sim.camera import render_camera
-
-        if self.server is None:
-            return
-        self.server.accept_pending()  # a camera thread that gave up and came back
-        if not self.server.connected:
-            return
-        f = render_camera(world, self.index, self.cam_cfg)
-        self.frame_index += 1
-        k = self.frame_index
-        frame = Frame(np.ascontiguousarray(f.rgb[:, :, ::-1]), f.depth, self.cam_cfg.intrinsics,
-                      stamp_s, k)  # fmt: skip
-        if self.server.send(frame):
-            self.jetson.frame_sent(k, stamp_s)
+        if stream_ready(self.server):
+            self.frame_index += 1
+            k = self.frame_index
+            send_frame(self.server, self.jetson, world, self.index, self.cam_cfg, stamp_s, k)
 
     def close(self) -> None:
         """Stop everything, each part whatever the others did."""

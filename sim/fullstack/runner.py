@@ -39,7 +39,13 @@ import numpy as np
 from jetson.autonomy.geometry import field_to_robot
 from sim.errors import MatchError
 from sim.fullstack.options import LOOP_MS, MatchOptions
-from sim.fullstack.partner_stack import service_daemon, step_brain
+from sim.fullstack.partner_stack import (
+    note_change,
+    send_frame,
+    service_daemon,
+    step_brain,
+    stream_ready,
+)
 from sim.fullstack.report import (
     MatchResult,
     PerceptionScore,
@@ -710,16 +716,12 @@ class FullStackMatch:
                 self.vexlink.relay(self.brain, self.partner.brain, t)
             else:  # our Brain is down (rebooting): its radio hears nothing meanwhile
                 self.vexlink.a_down(t, self.partner.brain.radio_tx())
-            if not self.partner_links or self.partner_links[-1][1] != report.partner:
-                self.partner_links.append((self.match_ms, report.partner))
+            note_change(self.partner_links, self.match_ms, report.partner)
         self.brain_track.note(report, started)
         self.scenario.after_tick(self, report)
         if started and not w.over:
-            if w.steps == 0:  # the cameras are on when the match starts
-                if self._camera_connected():
-                    self._send_frame(t / 1000.0)
-                if self.partner is not None:
-                    self.partner.send_frame(self.world, t / 1000.0)
+            if w.steps == 0:
+                self._send_frames(t / 1000.0)  # the cameras are on when the match starts
             self._step_world(report)
 
     def _notice_daemon_exit(self) -> None:
@@ -743,10 +745,7 @@ class FullStackMatch:
         t_s = w.time_s
         world_ms = round(t_s * 1000)
         if world_ms % self.options.frame_period_ms == 0:
-            if self._camera_connected():
-                self._send_frame((self.t_ms + LOOP_MS) / 1000.0)
-            if self.partner is not None:  # its own camera, whatever a fault did to ours
-                self.partner.send_frame(self.world, (self.t_ms + LOOP_MS) / 1000.0)
+            self._send_frames((self.t_ms + LOOP_MS) / 1000.0)
         if self.replay.sample_due(t_s):
             self._sample(report)
         if self.replay.gif_due(t_s):
@@ -772,34 +771,21 @@ class FullStackMatch:
             d.command = d.player.act(self.core, d.index, obs)
         return d.command
 
-    def _camera_connected(self) -> bool:
-        """Whether the frame stream has the daemon's camera thread. One that gave up on a quiet
-        stream (its read timeout is wall time: a loaded machine can take longer than that over
-        the preroll, when no frames are sent) and connected again is taken here."""
-        if self.server is None:
-            return False
-        self.server.accept_pending()
-        return bool(self.server.connected)
+    def _send_frames(self, stamp_s: float) -> None:
+        """Each camera's frame to its daemon: ours, and the partner's whatever a fault did to
+        ours."""
+        if stream_ready(self.server):
+            self._send_frame(stamp_s)
+        if self.partner is not None:
+            self.partner.send_frame(self.world, stamp_s)
 
     def _send_frame(self, stamp_s: float) -> None:
-        from jetson.perception.frame import Frame
-        from sim.camera import render_camera
-
-        c = self.cam_cfg
-        f = render_camera(self.world, self.ia, c)
         self.frame_index += 1
         k = self.frame_index
-        frame = Frame(
-            np.ascontiguousarray(f.rgb[:, :, ::-1]),
-            f.depth,
-            c.intrinsics,
-            stamp_s,
-            k,
-        )
-        if not self.server.send(frame):
+        f = send_frame(self.server, self.jetson, self.world, self.ia, self.cam_cfg, stamp_s, k)
+        if f is None:
             self.replay.event(self.match_ms / 1000, "camera stream: the daemon hung up")
             return
-        self.jetson.frame_sent(k, stamp_s)
         self.truth[k] = self._truth(f)
         self.camera_rgb[k] = f.rgb
         self.camera_rgb.pop(k - 4, None)
