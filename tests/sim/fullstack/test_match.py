@@ -218,9 +218,14 @@ def test_a_camera_thread_that_gives_up_in_the_preroll_is_taken_back(
     from jetson.perception.sources import stream
 
     real = stream.StreamSource.__init__
+    opened: list[str] = []
 
     def impatient(self: object, address: str, connect_timeout_s: float = 5.0, *_: object) -> None:
-        real(self, address, connect_timeout_s, 0.05)  # type: ignore[arg-type]
+        # The first connection gives up at once in the preroll; the one it makes again keeps the
+        # default read timeout (a short one throughout would starve a slow machine mid-match too).
+        read_timeout_s = 0.05 if not opened else 5.0
+        opened.append(address)
+        real(self, address, connect_timeout_s, read_timeout_s)  # type: ignore[arg-type]
 
     monkeypatch.setattr(stream.StreamSource, "__init__", impatient)
     result = run_match(options(policy, tmp_path / "run"))
