@@ -17,6 +17,10 @@ Pure and deterministic (no I/O, no clock: the caller passes the perception's age
   the States' GPS poses, interpolated), then seen from the newest pose: turning at 4 rad/s, the
   newest pose puts them 25 degrees off, and the ring memory then forgets the rings it should
   have confirmed.
+- With a spec that has the partner block (version 6), the partner's newest report over VEXlink
+  (jetson.partner.PartnerInput, from the loop) fills it while the report is at most
+  `partner_max_age_s` old; an older one, or none (the link down), leaves it empty: the robot
+  plays alone, as it learned to when the partner's reports stopped.
 - Frame stacking follows the training's control rate (`decision_hz`, normally the policy's): the
   stack takes a frame every control period (on the Brain's clock), and in between the newest slot
   holds the current frame, so each State is answered from fresh data while the history keeps the
@@ -49,7 +53,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from jetson.autonomy.camera import MemoryCamera
-from jetson.autonomy.geometry import angle_diff_deg, wrap_heading
+from jetson.autonomy.geometry import angle_diff_deg, robot_to_field, wrap_heading
 from jetson.autonomy.goal_memory import GoalMemory
 from jetson.autonomy.observation import FrameStack, RobotView, build_frame
 from jetson.autonomy.policy import Policy
@@ -57,7 +61,7 @@ from jetson.autonomy.ring_memory import RingMemory
 from jetson.autonomy.skills import SkillDriver
 from jetson.camera_feed import NO_GOALS, no_goals
 from jetson.errors import SettingsError
-from jetson.partner import NOTHING, Claim
+from jetson.partner import NOTHING, Claim, PartnerInput
 from jetson.settings import DecisionConfig
 from protocol.messages import (
     Alliance,
@@ -67,6 +71,7 @@ from protocol.messages import (
     MatchPhase,
     PoseFix,
     State,
+    TargetKind,
 )
 
 DEFAULT_DECISION_HZ = 12.0  # sim.config.WorldConfig.control_hz: what policies are trained at
@@ -78,6 +83,8 @@ DRIVING_REASONS = frozenset({"policy", "scripted"})
 UNCERTAIN_SPEED_MIN = 0.5
 CLAMP_HOLDS = 1  # State.goal_clamped: 1 holds a goal, 0 open, 255 no clamp sensor fitted
 _NO_RINGS = np.zeros((0, 2))
+# A skill's target as the partner report names it (SkillDriver.target's kinds).
+_CLAIMS = {"ring": TargetKind.RING, "goal": TargetKind.GOAL, "platform": TargetKind.PLATFORM}
 
 
 @dataclass(frozen=True, slots=True)
@@ -291,15 +298,37 @@ class Decider:
         self._goals = GoalMemory(self.spec)
         self._driver = None if self._skills is None else SkillDriver(self._skills, self.spec)
         self._poses = PoseHistory()
+        self._drove = False
         self._next_push_ms = 0.0
         self._phases.reset()
 
     def claim(self, state: State) -> Claim:
-        """The target this robot claims for its partner (jetson.partner): a policy claims
-        nothing yet (its skill's target is the dashboard's, not a claim)."""
-        return NOTHING
+        """The target this robot claims for its partner (jetson.partner): a skill policy's is
+        the target of the skill it drove last (a ring, a goal or the platform), in the field
+        frame; nothing while it does not drive, and nothing for a policy that drives the
+        wheels itself."""
+        target = None if self._driver is None or not self._drove else self._driver.target
+        if target is None:
+            return NOTHING
+        kind, local = target
+        xy = robot_to_field(np.asarray(local), (state.x, state.y), state.heading)
+        return Claim(_CLAIMS[kind], (float(xy[0]), float(xy[1])))
 
-    def decide(self, state: State, perception: PerceptionInput | None) -> Decision:
+    def decide(
+        self,
+        state: State,
+        perception: PerceptionInput | None,
+        partner: PartnerInput | None = None,
+    ) -> Decision:
+        """The answer to one State, from the newest perception and (for a spec with the
+        partner block) the partner's newest report."""
+        decision = self._decide(state, perception, partner)
+        self._drove = decision.drove
+        return decision
+
+    def _decide(
+        self, state: State, perception: PerceptionInput | None, partner: PartnerInput | None
+    ) -> Decision:
         self.last_obs = self.last_action = None
         step = self._phases.step(state)
         if not step.drive:
@@ -325,7 +354,9 @@ class Decider:
         if seen == "fresh" and perception is not None and self.config.frame_pose:
             seen_from = self._poses.at(state.time_ms - 1000.0 * max(perception.age_s, 0.0))
         try:
-            obs = self._observation(state, rings, fresh=seen == "fresh", seen_from=seen_from)
+            obs = self._observation(
+                state, rings, fresh=seen == "fresh", seen_from=seen_from, partner=partner
+            )
             action = np.asarray(self.policy(obs), dtype=np.float64).reshape(-1)
         except Exception as exc:
             return Decision(
@@ -357,6 +388,7 @@ class Decider:
         rings: NDArray[np.float64],
         fresh: bool = True,
         seen_from: tuple[float, float, float] | None = None,
+        partner: PartnerInput | None = None,
     ) -> NDArray[np.float32]:
         t = state.phase_ms / 1000.0
         if state.phase == MatchPhase.DRIVER:
@@ -374,6 +406,9 @@ class Decider:
             goal_clamped=state.goal_clamped == CLAMP_HOLDS,
             intake_fills=self.config.intake_fills,
         )
+        fresh_partner = partner is not None and partner.age_s <= self.config.partner_max_age_s
+        if self.spec.partner and partner is not None and fresh_partner:
+            view.partner = partner.view(state.x, state.y, state.heading)
         # Only a fresh camera frame may tell the memory that a ring is gone.
         view = self._memory.observe(view, seen_from) if fresh else self._memory.recall(view)
         view = self._goals.observe(view)

@@ -37,7 +37,7 @@ from jetson.decide import Decider, Decision, PerceptionInput
 from jetson.handshake import Handshake, LinkState
 from jetson.link import LinkClosed, LinkOpenError, PortLocator, SerialLink
 from jetson.log import EventLog, LatencyStats
-from jetson.partner import REPORT_PERIOD_S, partner_report
+from jetson.partner import REPORT_PERIOD_S, PartnerInput, partner_report
 from jetson.recorder import CycleRecord, Recorder, RecordingDir
 from jetson.settings import LinkConfig
 from jetson.stats import Counters, Snapshot, summary_fields, summary_line
@@ -497,11 +497,12 @@ class Daemon:
         try:
             p = self.perception.latest() if self.perception is not None else None
             pin = None if p is None else PerceptionInput.of(p, now - p.stamp_s)
+            partner = PartnerInput.of(self.partner, self.partner_status, state.match_ms)
             t0 = time.perf_counter()
-            decision = self.decider.decide(state, pin)
+            decision = self.decider.decide(state, pin, partner)
         except Exception as exc:  # the decider catches its own; this is for a broken feed
             t0 = time.perf_counter()
-            pin = None
+            pin = partner = None
             decision = Decision(0.0, 0.0, False, "error", error=f"{type(exc).__name__}: {exc}")
         t1 = time.perf_counter()
         try:
@@ -537,6 +538,7 @@ class Daemon:
                     decision.error,
                     latency * 1e3,
                     (t1 - t0) * 1e3,
+                    partner,
                 )
             )
 

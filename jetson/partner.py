@@ -3,8 +3,13 @@
 The Jetson sends its report to its Brain, which keeps the newest and sends it over the radio at
 most every 100 ms (brain/README.md, "The partner link"); sending more often only replaces reports
 the radio never carries, so the daemon reports every REPORT_PERIOD_S. The target a robot claims
-is its decider's (`claim(state)`): the scripted alliance's goal, ring or platform; a policy claims
-nothing yet.
+is its decider's (`claim(state)`): the scripted alliance's goal, ring or platform; a skill
+policy's, the target of the skill it drives.
+
+What the partner reports comes back the same way: the loop keeps the newest Partner its Brain
+handed up and the link's state (PartnerStatus); `PartnerInput.of` turns them into what the
+decision reads (none while the link is not up), and `PartnerInput.view` into the observation's
+partner block (jetson.autonomy.observation.PartnerView: the robot frame).
 """
 
 from __future__ import annotations
@@ -12,10 +17,23 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from protocol.messages import Partner, PartnerFlags, PartnerLink, PoseFix, State, TargetKind
+import numpy as np
+
+from jetson.autonomy.geometry import field_to_robot
+from jetson.autonomy.observation import PartnerView
+from protocol.messages import (
+    Partner,
+    PartnerFlags,
+    PartnerLink,
+    PartnerStatus,
+    PoseFix,
+    State,
+    TargetKind,
+)
 
 REPORT_PERIOD_S = 0.1
 NO_INDEX = 255  # Partner.goal / target_id: none
+NO_RINGS = 255  # Partner.rings: the sender has no ring counter
 _I16 = 32767
 
 
@@ -70,3 +88,42 @@ def partner_report(
         target_y_mm=_mm(claim.xy[1]),
         match_ms=state.match_ms,
     )
+
+
+@dataclass(frozen=True)
+class PartnerInput:
+    """The partner's newest report as the decision reads it, and how old it is (seconds)."""
+
+    report: Partner
+    age_s: float
+
+    @classmethod
+    def of(
+        cls, report: Partner | None, status: PartnerStatus | None, match_ms: int
+    ) -> PartnerInput | None:
+        """The newest report while the link is up (None otherwise: the robot plays alone). Its
+        age is our match clock less the report's (both follow field control); a report stamped
+        after our clock (a clock not yet in step) is as old as the Brain says (status.age_ms)."""
+        if report is None or status is None or status.link is not PartnerLink.UP:
+            return None
+        ms = match_ms - report.match_ms if report.match_ms <= match_ms else status.age_ms
+        return cls(report, ms / 1000.0)
+
+    def view(self, x: float, y: float, heading_deg: float) -> PartnerView:
+        """The report in the frame of a robot at (x, y, heading_deg), field frame: where the
+        partner is (when its report has a pose) and what it claimed (when anything)."""
+        r = self.report
+        here = np.array([x, y])
+
+        def local(x_mm: int, y_mm: int) -> tuple[float, float]:
+            p = field_to_robot(np.array([[x_mm / 1000.0, y_mm / 1000.0]]), here, heading_deg)
+            return float(p[0, 0]), float(p[0, 1])
+
+        posed = PartnerFlags.POSE_OK in r.flags
+        claimed = r.target != TargetKind.NOTHING
+        return PartnerView(
+            xy=local(r.x_mm, r.y_mm) if posed else None,
+            clamped=PartnerFlags.HOLDING_GOAL in r.flags,
+            rings=0 if r.rings == NO_RINGS else r.rings,
+            claim_xy=local(r.target_x_mm, r.target_y_mm) if claimed else None,
+        )

@@ -10,7 +10,8 @@ gzip-compressed when the name ends in .gz (the default). Records, each with "kin
     perception  a perception result the first time a State used it: id, time, rings (robot frame)
                 and, when the camera saw goals, goals (x, y robot frame, colour code)
     cycle       one State and its answer: clock time, the State's fields, the perception id and
-                age used, the Command, the decision's reason, and the latency (ms)
+                age used, the Command, the decision's reason, and the latency (ms); while the
+                partner link is up, the partner's report the decision was given and its age
     frame       a downscaled camera frame (JPEG colour and depth, base64) with its detection
                 boxes, a few a second (`[record] frames_hz`): what the camera saw, for
                 `pete-jetson dashboard --recording` (ignored by replay)
@@ -81,6 +82,7 @@ class CycleRecord:
     error: str | None
     latency_ms: float
     decide_ms: float
+    partner: Any = None  # jetson.partner.PartnerInput the decision was given, if any
 
 
 def write_failure(exc: BaseException) -> str:
@@ -182,7 +184,11 @@ class Recorder:
             "error": r.error,
             "latency_ms": round(r.latency_ms, 4),
             "decide_ms": round(r.decide_ms, 4),
-        }
+        } | (
+            {}
+            if r.partner is None
+            else {"partner": message_to_dict(r.partner.report), "partner_age": r.partner.age_s}
+        )
 
     def _frame_dict(self, view: FrameView) -> dict[str, Any] | None:
         try:

@@ -28,10 +28,11 @@ from jetson.autonomy.policy import OnnxPolicy, Policy
 from jetson.decide import Decider, PerceptionInput
 from jetson.errors import ReplayError
 from jetson.log import LatencyStats
+from jetson.partner import PartnerInput
 from jetson.recorder import FORMAT, READABLE_VERSIONS
 from jetson.settings import DecisionConfig
 from protocol.framing import message_from_dict
-from protocol.messages import State
+from protocol.messages import Partner, State
 
 
 @dataclass(frozen=True)
@@ -306,6 +307,14 @@ def recorded_perception(rec: dict[str, Any]) -> PerceptionInput:
     return PerceptionInput(int(rec["id"]), 0.0, xy, rec.get("error"), goals)
 
 
+def recorded_partner(cycle: dict[str, Any]) -> PartnerInput | None:
+    """The partner's report a recorded cycle's decision was given (none: the link was not up,
+    or the recording predates partner reports)."""
+    if cycle.get("partner") is None:
+        return None
+    return PartnerInput(message_from_dict(Partner, cycle["partner"]), float(cycle["partner_age"]))
+
+
 def recorded_state(data: dict[str, Any]) -> State:
     """A recording's State (its JSON form), from any protocol version this replay reads."""
     return message_from_dict(State, _protocol_v3_pose(data))
@@ -346,7 +355,7 @@ def _compare(
         if pid not in perceived:
             raise ReplayError(f"{path}: cycle {index} uses perception {pid}, never recorded")
         pin = replace(perceived[pid], age_s=float(rec["age"]))
-    d = decider.decide(state, pin)
+    d = decider.decide(state, pin, recorded_partner(rec))
     report.reasons[d.reason] = report.reasons.get(d.reason, 0) + 1
     diffs = []
     for what, got in (("linear", d.linear), ("angular", d.angular)):

@@ -151,7 +151,11 @@ class ScriptedDecider:
         fx, fy = to_alliance_frame(np.asarray(xy, dtype=np.float64), None, alliance)[0]
         return Claim(_CLAIMS[kind], (float(fx), float(fy)))
 
-    def decide(self, state: State, perception: PerceptionInput | None) -> Decision:
+    def decide(
+        self, state: State, perception: PerceptionInput | None, partner: object = None
+    ) -> Decision:
+        """The strategy's answer; the partner's report (`partner`) is not read: the scripted
+        alliance shares the work by role, not by what its partner says."""
         decision = self._decide(state, perception)
         self._drives = decision.drove  # claim() claims only while the strategy drives
         return decision

@@ -101,6 +101,10 @@ class DecisionConfig:
     # the 15" climbs too (AllianceConfig.steal_climb). False: the 24" holds the goal home to
     # the end and the 15" stays balanced on the platform. The same on both robots.
     steal_climb: bool = True
+    # A policy whose observation has the partner block (spec version 6) reads the partner's
+    # reports over VEXlink while the newest is at most this old (they come about every 100 ms);
+    # an older one counts as no partner: the robot plays alone.
+    partner_max_age_s: float = 0.5
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "drive_phases", tuple(self.drive_phases))
@@ -113,6 +117,16 @@ class DecisionConfig:
         age = self.perception_max_age_s
         if not (isinstance(age, int | float) and age > 0 and math.isfinite(age)):
             raise SettingsError("decision perception_max_age_s must be a positive number")
+        partner_age = self.partner_max_age_s
+        if not (
+            isinstance(partner_age, int | float)
+            and not isinstance(partner_age, bool)
+            and 0 < partner_age <= 5.0
+        ):
+            raise SettingsError(
+                "decision partner_max_age_s must be a number of seconds in (0, 5] (the partner "
+                f"reports every 0.1 s), got {partner_age!r}"
+            )
         if not (isinstance(self.valid_ms, int) and 1 <= self.valid_ms <= 1000):
             raise SettingsError("decision valid_ms must be 1..1000 (the Brain caps it at 1000)")
         if self.decision_hz is not None and not 0 < self.decision_hz <= 1000:

@@ -15,9 +15,15 @@ from typing import Any, Literal
 import numpy as np
 
 from jetson.autonomy.camera import MemoryCamera
-from jetson.autonomy.geometry import AllianceName, field_to_robot, heading_vector, to_alliance_frame
+from jetson.autonomy.geometry import (
+    AllianceName,
+    field_to_robot,
+    heading_vector,
+    robot_to_field,
+    to_alliance_frame,
+)
 from jetson.autonomy.goal_memory import GoalMemory
-from jetson.autonomy.observation import FrameStack, RobotView, build_frame
+from jetson.autonomy.observation import FrameStack, PartnerView, RobotView, build_frame
 from jetson.autonomy.ring_memory import RingMemory
 from jetson.autonomy.skills import SkillConfig, SkillDriver
 from jetson.autonomy.spec import ObservationSpec
@@ -215,11 +221,13 @@ def robot_view(
     index: int,
     pose: tuple[float, float, float],
     rings: np.ndarray,
+    claims: list[tuple[float, float] | None] | None = None,
 ) -> RobotView:
     """What robot `index` knows (MatchCore.view): `pose` (its GPS reading, field frame), the
     floor rings `rings` (indices) its camera sees, in its frame, the other robots (when the
-    spec has slots for them), its intake and its clamp. sim.fast.players builds a fast match's
-    views with it too."""
+    spec has slots for them), its intake and its clamp, and with spec.partner its alliance
+    partner (partner_view: `claims`, each robot's claimed target by index). sim.fast.players
+    builds a fast match's views with it too."""
     r = world.robots[index]
     # Most steps see no ring: the frame conversion of nothing is nothing.
     seen = sensors.rings_in_robot_frame(world, index, rings) if len(rings) else np.zeros((0, 2))
@@ -239,6 +247,38 @@ def robot_view(
         others_robot_xy=others,
         goal_clamped=r.carried_goal is not None,
         intake_fills=r.config.ring_capacity is not None,
+        partner=partner_view(world, index, claims) if spec.partner else None,
+    )
+
+
+def partner_of(alliances: list[AllianceName], index: int) -> int | None:
+    """Robot `index`'s alliance partner: the first other robot of its alliance (None alone)."""
+    mates = [k for k, a in enumerate(alliances) if a == alliances[index] and k != index]
+    return mates[0] if mates else None
+
+
+def partner_view(
+    world: WorldState, index: int, claims: list[tuple[float, float] | None] | None = None
+) -> PartnerView | None:
+    """Robot `index`'s alliance partner as its reports over VEXlink would tell it, in the
+    robot's frame: where it is, its clamp and rings, the target it claimed (`claims`: each
+    robot's, field frame, by index). The twin's link is perfect: every report arrives fresh.
+    None for a robot without a partner."""
+    k = partner_of([o.alliance for o in world.robots], index)
+    if k is None:
+        return None
+    r, p = world.robots[index], world.robots[k]
+    claim = None if claims is None else claims[k]
+
+    def local(xy: tuple[float, float]) -> tuple[float, float]:
+        x, y = field_to_robot(np.array([xy]), r.xy, r.heading)[0]
+        return float(x), float(y)
+
+    return PartnerView(
+        xy=local((p.x, p.y)),
+        clamped=p.carried_goal is not None,
+        rings=p.held,
+        claim_xy=None if claim is None else local(claim),
     )
 
 
@@ -361,6 +401,9 @@ class MatchCore:
         self._gps_now: dict[int, GpsReading] = {}
         self.ended_by_pin = False
         self.drivers: list[SkillDriver] = []
+        # Each robot's claimed target (field frame; None: nothing), the partner block's claim:
+        # a skill-driven robot claims its skill's target (MatchCore.command).
+        self.claims: list[tuple[float, float] | None] = []
 
     def skill_driver(self, index: int, skills: SkillConfig) -> SkillDriver:
         """A fresh controller for robot `index`, its platform and size from this world."""
@@ -395,14 +438,26 @@ class MatchCore:
             return DriveCommand(0.0, 0.0, intake=False, clamp=None)
         rc = self.world.robots[index].config
         if self.config.skills is not None:
-            return skill_command(
-                self.config, self.drivers[index], self.stacks[index].observation(), a
-            )
+            driver = self.drivers[index]
+            cmd = skill_command(self.config, driver, self.stacks[index].observation(), a)
+            self.claim(index, driver)
+            return cmd
         a = np.clip(a, -1.0, 1.0)
         intake, clamp = self.config.actuators(a[2:])
         return DriveCommand(
             float(a[0]) * rc.max_linear_mps, float(a[1]) * rc.max_angular_rad_s, intake, clamp
         )
+
+    def claim(self, index: int, driver: SkillDriver) -> None:
+        """Robot `index` claims what its skill driver last drove to (SkillDriver.target), in the
+        field frame from where the robot stands (as jetson.decide.Decider.claim does)."""
+        r = self.world.robots[index]
+        target = driver.target
+        if target is None:
+            self.claims[index] = None
+            return
+        xy = robot_to_field(np.asarray(target[1]), r.xy, r.heading)
+        self.claims[index] = (float(xy[0]), float(xy[1]))
 
     # --- episode ----------------------------------------------------------------------------
 
@@ -432,6 +487,7 @@ class MatchCore:
                 if rng.random() < self.config.goal_start_share:
                     self._start_at_goal(r.index, rng)
         self.stacks = [FrameStack(self.spec) for _ in self.world.robots]
+        self.claims = [None for _ in self.world.robots]
         if self.config.skills is not None:
             self.drivers = [
                 self.skill_driver(r.index, self.config.skills) for r in self.world.robots
@@ -486,7 +542,8 @@ class MatchCore:
             pose = (g.x, g.y, g.heading_deg)
         else:
             pose = (r.x, r.y, r.heading)
-        return robot_view(w, self.spec, index, pose, sensors.visible_rings(w, index))
+        rings = sensors.visible_rings(w, index)
+        return robot_view(w, self.spec, index, pose, rings, self.claims)
 
     def gps(self, index: int) -> GpsReading:
         """Robot `index`'s noisy GPS reading now. Read twice in one step (the frame, then a

@@ -100,7 +100,9 @@ class PolicyPlayer:
         action = np.asarray(self.fn(obs), dtype=np.float64)
         if not np.all(np.isfinite(action)):
             return DriveCommand(0.0, 0.0)
-        return DriveCommand(*self._driver.command(obs, action))
+        command = DriveCommand(*self._driver.command(obs, action))
+        core.claim(index, self._driver)  # its skill's target: its partner's observation reads it
+        return command
 
 
 def _ring_race_24() -> Player:

@@ -6,6 +6,9 @@ route stops and rings, each in the robot frame, nearest first. Blue sees the fie
 degrees (geometry.to_alliance_frame), so mirrored places give identical observations. Noise
 (training only, when an rng is given): own x, y get uniform +-position_noise_m, each ring or
 robot coordinate is scaled by 1 + uniform +-relative_noise; empty slots and flags never do.
+With spec.partner the partner block follows the other robots' slots: the partner's reported
+position and its claimed target in the robot frame (PartnerView; own-position noise on each),
+its clamp and its rings; all zero when there is no fresh report.
 FrameStack keeps the current frame and the n_stack before it, newest first.
 """
 
@@ -21,6 +24,17 @@ from numpy.typing import ArrayLike, NDArray
 from jetson.autonomy.geometry import AllianceName, pose_to_alliance_frame
 from jetson.autonomy.spec import REMEMBERED, SEEN, ObservationSpec
 from jetson.errors import ObservationError
+
+
+@dataclass(frozen=True)
+class PartnerView:
+    """The alliance partner as the newest report over VEXlink tells it (jetson.partner), in the
+    receiving robot's frame, metres; None where the report has no pose or claims nothing."""
+
+    xy: tuple[float, float] | None
+    clamped: bool
+    rings: int  # 0 when the partner has no ring counter
+    claim_xy: tuple[float, float] | None
 
 
 @dataclass
@@ -43,6 +57,8 @@ class RobotView:
     # The route's stops, robot frame, tour order (RingMemory with spec.route_slots).
     route_robot_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
     intake_fills: bool = True  # the intake has a capacity (False: it never fills)
+    # The alliance partner's newest report (spec.partner); None without a fresh one.
+    partner: PartnerView | None = None
 
 
 def as_points(value: ArrayLike, what: str) -> NDArray[np.float64]:
@@ -87,6 +103,7 @@ class _Layout:
 
     frame_size: int
     n_scalars: int
+    partner_offset: int
     goal_offset: int
     route_offset: int
     ring_offset: int
@@ -106,6 +123,7 @@ def _layout(spec: ObservationSpec) -> _Layout:
     lay = _Layout(
         frame_size=spec.frame_size,
         n_scalars=len(scalars),
+        partner_offset=spec.partner_offset,
         goal_offset=spec.goal_offset,
         route_offset=spec.route_offset,
         ring_offset=spec.ring_offset,
@@ -159,6 +177,8 @@ def build_frame(
         ok = np.concatenate([np.full(len(rings), SEEN), np.full(len(remembered), REMEMBERED)])
         rings = np.concatenate([rings, remembered])
     _fill_slots(out, lay.ring_offset, spec.n_rings, rings, unit, spec.relative_noise, rng, ok)
+    if spec.partner and view.partner is not None:
+        _fill_partner(out, lay.partner_offset, spec, view.partner, rng)
     if spec.route_slots:
         route = as_points(view.route_robot_xy, "route_robot_xy")[: spec.route_slots]
         if rng is not None and rel > 0:
@@ -167,6 +187,32 @@ def build_frame(
         block[:, :2] = route / unit  # tour order, not nearest first
         block[:, 2] = 1.0
     return out
+
+
+def _fill_partner(
+    out: NDArray[np.float32],
+    offset: int,
+    spec: ObservationSpec,
+    partner: PartnerView,
+    rng: np.random.Generator | None,
+) -> None:
+    """The partner block (spec.PARTNER_NAMES) at out[offset:]: its position and its claim
+    (each with uniform +-position_noise_m when an rng is given: reports carry GPS poses), its
+    clamp and its rings."""
+    unit, noise = spec.length_unit_m, spec.position_noise_m
+    block = out[offset : offset + 8]
+    for at, xy in ((0, partner.xy), (5, partner.claim_xy)):
+        if xy is None:
+            continue
+        x, y = float(xy[0]), float(xy[1])
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ObservationError(f"the partner's points must be finite, got {xy}")
+        if rng is not None and noise > 0:
+            dx, dy = rng.uniform(-noise, noise, 2)
+            x, y = x + dx, y + dy
+        block[at : at + 3] = (x / unit, y / unit, 1.0)
+    block[3] = 1.0 if partner.clamped else 0.0
+    block[4] = max(partner.rings, 0) / spec.ring_capacity_norm
 
 
 class FrameStack:

@@ -221,11 +221,16 @@ class SkillDriver:
         self._backoff_turn = 1.0
         self._commit_point: NDArray[np.float64] | None = None  # alliance frame
         self._commit_until = -1.0
+        # What the last command() drove to: ("ring" | "goal" | "platform", robot-frame point
+        # of that moment, metres); None when it searched or backed off (the partner report's
+        # claim, jetson.decide.Decider.claim).
+        self.target: tuple[str, tuple[float, float]] | None = None
 
     def reset(self) -> None:
         self._trail.clear()
         self._backoff_until = -1.0
         self._commit_point = None
+        self.target = None
 
     def committed(self, obs: NDArray[np.floating]) -> bool:
         """Whether the next command() ignores its action: a goal manoeuvre is under way (the
@@ -254,8 +259,10 @@ class SkillDriver:
         now = float(f[0]) * s.match_length_s
         pos = f[1:3] * unit
         self._trail.push(now, float(pos[0]), float(pos[1]))
+        self.target = None
         if self.committed(obs):
             local = _to_robot(self._commit_point, pos, float(f[3]), float(f[4]))
+            self.target = ("goal", (float(local[0]), float(local[1])))
             if now < self._backoff_until:
                 return -0.6 * self.v_max, self._backoff_turn * 0.5 * self.w_max
             return self._reverse_onto(local, now)
@@ -271,12 +278,14 @@ class SkillDriver:
                 nxt = f[s.route_offset + 3 : s.route_offset + 6]  # the second stop's slot
                 if c.route_through_next and nxt[2] > 0:
                     after = nxt[:2] * unit
+                self.target = ("ring", _point(slot, unit))
                 return self._pursue(slot[:2] * unit, now, after)
             k -= 1
         if k < c.ring_options:
             slot = f[s.ring_offset + 3 * k : s.ring_offset + 3 * k + 3]
             if slot[2] <= 0:
                 return 0.0, 0.3 * self.w_max
+            self.target = ("ring", _point(slot, unit))
             return self._pursue(slot[:2] * unit, now)
         k -= c.ring_options
         if k < c.goal_options:
@@ -286,6 +295,7 @@ class SkillDriver:
             if c.commit_goal_s > 0:
                 self._commit_point = _to_alliance(slot[:2] * unit, pos, float(f[3]), float(f[4]))
                 self._commit_until = now + c.commit_goal_s
+            self.target = ("goal", _point(slot, unit))
             return self._reverse_onto(slot[:2] * unit, now)
         return self._platform(f, pos)
 
@@ -334,10 +344,16 @@ class SkillDriver:
 
     def _platform(self, f: NDArray[np.float64], pos: NDArray[np.float64]) -> tuple[float, float]:
         cx, cy, hx, hy = self.config.platform_box
+        local = _to_robot(np.array([cx, cy]), pos, float(f[3]), float(f[4]))
+        self.target = ("platform", (float(local[0]), float(local[1])))
         if abs(pos[0] - cx) < hx - 0.2 and abs(pos[1] - cy) < hy - 0.2:
             return 0.0, 0.0
-        local = _to_robot(np.array([cx, cy]), pos, float(f[3]), float(f[4]))
         return self._pursue(local, float(f[0]) * self.spec.match_length_s)
+
+
+def _point(slot: NDArray[np.float64], unit: float) -> tuple[float, float]:
+    """A slot's robot-frame point in metres."""
+    return float(slot[0] * unit), float(slot[1] * unit)
 
 
 def option_for(

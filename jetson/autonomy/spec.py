@@ -24,8 +24,8 @@ from numpy.typing import NDArray
 from jetson.autonomy.route import TourConfig
 from jetson.errors import ObservationError
 
-SPEC_VERSION = 5
-SUPPORTED_VERSIONS = (1, 2, 3, 4, 5)
+SPEC_VERSION = 6
+SUPPORTED_VERSIONS = (1, 2, 3, 4, 5, 6)
 SEEN, REMEMBERED = 1.0, 0.5  # a ring slot's ok value
 SCALARS = ("time", "x", "y", "cos_h", "sin_h", "held")
 SCALAR_MEANINGS = {
@@ -37,6 +37,21 @@ SCALAR_MEANINGS = {
     "held": "rings held / ring_capacity_norm",
     "clamped": "1 while the clamp holds a mobile goal, else 0 (goal_memory)",
     "fills": "1 when the intake has a capacity, 0 when it never fills (intake_flag)",
+}
+# Version 6: the alliance partner's block (spec.partner), from its newest report over VEXlink.
+PARTNER_NAMES = (
+    "partner_x", "partner_y", "partner_ok", "partner_clamped", "partner_held",
+    "claim_x", "claim_y", "claim_ok",
+)  # fmt: skip
+PARTNER_MEANINGS = {
+    "partner_x": "the partner's reported position, robot-frame right / length_unit_m (0 when none)",
+    "partner_y": "the partner's reported position, robot-frame forward / length_unit_m",
+    "partner_ok": "1 when a fresh partner report has its position, else 0",
+    "partner_clamped": "1 when a fresh partner report says its clamp holds a goal, else 0",
+    "partner_held": "the partner's rings (fresh report) / ring_capacity_norm, else 0",
+    "claim_x": "the target the partner claimed, robot-frame right / length_unit_m (0 when none)",
+    "claim_y": "the target the partner claimed, robot-frame forward / length_unit_m",
+    "claim_ok": "1 when a fresh partner report claims a target, else 0",
 }
 
 
@@ -132,6 +147,11 @@ class ObservationSpec:
     route_switch_margin_m: float = 0.1
     # Version 5: whether the robot's intake fills (the `fills` scalar).
     intake_flag: bool = False
+    # Version 6: the alliance partner (PARTNER_NAMES, between the other robots' slots and the
+    # goal slots): where its newest report over VEXlink puts it, whether it holds a goal, its
+    # rings, and the target it claimed, in the robot frame; all zero without a fresh report
+    # (the link down: the robot plays alone).
+    partner: bool = False
 
     def __post_init__(self) -> None:
         if self.version not in SUPPORTED_VERSIONS:
@@ -147,6 +167,8 @@ class ObservationSpec:
             raise ObservationError("route_slots needs observation spec version 4 and ring_memory")
         if self.intake_flag and self.version < 5:
             raise ObservationError("intake_flag needs observation spec version 5")
+        if self.partner and self.version < 6:
+            raise ObservationError("partner needs observation spec version 6")
         for name in ("prior_rings", "prior_goals"):
             object.__setattr__(self, name, _points(getattr(self, name), name))
         object.__setattr__(self, "memory_intake_zone", _zone(self.memory_intake_zone))
@@ -239,9 +261,14 @@ class ObservationSpec:
         return self.goal_offset + 3 * self.goal_slots
 
     @property
+    def partner_offset(self) -> int:
+        """Index of the partner block (PARTNER_NAMES) within a frame, when the spec has one."""
+        return len(self.scalars) + 3 * self.n_other_robots
+
+    @property
     def goal_offset(self) -> int:
         """Index of the first goal slot within a frame."""
-        return len(self.scalars) + 3 * self.n_other_robots
+        return self.partner_offset + len(PARTNER_NAMES) * self.partner
 
     @property
     def ring_offset(self) -> int:
@@ -252,6 +279,8 @@ class ObservationSpec:
         names = list(self.scalars)
         for r in range(self.n_other_robots):
             names += [f"robot{r}_x", f"robot{r}_y", f"robot{r}_ok"]
+        if self.partner:
+            names += PARTNER_NAMES
         for g in range(self.goal_slots):
             names += [f"goal{g}_x", f"goal{g}_y", f"goal{g}_ok"]
         for k in range(self.route_slots):
@@ -317,6 +346,8 @@ class ObservationSpec:
             layout = {k: v for k, v in layout.items() if k not in _GOAL_FIELDS}
         if not self.intake_flag:
             layout.pop("intake_flag")
+        if not self.partner:
+            layout.pop("partner")
         blob = json.dumps(layout, sort_keys=True).encode()
         return hashlib.sha256(blob).hexdigest()[:16]
 
@@ -360,6 +391,8 @@ def _body(value: object) -> tuple[float, ...]:
 def _meaning(name: str) -> str:
     if name in SCALAR_MEANINGS:
         return SCALAR_MEANINGS[name]
+    if name in PARTNER_MEANINGS:
+        return PARTNER_MEANINGS[name]
     kind, _, part = name.partition("_")
     what = {
         "robot": "nearest-first other robot",
@@ -376,15 +409,18 @@ def _meaning(name: str) -> str:
     return f"{what} slot {slot}, robot-frame {axis} / length_unit_m (0 when empty)"
 
 
+_FLAGS = ("clamped", "fills", "partner_clamped")
+
+
 def observation_bounds(spec: ObservationSpec) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
     """Bounds for a Box space: positions can exceed +-1 (far rings, noise), so they are +-4."""
     low = np.full(spec.frame_size, -4.0, dtype=np.float32)
     high = np.full(spec.frame_size, 4.0, dtype=np.float32)
     low[0], high[0] = 0.0, 1.0
     low[3:5], high[3:5] = -1.0, 1.0
-    low[5], high[5] = 0.0, 8.0
-    flags = [spec.scalar_index(n) for n in ("clamped", "fills") if n in spec.scalars]
+    names = spec.frame_names()
+    counts = [i for i, n in enumerate(names) if n in ("held", "partner_held")]
+    low[counts], high[counts] = 0.0, 8.0
+    flags = [i for i, n in enumerate(names) if n in _FLAGS or n.endswith("_ok")]
     low[flags], high[flags] = 0.0, 1.0
-    ok_idx = np.arange(len(spec.scalars) + 2, spec.frame_size, 3)
-    low[ok_idx], high[ok_idx] = 0.0, 1.0
     return np.tile(low, spec.n_frames), np.tile(high, spec.n_frames)

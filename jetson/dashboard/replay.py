@@ -40,7 +40,7 @@ from jetson.dashboard.snapshot import (
 from jetson.decide import DRIVING_REASONS, Decider, PerceptionInput
 from jetson.errors import ReplayError
 from jetson.recorder import FORMAT, READABLE_VERSIONS
-from jetson.replay import Records, recorded_decider, recorded_state
+from jetson.replay import Records, recorded_decider, recorded_partner, recorded_state
 from protocol.framing import message_from_dict
 from protocol.messages import Command, State
 
@@ -121,7 +121,7 @@ class Timeline:
                     xy, error = rings[int(pid)]
                     pin = PerceptionInput(int(pid), float(rec["age"]), xy, error, goals[int(pid)])
                 if decider is not None:
-                    decider.decide(state, pin)
+                    decider.decide(state, pin, recorded_partner(rec))
                 latency = rec.get("latency_ms")
                 if latency is not None:
                     latencies.append(float(latency) / 1e3)

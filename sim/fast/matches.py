@@ -377,12 +377,29 @@ class FastMatches:
             n = cfg.skills.n_options
             obs = self.obs[np.arange(self.n), who]
             lin, ang = self._drivers.command(obs, actions[:, :n], who, ok)
+            self._claim(who, ok)
         tail = a[:, n:]
         intake = ok & (tail[:, 0] > 0 if cfg.action_intake else True)
         clamp = np.full(self.n, -1, dtype=np.int8)
         if cfg.action_clamp:
             clamp = np.where(ok, (tail[:, int(cfg.action_intake)] > 0).astype(np.int8), -1)
         return lin, ang, intake, clamp.astype(np.int8)
+
+    def _claim(self, who: NDArray[np.int64], ok: NDArray[np.bool_]) -> None:
+        """Robot who[b] of each match claims what its skill driver just drove to (MatchCore.claim:
+        the field frame from where it stands), for its partner's observation; nothing where its
+        action was not finite."""
+        assert self._drivers is not None
+        w = self.world
+        rows = np.arange(self.n)
+        kind, local = self._drivers.targets(who)
+        rad = np.radians(w.heading[rows, who])
+        s, c = np.sin(rad), np.cos(rad)
+        fx = w.x[rows, who] + local[:, 0] * c + local[:, 1] * s
+        fy = w.y[rows, who] - local[:, 0] * s + local[:, 1] * c
+        claimed = ok & (kind > 0)
+        claim = np.stack([np.where(claimed, fx, np.nan), np.where(claimed, fy, np.nan)], -1)
+        self.observer.claims[rows, who] = claim
 
     # --- rewards ----------------------------------------------------------------------------
 

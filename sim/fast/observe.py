@@ -11,6 +11,9 @@ latency and Gaussian noise), then the frame: the time, the pose in the alliance 
 rings held, the nearest other robots and the nearest seen rings in the robot frame, each with
 the spec's noise; FrameStack's newest-first stack. Without noise a frame equals build_frame's
 value for value (tested).
+With spec.partner the partner block holds each robot's alliance partner (sim.match.partner_view:
+where it is, its clamp and rings, the target it claimed, from `claims`: each robot's claimed
+target in the field frame, NaN for none, which whoever drives the robots fills).
 With spec.ring_memory the ring slots hold the seen and the remembered rings and the route slots
 the route's first stops, from every robot's ring memory; with spec.goal_memory the goal slots
 and the clamp flag come from every robot's goal memory (sim.fast.memory: RingMemory and
@@ -30,7 +33,7 @@ from sim.errors import ConfigError
 from sim.fast.kernels import nearest_seen, threads_for, visible_rings
 from sim.fast.memory import FastGoalMemory, FastRingMemory, unsupported_memory
 from sim.fast.world import FastWorld
-from sim.match import memory_camera
+from sim.match import memory_camera, partner_of
 from sim.world.state import POST_RADIUS
 
 F32 = NDArray[np.float32]
@@ -83,6 +86,11 @@ class FastObserver:
             self.memory = FastRingMemory(world, spec, cams)
         self.goal_memory = FastGoalMemory(world, spec) if spec.goal_memory else None
         self.seen_pose = np.zeros((world.n, world.n_robots, 3))
+        # Each robot's alliance partner (-1: none) and claimed target (field frame, NaN: none).
+        alliances = list(world.alliances)
+        mates = [partner_of(alliances, i) for i in range(world.n_robots)]
+        self._mate = np.array([-1 if m is None else m for m in mates], dtype=np.int64)
+        self.claims = np.full((world.n, world.n_robots, 2), np.nan)
         self.seen_rings = np.zeros((world.n, world.n_robots, world.ring_xy.shape[1]), bool)
 
     # --- what the cameras see ---------------------------------------------------------------
@@ -161,6 +169,8 @@ class FastObserver:
             order = np.argsort(d2, axis=-1, kind="stable")[..., :count]
             near = np.take_along_axis(local, order[..., None], -2)
             self._write(out, len(spec.scalars), near, np.full(near.shape[:-1], SEEN))
+        if spec.partner:
+            self._write_partner(out)
         active = np.ones(w.n, dtype=bool) if rows is None else rows
         if self.goal_memory is not None:
             out[..., spec.scalar_index("clamped")] = w.carried >= 0
@@ -201,6 +211,39 @@ class FastObserver:
         block[..., 2] = ok
         out[..., offset : offset + 3 * count] = block.reshape((*out.shape[:2], 3 * count))
 
+    def _write_partner(self, out: F32) -> None:
+        """Every robot's partner block (build_frame's _fill_partner; sim.match.partner_view):
+        its partner's position and claim in the robot frame (the true poses, as the other
+        robots' slots), each with own-position noise; its clamp and rings. Zeros alone."""
+        w, spec = self.world, self.spec
+        has = self._mate >= 0
+        if not has.any():
+            return
+        mate = np.where(has, self._mate, np.arange(w.n_robots))
+        rad = np.radians(w.heading)
+        s, c = np.sin(rad), np.cos(rad)
+
+        def local(px: F64, py: F64) -> F64:
+            dx, dy = px - w.x, py - w.y
+            xy = np.stack([dx * c - dy * s, dx * s + dy * c], -1)
+            if self.obs_noise and spec.position_noise_m > 0:
+                n = spec.position_noise_m
+                xy = xy + self.rng.uniform(-n, n, xy.shape)
+            return xy / spec.length_unit_m
+
+        block = np.zeros((w.n, w.n_robots, 8), dtype=np.float32)
+        block[..., 0:2] = local(w.x[:, mate], w.y[:, mate])
+        block[..., 2] = 1.0
+        block[..., 3] = w.carried[:, mate] >= 0
+        block[..., 4] = w.held[:, mate] / spec.ring_capacity_norm
+        claim = self.claims[:, mate]
+        claimed = np.isfinite(claim).all(-1)
+        block[..., 5:7] = np.where(claimed[..., None], local(claim[..., 0], claim[..., 1]), 0.0)
+        block[..., 7] = claimed
+        block[:, ~has] = 0.0
+        lo = spec.partner_offset
+        out[..., lo : lo + 8] = block
+
     # --- the stack --------------------------------------------------------------------------
 
     def reset(self, which: NDArray[np.int64] | None = None) -> F32:
@@ -212,6 +255,7 @@ class FastObserver:
         for memory in (self.memory, self.goal_memory):
             if memory is not None:
                 memory.reset(rows)
+        self.claims[rows] = np.nan
         frame = self.frames(rows=active)
         self.stack[rows] = frame[rows][:, :, None, :]
         return self.observation()
@@ -223,6 +267,7 @@ class FastObserver:
         for memory in (self.memory, self.goal_memory):
             if memory is not None and len(fresh):
                 memory.reset(fresh)
+        self.claims[fresh] = np.nan
         frame = self.frames()
         self.stack[:, :, 1:] = self.stack[:, :, :-1].copy()
         self.stack[:, :, 0] = frame

@@ -5,6 +5,7 @@ planner teacher's skill label (option_for), compiled.
     drivers.reset(rows)                                        # matches `rows` start afresh
     busy = drivers.committed(obs, who, active)                 # SkillDriver.committed
     linear, angular = drivers.command(obs, actions, who, active)
+    kind, local = drivers.targets(who)                         # SkillDriver.target
     labels = OptionLabels(spec, skills)(intent, point, pose, obs)
 
 A skill policy's action is one score per skill, and each robot's SkillDriver drives the best
@@ -50,8 +51,12 @@ Bool = NDArray[np.bool_]
 (_ROUTE, _THROUGH, _RINGS, _GOALS, _PLATFORM, _BOX_X, _BOX_Y, _BOX_HX, _BOX_HY, _LENGTH, _MAX_V,
  _MAX_W, _LOOKAHEAD, _TURN_GAIN, _TURN_IN_PLACE, _COMMIT_S, _WINDOW, _STUCK_M, _BACKOFF, _UNIT,
  _MATCH_LENGTH, _ROUTE_AT, _RING_AT, _GOAL_AT, _CLAMPED) = range(25)  # fmt: skip
-# Columns of a controller's state: SkillDriver's back-off and committed goal manoeuvre.
-_BACKOFF_UNTIL, _BACKOFF_TURN, _COMMITTED, _COMMIT_X, _COMMIT_Y, _COMMIT_UNTIL = range(6)
+# Columns of a controller's state: SkillDriver's back-off and committed goal manoeuvre, and
+# what its last command drove to (SkillDriver.target: TARGET_KINDS' index, robot-frame point).
+(_BACKOFF_UNTIL, _BACKOFF_TURN, _COMMITTED, _COMMIT_X, _COMMIT_Y, _COMMIT_UNTIL, _TARGET,
+ _TARGET_X, _TARGET_Y) = range(9)  # fmt: skip
+TARGET_KINDS = (None, "ring", "goal", "platform")
+_RING, _GOAL, _PLATFORM_TARGET = 1, 2, 3
 _MATCH_M = 0.3  # option_for's match_m: how near an option's slot must be to the intent
 
 
@@ -88,7 +93,7 @@ class FastSkillDrivers:
         self.trail = np.zeros((rows, math.ceil(window / dt) + 8, 3))
         self.trail_n = np.zeros(rows, dtype=np.int64)
         self.overflow = np.zeros(rows, dtype=np.int64)  # trail rows dropped for room
-        self.state = np.zeros((rows, 6))
+        self.state = np.zeros((rows, 9))
         self.reset(np.arange(n_matches))
 
     def reset(self, rows: I64) -> None:
@@ -101,6 +106,13 @@ class FastSkillDrivers:
         self.state[r, _BACKOFF_UNTIL] = -1.0
         self.state[r, _BACKOFF_TURN] = 1.0
         self.state[r, _COMMIT_UNTIL] = -1.0
+
+    def targets(self, who: I64) -> tuple[I64, F64]:
+        """SkillDriver.target of robot who[b] of every match b after its last command: the
+        kind (an index of TARGET_KINDS, 0 for none) (B,) and the robot-frame point (B, 2)."""
+        r = np.arange(self.n) * self.n_robots + np.asarray(who, dtype=np.int64)
+        st = self.state[r]
+        return st[:, _TARGET].astype(np.int64), st[:, _TARGET_X : _TARGET_Y + 1].copy()
 
     def committed(self, obs: F32, who: I64, active: Bool) -> Bool:
         """SkillDriver.committed of robot who[b] of each active match b on its observation
@@ -218,6 +230,14 @@ def _best(a, n):
 
 
 @nb.njit(cache=True)
+def _aim(st, r, kind, x, y):
+    """Controller r drives to a `kind` target at robot-frame (x, y) (SkillDriver.target)."""
+    st[r, _TARGET] = kind
+    st[r, _TARGET_X] = x
+    st[r, _TARGET_Y] = y
+
+
+@nb.njit(cache=True)
 def _command(f, a, r, c, trail, trail_n, overflow, st):
     """SkillDriver.command for controller r (config row c) on frame f and scores a."""
     unit = c[_UNIT]
@@ -226,8 +246,10 @@ def _command(f, a, r, c, trail, trail_n, overflow, st):
     cos_h, sin_h = np.float64(f[3]), np.float64(f[4])
     trail_push(trail, trail_n, overflow, r, now, p0, p1, c[_WINDOW])
     backoff = -0.6 * c[_MAX_V], st[r, _BACKOFF_TURN] * 0.5 * c[_MAX_W]
+    st[r, _TARGET] = 0.0
     if _is_committed(f, st, r, c):
         lx, ly = to_robot(st[r, _COMMIT_X], st[r, _COMMIT_Y], p0, p1, sin_h, cos_h)
+        _aim(st, r, _GOAL, lx, ly)
         if now < st[r, _BACKOFF_UNTIL]:
             return backoff
         return _reverse_onto(lx, ly, now, r, c, trail, trail_n, st)
@@ -243,6 +265,7 @@ def _command(f, a, r, c, trail, trail_n, overflow, st):
             if not f[at + 2] > 0:
                 return search
             tx, ty = np.float64(f[at]) * unit, np.float64(f[at + 1]) * unit
+            _aim(st, r, _RING, tx, ty)
             has_after = c[_THROUGH] > 0.5 and f[at + 5] > 0
             ax, ay = 0.0, 0.0
             if has_after:
@@ -254,6 +277,7 @@ def _command(f, a, r, c, trail, trail_n, overflow, st):
         if not f[at + 2] > 0:
             return search
         tx, ty = np.float64(f[at]) * unit, np.float64(f[at + 1]) * unit
+        _aim(st, r, _RING, tx, ty)
         return _pursue(tx, ty, now, False, 0.0, 0.0, r, c, trail, trail_n, st)
     k -= rings
     if k < goals:
@@ -267,11 +291,13 @@ def _command(f, a, r, c, trail, trail_n, overflow, st):
             st[r, _COMMIT_Y] = p1 - gx * sin_h + gy * cos_h
             st[r, _COMMIT_UNTIL] = now + c[_COMMIT_S]
             st[r, _COMMITTED] = 1.0
+        _aim(st, r, _GOAL, gx, gy)
         return _reverse_onto(gx, gy, now, r, c, trail, trail_n, st)
     # The platform: stop well inside it, else drive onto its centre.
+    lx, ly = to_robot(c[_BOX_X], c[_BOX_Y], p0, p1, sin_h, cos_h)
+    _aim(st, r, _PLATFORM_TARGET, lx, ly)
     if abs(p0 - c[_BOX_X]) < c[_BOX_HX] - 0.2 and abs(p1 - c[_BOX_Y]) < c[_BOX_HY] - 0.2:
         return 0.0, 0.0
-    lx, ly = to_robot(c[_BOX_X], c[_BOX_Y], p0, p1, sin_h, cos_h)
     return _pursue(lx, ly, now, False, 0.0, 0.0, r, c, trail, trail_n, st)
 
 

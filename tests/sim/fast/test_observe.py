@@ -82,3 +82,44 @@ def test_noise_stays_within_the_spec_and_the_stack_is_newest_first() -> None:
     f = spec.frame_size
     assert np.array_equal(stacked[..., f : 2 * f], first[..., :f])
     assert stacked[0, 0, 0] > first[0, 0, 0]  # the clock moved on in the newest frame
+
+
+def test_the_partner_block_equals_the_per_robot_builder() -> None:
+    """Observation spec 6's partner block, batched, against build_frame with sim.match's
+    partner_view: where each robot's partner is, its clamp and rings, and its claim (some
+    robots claim a target, some nothing); a lone robot (the 1v1 world) has an empty block."""
+    from sim.match import partner_view
+
+    spec = ObservationSpec(version=6, partner=True, n_stack=0, match_length_s=120.0)
+    world = FastWorld(world_preset("tipping_point_2v2"), 6)
+    world.reset(range(6))
+    obs = FastObserver(world, spec, obs_noise=False, gps_noise=False)
+    rng = np.random.default_rng(3)
+    lo = spec.partner_offset
+    claimed = 0
+    for t in range(40):
+        world.step(rng.uniform(-0.5, 1.5, (6, 4)), rng.uniform(-3, 3, (6, 4)))
+        claims = rng.uniform(-1.5, 1.5, (6, 4, 2))
+        claims[rng.random((6, 4)) < 0.4] = np.nan  # these robots claim nothing
+        obs.claims[:] = claims
+        if t % 4:
+            continue
+        frames = obs.frames()
+        for k in range(6):
+            v = match_view(world, k)
+            by_index = [None if np.isnan(c).any() else (c[0], c[1]) for c in claims[k]]
+            for i in range(4):
+                r = v.robots[i]
+                view = RobotView(
+                    x=r.x, y=r.y, heading_deg=r.heading, alliance=r.alliance, time_s=v.time_s,
+                    rings_robot_xy=np.zeros((0, 2)), partner=partner_view(v, i, by_index),
+                )  # fmt: skip
+                ref = build_frame(spec, view)
+                assert np.allclose(frames[k, i, lo : lo + 8], ref[lo : lo + 8], atol=1e-6)
+                claimed += int(ref[lo + 7])
+                assert ref[lo + 2] == 1.0  # every robot of a 2v2 has its partner
+    assert claimed > 20
+    lone = FastWorld(WorldConfig(), 2)
+    lone.reset(range(2))
+    frames = FastObserver(lone, spec, obs_noise=False, gps_noise=False).frames()
+    assert not frames[..., lo : lo + 8].any()
