@@ -21,6 +21,8 @@ Pure and deterministic (no I/O, no clock: the caller passes the perception's age
   (jetson.partner.PartnerInput, from the loop) fills it while the report is at most
   `partner_max_age_s` old; an older one, or none (the link down), leaves it empty: the robot
   plays alone, as it learned to when the partner's reports stopped.
+- With a spec whose other-robot slots hold the opponents seen (`seen_opponents`), they are the
+  robot detector's robots of the other alliance in a fresh camera result; none otherwise.
 - Frame stacking follows the training's control rate (`decision_hz`, normally the policy's): the
   stack takes a frame every control period (on the Brain's clock), and in between the newest slot
   holds the current frame, so each State is answered from fresh data while the history keeps the
@@ -54,6 +56,7 @@ from numpy.typing import NDArray
 
 from jetson.autonomy.camera import MemoryCamera
 from jetson.autonomy.geometry import angle_diff_deg, robot_to_field, wrap_heading
+from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES
 from jetson.autonomy.goal_memory import GoalMemory
 from jetson.autonomy.observation import FrameStack, RobotView, build_frame
 from jetson.autonomy.policy import Policy
@@ -83,6 +86,10 @@ DRIVING_REASONS = frozenset({"policy", "scripted"})
 UNCERTAIN_SPEED_MIN = 0.5
 CLAMP_HOLDS = 1  # State.goal_clamped: 1 holds a goal, 0 open, 255 no clamp sensor fitted
 _NO_RINGS = np.zeros((0, 2))
+_NO_ROBOTS = np.zeros((0, 3))
+# The robot detector's alliance codes (jetson.perception.robots.ROBOT_ALLIANCE_CODES: the
+# colour codes of jetson.autonomy.goal_colours).
+_ALLIANCE_CODES = {Alliance.RED: GOAL_COLOUR_CODES["red"], Alliance.BLUE: GOAL_COLOUR_CODES["blue"]}
 # A skill's target as the partner report names it (SkillDriver.target's kinds).
 _CLAIMS = {"ring": TargetKind.RING, "goal": TargetKind.GOAL, "platform": TargetKind.PLATFORM}
 
@@ -244,6 +251,22 @@ def perceived_goals(
     return perception.goals_robot
 
 
+def perceived_opponents(
+    perception: PerceptionInput | None, config: DecisionConfig, alliance: Alliance
+) -> NDArray[np.float64]:
+    """The opponents the camera saw (robot frame, (N, 2)) by perceived_rings' rule: the robot
+    detector's robots (jetson/perception/robots.py) of the other alliance; none from a stale
+    result, from none, or with our alliance unknown."""
+    if perception is None or perceived_rings(perception, config)[1] != "fresh":
+        return _NO_RINGS
+    robots = np.asarray(getattr(perception, "robots_robot", _NO_ROBOTS), dtype=np.float64)
+    ours = _ALLIANCE_CODES.get(alliance)
+    if ours is None or robots.size == 0:
+        return _NO_RINGS
+    robots = robots.reshape(-1, 3)
+    return robots[robots[:, 2] != ours, :2]
+
+
 def rings_held(state: State, config: DecisionConfig) -> int:
     """The Brain's ring counter when it has one (255 means none is fitted), else the configured
     stand-in."""
@@ -354,9 +377,15 @@ class Decider:
         if seen == "fresh" and perception is not None and self.config.frame_pose:
             seen_from = self._poses.at(state.time_ms - 1000.0 * max(perception.age_s, 0.0))
         try:
-            obs = self._observation(
-                state, rings, fresh=seen == "fresh", seen_from=seen_from, partner=partner
+            opponents = (
+                perceived_opponents(perception, self.config, state.alliance)
+                if self.spec.seen_opponents
+                else _NO_RINGS
             )
+            obs = self._observation(
+                state, rings, fresh=seen == "fresh", seen_from=seen_from, partner=partner,
+                opponents=opponents,
+            )  # fmt: skip
             action = np.asarray(self.policy(obs), dtype=np.float64).reshape(-1)
         except Exception as exc:
             return Decision(
@@ -389,6 +418,7 @@ class Decider:
         fresh: bool = True,
         seen_from: tuple[float, float, float] | None = None,
         partner: PartnerInput | None = None,
+        opponents: NDArray[np.float64] = _NO_RINGS,
     ) -> NDArray[np.float32]:
         t = state.phase_ms / 1000.0
         if state.phase == MatchPhase.DRIVER:
@@ -405,6 +435,7 @@ class Decider:
             # never sees a goal taken.
             goal_clamped=state.goal_clamped == CLAMP_HOLDS,
             intake_fills=self.config.intake_fills,
+            others_robot_xy=opponents,
         )
         fresh_partner = partner is not None and partner.age_s <= self.config.partner_max_age_s
         if self.spec.partner and partner is not None and fresh_partner:

@@ -233,7 +233,11 @@ def robot_view(
     seen = sensors.rings_in_robot_frame(world, index, rings) if len(rings) else np.zeros((0, 2))
     others = np.zeros((0, 2))
     if spec.n_other_robots:
-        pts = [(o.x, o.y) for o in world.robots if o.index != index]
+        if spec.seen_opponents:  # the opponents whose plates its camera sees
+            sees = sensors.robots_in_view(world)[index]
+            pts = [(o.x, o.y) for o in world.robots if sees[o.index] and o.alliance != r.alliance]
+        else:
+            pts = [(o.x, o.y) for o in world.robots if o.index != index]
         if pts:
             others = field_to_robot(np.array(pts), r.xy, r.heading)
     return RobotView(

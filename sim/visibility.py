@@ -7,6 +7,10 @@ standing on the floor (robots and platforms as boxes, goal bases and posts as di
 everything on a Tipping Point field is to a camera 0.3 m up. High fidelity cross-checks the same
 question with PyBullet ray tests (sim.world).
 
+Robots are seen by their licence plates (plates_in_view): the twin's model of the Jetson's
+robot detector (jetson/perception/robots.py), batched over matches so that PyBullet's twin and
+the fast backend ask the same arithmetic.
+
 numpy only.
 """
 
@@ -264,3 +268,81 @@ def _point_in_obstacles(q: FloatArray, obs: Obstacles) -> bool:
         if q[2] < hz and (q[0] - x) ** 2 + (q[1] - y) ** 2 <= r * r:
             return True
     return False
+
+
+# The robot detector's reach (jetson/perception/robots.py; tests/sim/test_robot_sight.py): a
+# plate across a robot's front, PLATE_SHARE of its width and 8 cm tall, at half its height (the
+# twin's robots: sim/world/physics.py), is found when it faces the camera showing at least
+# PLATE_MIN_M of its length across the ray (the detector's min_width_m), within ROBOT_SIGHT_M of
+# the lens, and at least PLATE_IN_PICTURE of PLATE_SAMPLES points along its lower edge are in
+# the picture (the detector places a plate the image cuts from the end it sees; the camera looks
+# down for rings, so far plates leave the picture's top edge bottom first).
+PLATE_SHARE = 0.9
+PLATE_MIN_M = 0.15
+PLATE_EDGE_M = 0.03  # the sampled line: this far below the plate's middle (its half height 4 cm)
+PLATE_SAMPLES = 9
+PLATE_IN_PICTURE = 2
+ROBOT_SIGHT_M = 2.0
+
+
+def plates_in_view(
+    x: FloatArray,
+    y: FloatArray,
+    heading_deg: FloatArray,
+    turn_rad_s: FloatArray,
+    cams: list[CameraConfig],
+    sizes: FloatArray,
+) -> NDArray[np.bool_]:
+    """(B, R, R): whether robot i's camera sees robot j's licence plate in match b (never its
+    own), from the robots' poses and turn rates (B, R), their cameras (R) and their sizes (R, 3:
+    width, length, height, metres). A camera turning faster than its max_turn_rate_rad_s sees
+    nothing (its picture is blurred), as for rings. No occlusion: a plate behind another robot
+    counts as seen."""
+    n_robots = len(cams)
+    rad = np.radians(heading_deg)
+    fwd = np.stack([np.sin(rad), np.cos(rad)], -1)  # (B, R, 2)
+    right = np.stack([fwd[..., 1], -fwd[..., 0]], -1)
+    width, half_len, height = sizes[:, 0], sizes[:, 1] / 2, sizes[:, 2]
+    plate = np.stack([x, y], -1) + fwd * half_len[None, :, None]  # robot j's plate middle
+
+    def per_camera(values: list[float]) -> FloatArray:
+        return np.asarray(values, dtype=np.float64)[None, :, None]  # robot i's, against j
+
+    fwd_m = np.array([c.forward_m for c in cams])[None, :, None]
+    right_m = np.array([c.right_m for c in cams])[None, :, None]
+    lens = np.stack([x, y], -1) + fwd * fwd_m + right * right_m  # (B, R, 2): robot i's lens
+    d = plate[:, None, :, :] - lens[:, :, None, :]  # (B, i, j, 2)
+    # Points along robot j's plate (its right vector), (B, i, j, K, 2) from robot i's lens.
+    along = np.linspace(-0.5, 0.5, PLATE_SAMPLES)[:, None] * PLATE_SHARE * width[:, None, None]
+    pts = d[..., None, :] + along[None, None] * right[:, None, :, None, :]
+    dz = (height / 2 - PLATE_EDGE_M)[None, None, :, None] - per_camera([c.height_m for c in cams])[
+        ..., None
+    ]
+    f = np.einsum("bijkl,bil->bijk", pts, fwd)
+    r = np.einsum("bijkl,bil->bijk", pts, right)
+    tilt = np.radians([c.tilt_deg for c in cams])
+    c, s = per_camera(list(np.cos(tilt)))[..., None], per_camera(list(np.sin(tilt)))[..., None]
+    zc = c * f + s * dz  # the optical frame (jetson.autonomy.camera.robot_to_camera_rotation)
+    yc = s * f - c * dz
+
+    def cam_value(name: str) -> FloatArray:
+        return per_camera([getattr(k, name) for k in cams])[..., None]
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = cam_value("fx") * r / zc + cam_value("cx")
+        v = cam_value("fy") * yc / zc + cam_value("cy")
+    in_picture = (
+        (zc > cam_value("near_m"))
+        & (u >= 0) & (u < cam_value("width"))
+        & (v >= 0) & (v < cam_value("height"))
+    )  # fmt: skip
+    near = np.sqrt((d**2).sum(-1) + dz[..., 0] ** 2) <= ROBOT_SIGHT_M
+    in_picture = (in_picture.sum(-1) >= PLATE_IN_PICTURE) & near
+    # The plate faces the lens and shows enough of its length across the ray.
+    flat = np.maximum(np.hypot(d[..., 0], d[..., 1]), _EPS)
+    facing = -np.einsum("bijk,bjk->bij", d, fwd) / flat  # cos(plate normal, toward the lens)
+    shows = PLATE_SHARE * width[None, None, :] * facing >= PLATE_MIN_M
+    limit = [math.inf if k.max_turn_rate_rad_s is None else k.max_turn_rate_rad_s for k in cams]
+    steady = np.abs(turn_rad_s) <= np.asarray(limit)[None, :]
+    own = np.eye(n_robots, dtype=bool)[None]
+    return in_picture & shows & steady[:, :, None] & ~own

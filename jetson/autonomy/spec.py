@@ -152,6 +152,11 @@ class ObservationSpec:
     # rings, and the target it claimed, in the robot frame; all zero without a fresh report
     # (the link down: the robot plays alone).
     partner: bool = False
+    # Version 6 too: the other robots' slots hold only the opponents the camera sees (the robot
+    # detector's, jetson/perception/robots.py: a licence plate facing the camera within about
+    # 2 m), nearest first, instead of every other robot wherever it is. The partner is the
+    # partner block's; an opponent out of view leaves its slot empty.
+    seen_opponents: bool = False
 
     def __post_init__(self) -> None:
         if self.version not in SUPPORTED_VERSIONS:
@@ -169,6 +174,10 @@ class ObservationSpec:
             raise ObservationError("intake_flag needs observation spec version 5")
         if self.partner and self.version < 6:
             raise ObservationError("partner needs observation spec version 6")
+        if self.seen_opponents and (self.version < 6 or self.n_other_robots < 1):
+            raise ObservationError(
+                "seen_opponents needs observation spec version 6 and n_other_robots >= 1"
+            )
         for name in ("prior_rings", "prior_goals"):
             object.__setattr__(self, name, _points(getattr(self, name), name))
         object.__setattr__(self, "memory_intake_zone", _zone(self.memory_intake_zone))
@@ -296,7 +305,10 @@ class ObservationSpec:
         for f in range(self.n_frames):
             age = "now" if f == 0 else f"t-{f}"
             for i, name in enumerate(names):
-                lines.append(f"{f * self.frame_size + i:4d}  [{age}] {name}: {_meaning(name)}")
+                text = _meaning(name)
+                if self.seen_opponents and name.startswith("robot"):
+                    text = text.replace("other robot", "opponent the camera sees")
+                lines.append(f"{f * self.frame_size + i:4d}  [{age}] {name}: {text}")
         return lines
 
     def to_dict(self) -> dict[str, object]:
@@ -348,6 +360,8 @@ class ObservationSpec:
             layout.pop("intake_flag")
         if not self.partner:
             layout.pop("partner")
+        if not self.seen_opponents:
+            layout.pop("seen_opponents")
         blob = json.dumps(layout, sort_keys=True).encode()
         return hashlib.sha256(blob).hexdigest()[:16]
 

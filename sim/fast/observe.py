@@ -34,6 +34,7 @@ from sim.fast.kernels import nearest_seen, threads_for, visible_rings
 from sim.fast.memory import FastGoalMemory, FastRingMemory, unsupported_memory
 from sim.fast.world import FastWorld
 from sim.match import memory_camera, partner_of
+from sim.visibility import plates_in_view
 from sim.world.state import POST_RADIUS
 
 F32 = NDArray[np.float32]
@@ -91,6 +92,8 @@ class FastObserver:
         mates = [partner_of(alliances, i) for i in range(world.n_robots)]
         self._mate = np.array([-1 if m is None else m for m in mates], dtype=np.int64)
         self.claims = np.full((world.n, world.n_robots, 2), np.nan)
+        self._opponent = np.array([[a != b for b in alliances] for a in alliances])
+        self._sizes = np.array([(rc.width_m, rc.length_m, rc.height_m) for rc in rcs])
         self.seen_rings = np.zeros((world.n, world.n_robots, world.ring_xy.shape[1]), bool)
 
     # --- what the cameras see ---------------------------------------------------------------
@@ -104,6 +107,13 @@ class FastObserver:
                 w.x, w.y, w.heading, w.w, w.ring_xy, w.ring_floor, w.ring_z,
                 self._cam, self._boxes, w.gx, w.gy, self._discs,
             )  # fmt: skip
+
+    def robots_in_view(self) -> Bool:
+        """(B, R, R): whether robot i's camera sees robot j's licence plate
+        (sim.visibility.plates_in_view, as sim.world.sensors.robots_in_view)."""
+        w = self.world
+        rcs = w.robot_configs
+        return plates_in_view(w.x, w.y, w.heading, w.w, [rc.camera for rc in rcs], self._sizes)
 
     # --- frames -----------------------------------------------------------------------------
 
@@ -164,11 +174,15 @@ class FastObserver:
             dx = w.x[:, None, :] - w.x[:, :, None]  # (B, R, R): robot j from robot i
             dy = w.y[:, None, :] - w.y[:, :, None]
             local = np.stack([dx * c - dy * s, dx * s + dy * c], -1)
-            d2 = np.where(np.eye(w.n_robots, dtype=bool), np.inf, dx**2 + dy**2)
+            shown = ~np.eye(w.n_robots, dtype=bool)[None]
+            if spec.seen_opponents:  # the opponents whose plates the camera sees
+                shown = self.robots_in_view() & self._opponent[None]
+            d2 = np.where(shown, dx**2 + dy**2, np.inf)
             count = min(spec.n_other_robots, w.n_robots - 1)
             order = np.argsort(d2, axis=-1, kind="stable")[..., :count]
             near = np.take_along_axis(local, order[..., None], -2)
-            self._write(out, len(spec.scalars), near, np.full(near.shape[:-1], SEEN))
+            ok = np.isfinite(np.take_along_axis(d2, order, -1)) * SEEN
+            self._write(out, len(spec.scalars), near, ok)
         if spec.partner:
             self._write_partner(out)
         active = np.ones(w.n, dtype=bool) if rows is None else rows

@@ -27,6 +27,7 @@ from sim.visibility import (
     Obstacles,
     in_frustum,
     occluded,
+    plates_in_view,
     visible,
     visible_among_rings,
 )
@@ -237,6 +238,19 @@ def obstacles(
         obs.disc_radius = np.concatenate([obs.disc_radius, rad])
         obs.disc_height = np.concatenate([obs.disc_height, hz])
     return obs
+
+
+def robots_in_view(world: WorldState) -> np.ndarray:
+    """(R, R): whether robot i's camera sees robot j's licence plate now
+    (sim.visibility.plates_in_view, the robot detector's reach: the fast backend asks the same
+    of every match at once)."""
+    rs = world.robots
+    pose = np.array([[r.x, r.y, r.heading, r.w] for r in rs], dtype=np.float64).reshape(-1, 4)
+    sizes = np.array([(r.config.width_m, r.config.length_m, r.config.height_m) for r in rs])
+    cams = [r.config.camera for r in rs]
+    return plates_in_view(
+        pose[None, :, 0], pose[None, :, 1], pose[None, :, 2], pose[None, :, 3], cams, sizes
+    )[0]
 
 
 def visible_rings(world: WorldState, index: int) -> np.ndarray:

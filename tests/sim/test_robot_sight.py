@@ -102,3 +102,63 @@ def test_the_report_is_x_y_and_the_alliance_code(world: World) -> None:
     got, _ = look(world, 1.6, 180.0, 0.0)
     arr = RobotDetector.as_array(got)
     assert arr.shape == (1, 3) and arr[0, 2] == ROBOT_ALLIANCE_CODES["blue"]
+
+
+def test_the_twins_sight_model_agrees_with_the_detector(world: World) -> None:
+    """sim.visibility.plates_in_view, what the twin's observation (seen_opponents) and the fast
+    backend call seeing a robot, against the detector on the renders of the same scenes: near
+    and far, facing, aslant, side on and turned away, ahead and aside."""
+    from sim.world.sensors import robots_in_view
+
+    agree, scenes, seen = 0, 0, 0
+    for d in (0.9, 1.3, 1.7, 2.1, 2.5, 2.9, 3.3):
+        for rel in (180.0, 140.0, 235.0, 100.0, 0.0):
+            for lat in (0.0, 0.6):
+                got, _ = look(world, d, rel, lat)
+                model = bool(robots_in_view(world)[0, 1])
+                agree += model == bool(got)
+                seen += model
+                scenes += 1
+    assert seen >= 10 and scenes - seen >= 10  # both answers were asked
+    assert agree / scenes >= 0.9, f"{agree} of {scenes}"
+
+
+def test_the_sight_model_projects_as_the_camera_does() -> None:
+    """plates_in_view's picture test is the camera model's (sim.visibility.in_frustum) on the
+    same points along a plate's lower edge, over random poses of a plate facing the lens."""
+    from sim.config import CameraConfig, RobotConfig
+    from sim.visibility import (
+        PLATE_EDGE_M,
+        PLATE_IN_PICTURE,
+        PLATE_SAMPLES,
+        PLATE_SHARE,
+        ROBOT_SIGHT_M,
+        camera_pose,
+        in_frustum,
+        plates_in_view,
+    )
+
+    rng = np.random.default_rng(2)
+    cam, rc = CameraConfig(), RobotConfig()
+    sizes = np.array([(rc.width_m, rc.length_m, rc.height_m)] * 2)
+    answers = []
+    for _ in range(300):
+        x1, y1 = rng.uniform(-1.2, 1.2), rng.uniform(0.3, 2.8)
+        h0 = rng.uniform(-20.0, 20.0)
+        xs, ys = np.array([[0.0, x1]]), np.array([[0.0, y1]])
+        got = plates_in_view(xs, ys, np.array([[h0, 180.0]]), np.zeros((1, 2)), [cam, cam], sizes)
+        # Robot 1 faces -y: its plate's middle is half its length below its centre, the plate
+        # runs along -x (its right), its lower edge PLATE_EDGE_M below the middle.
+        along = np.linspace(-0.5, 0.5, PLATE_SAMPLES) * PLATE_SHARE * rc.width_m
+        z = rc.height_m / 2 - PLATE_EDGE_M
+        edge = np.array([[x1 - a, y1 - rc.length_m / 2, z] for a in along])
+        mask, _, _ = in_frustum(edge, camera_pose((0.0, 0.0), h0, cam), cam)
+        lens = np.array(camera_pose((0.0, 0.0), h0, cam).position)
+        mid = edge[PLATE_SAMPLES // 2]
+        want = mask.sum() >= PLATE_IN_PICTURE and np.linalg.norm(mid - lens) <= ROBOT_SIGHT_M
+        facing = (lens[1] - mid[1]) / np.hypot(*(lens[:2] - mid[:2]))
+        want &= PLATE_SHARE * rc.width_m * -facing >= 0.15
+        answers.append((bool(got[0, 0, 1]), bool(want)))
+        assert not got[0, 0, 0] and not got[0, 1, 1]  # never itself
+    assert all(a == b for a, b in answers)
+    assert 30 < sum(a for a, _ in answers) < 270  # both answers were asked

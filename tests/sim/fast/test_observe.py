@@ -123,3 +123,32 @@ def test_the_partner_block_equals_the_per_robot_builder() -> None:
     lone.reset(range(2))
     frames = FastObserver(lone, spec, obs_noise=False, gps_noise=False).frames()
     assert not frames[..., lo : lo + 8].any()
+
+
+def test_the_seen_opponents_equal_the_per_robot_builder() -> None:
+    """With seen_opponents the other-robot slots hold the opponents whose plates the camera
+    sees (sim.visibility.plates_in_view), batched as sim.match.robot_view builds them."""
+    from sim.match import robot_view
+
+    spec = ObservationSpec(
+        version=6, n_other_robots=2, seen_opponents=True, n_stack=0, match_length_s=120.0
+    )
+    world = FastWorld(world_preset("tipping_point_2v2"), 8)
+    world.reset(range(8))
+    obs = FastObserver(world, spec, obs_noise=False, gps_noise=False)
+    rng = np.random.default_rng(5)
+    lo, seen = len(spec.scalars), 0
+    for t in range(90):
+        world.step(rng.uniform(-0.5, 1.5, (8, 4)), rng.uniform(-2, 2, (8, 4)))
+        if t % 3:
+            continue
+        frames = obs.frames()
+        for k in range(8):
+            v = match_view(world, k)
+            for i in range(4):
+                r = v.robots[i]
+                view = robot_view(v, spec, i, (r.x, r.y, r.heading), np.zeros(0, np.int64))
+                ref = build_frame(spec, view)
+                assert np.allclose(frames[k, i, lo : lo + 6], ref[lo : lo + 6], atol=1e-6)
+                seen += int(ref[lo + 2] > 0)
+    assert seen > 10  # opponents were in view, not only empty slots
