@@ -59,7 +59,7 @@ from jetson.autonomy.observation import FrameStack, RobotView, build_frame
 from jetson.autonomy.policy import Policy
 from jetson.autonomy.ring_memory import RingMemory
 from jetson.autonomy.skills import SkillDriver
-from jetson.camera_feed import NO_GOALS, no_goals
+from jetson.camera_feed import NO_GOALS, NO_ROBOTS, no_goals, no_robots
 from jetson.errors import SettingsError
 from jetson.partner import NOTHING, Claim, PartnerInput
 from jetson.settings import DecisionConfig
@@ -96,12 +96,21 @@ class PerceptionInput:
     # The goals the camera saw, (N, 3) x, y robot frame and colour code; none without a goal
     # detector (jetson.camera_feed.Perceived.goals_robot).
     goals_robot: NDArray[np.float64] = field(default_factory=no_goals)
+    # The robots the camera saw, (N, 3) x, y robot frame and alliance code; none without a robot
+    # detector (jetson.camera_feed.Perceived.robots_robot).
+    robots_robot: NDArray[np.float64] = field(default_factory=no_robots)
 
     @classmethod
     def of(cls, perceived: Any, age_s: float) -> PerceptionInput:
-        """The decision's view of a camera result (jetson.camera_feed.Perceived), `age_s` old."""
+        """The decision's view of a camera result (jetson.camera_feed.Perceived), `age_s` old;
+        a result from a feed that reports no robots has none."""
         return cls(
-            perceived.id, age_s, perceived.rings_robot_xy, perceived.error, perceived.goals_robot
+            perceived.id,
+            age_s,
+            perceived.rings_robot_xy,
+            perceived.error,
+            perceived.goals_robot,
+            getattr(perceived, "robots_robot", NO_ROBOTS),
         )
 
 
