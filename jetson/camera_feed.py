@@ -2,7 +2,8 @@
 
 The control loop never waits for the camera: each State takes whatever result is newest and
 judges its age (decide.py treats an old one as no rings and no goals, as the policy was trained
-to see them).
+to see them). A result carries the goals and the robots the pipeline's goal and robot detectors
+found, when it has them (jetson/perception/pipeline.py).
 The thread owns the camera: it opens the source, runs the perception pipeline on every frame, and
 when the camera fails or ends it logs why, closes it and opens it again, forever. It runs at a
 lower priority than the control loop (jetson/threads.py): the loop first, perception with the
@@ -36,15 +37,25 @@ NO_GOALS = np.zeros((0, 3))
 NO_GOALS.flags.writeable = False
 
 
+# No robots seen: the same shape, (0, 3) x, y robot frame and alliance code.
+NO_ROBOTS = NO_GOALS
+
+
 def no_goals() -> NDArray[np.float64]:
     return NO_GOALS
+
+
+def no_robots() -> NDArray[np.float64]:
+    return NO_ROBOTS
 
 
 @dataclass(frozen=True)
 class Perceived:
     """One frame's rings in the robot frame (x right, y forward, metres), with its time on the
-    daemon's clock; and its goals, (N, 3) x, y robot frame and colour code
-    (jetson/perception/goals.py), when the pipeline has a goal detector (none otherwise)."""
+    daemon's clock; its goals, (N, 3) x, y robot frame and colour code
+    (jetson/perception/goals.py), when the pipeline has a goal detector; and its robots, (N, 3)
+    x, y robot frame and alliance code (jetson/perception/robots.py), when it has a robot
+    detector (none otherwise)."""
 
     id: int
     stamp_s: float
@@ -54,6 +65,7 @@ class Perceived:
     process_ms: float = 0.0
     error: str | None = None  # perception raised on this frame: no rings to trust
     goals_robot: NDArray[np.float64] = field(default_factory=no_goals)
+    robots_robot: NDArray[np.float64] = field(default_factory=no_robots)
 
 
 class PerceptionFeed(Protocol):
@@ -73,7 +85,8 @@ class SourceLike(Protocol):
     def close(self) -> None: ...
 
 
-# Frame -> object with .rings_robot_xy (and .detections, and .goals_robot with a goal detector)
+# Frame -> object with .rings_robot_xy (and .detections, .goals_robot with a goal detector and
+# .robots_robot with a robot detector)
 Processor = Callable[[Any], Any]
 
 
@@ -82,12 +95,21 @@ def _rings(result: Any) -> NDArray[np.float64]:
     return rings.reshape(-1, 2) if rings.size else np.zeros((0, 2))
 
 
-def _goals(result: Any) -> NDArray[np.float64]:
-    goals = getattr(result, "goals_robot", None)
-    if goals is None:
+def _rows3(result: Any, name: str) -> NDArray[np.float64]:
+    """A result's (N, 3) report `name` (goals_robot, robots_robot); none when it has none."""
+    rows = getattr(result, name, None)
+    if rows is None:
         return NO_GOALS
-    goals = np.asarray(goals, dtype=np.float64)
-    return goals.reshape(-1, 3) if goals.size else NO_GOALS
+    rows = np.asarray(rows, dtype=np.float64)
+    return rows.reshape(-1, 3) if rows.size else NO_GOALS
+
+
+def _goals(result: Any) -> NDArray[np.float64]:
+    return _rows3(result, "goals_robot")
+
+
+def _robots(result: Any) -> NDArray[np.float64]:
+    return _rows3(result, "robots_robot")
 
 
 class _Ids:
@@ -212,7 +234,7 @@ class CameraWorker:
         t0 = time.perf_counter()
         try:
             result = self._process(frame)
-            rings, goals = _rings(result), _goals(result)
+            rings, goals, robots = _rings(result), _goals(result), _robots(result)
         except Exception as exc:
             index = int(getattr(frame, "index", 0))
             self._error(f"perception failed on frame {index}", exc)
@@ -233,6 +255,7 @@ class CameraWorker:
             len(getattr(result, "detections", ()) or ()),
             (time.perf_counter() - t0) * 1e3,
             goals_robot=goals,
+            robots_robot=robots,
         )
         self._hand_on(latest)
         if self.tap is not None:
@@ -273,13 +296,16 @@ class SyncPerception:
         t0 = time.perf_counter()
         try:
             result = self._process(frame)
-            rings, goals, error = _rings(result), _goals(result), None
+            rings, goals, robots, error = _rings(result), _goals(result), _robots(result), None
             detections = len(getattr(result, "detections", ()) or ())
         except Exception as exc:
-            rings, goals, error = np.zeros((0, 2)), NO_GOALS, f"{type(exc).__name__}: {exc}"
+            rings, goals, robots = np.zeros((0, 2)), NO_GOALS, NO_ROBOTS
+            error = f"{type(exc).__name__}: {exc}"
             detections = 0
         ms = (time.perf_counter() - t0) * 1e3
-        self._latest = Perceived(self._ids(), stamp, rings, index, detections, ms, error, goals)
+        self._latest = Perceived(
+            self._ids(), stamp, rings, index, detections, ms, error, goals, robots
+        )
         return self._latest
 
     def set_rings(self, rings_robot_xy: ArrayLike, stamp_s: float | None = None) -> Perceived:

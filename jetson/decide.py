@@ -62,7 +62,7 @@ from jetson.autonomy.observation import FrameStack, RobotView, build_frame
 from jetson.autonomy.policy import Policy
 from jetson.autonomy.ring_memory import RingMemory
 from jetson.autonomy.skills import SkillDriver
-from jetson.camera_feed import NO_GOALS, no_goals
+from jetson.camera_feed import NO_GOALS, NO_ROBOTS, no_goals, no_robots
 from jetson.errors import SettingsError
 from jetson.partner import NOTHING, Claim, PartnerInput
 from jetson.settings import DecisionConfig
@@ -86,9 +86,8 @@ DRIVING_REASONS = frozenset({"policy", "scripted"})
 UNCERTAIN_SPEED_MIN = 0.5
 CLAMP_HOLDS = 1  # State.goal_clamped: 1 holds a goal, 0 open, 255 no clamp sensor fitted
 _NO_RINGS = np.zeros((0, 2))
-_NO_ROBOTS = np.zeros((0, 3))
-# The robot detector's alliance codes (jetson.perception.robots.ROBOT_ALLIANCE_CODES: the
-# colour codes of jetson.autonomy.goal_colours).
+# Our alliance's code among the robot detector's (jetson.perception.robots.ROBOT_ALLIANCE_CODES:
+# the colour codes of jetson.autonomy.goal_colours).
 _ALLIANCE_CODES = {Alliance.RED: GOAL_COLOUR_CODES["red"], Alliance.BLUE: GOAL_COLOUR_CODES["blue"]}
 # A skill's target as the partner report names it (SkillDriver.target's kinds).
 _CLAIMS = {"ring": TargetKind.RING, "goal": TargetKind.GOAL, "platform": TargetKind.PLATFORM}
@@ -103,12 +102,21 @@ class PerceptionInput:
     # The goals the camera saw, (N, 3) x, y robot frame and colour code; none without a goal
     # detector (jetson.camera_feed.Perceived.goals_robot).
     goals_robot: NDArray[np.float64] = field(default_factory=no_goals)
+    # The robots the camera saw, (N, 3) x, y robot frame and alliance code; none without a robot
+    # detector (jetson.camera_feed.Perceived.robots_robot).
+    robots_robot: NDArray[np.float64] = field(default_factory=no_robots)
 
     @classmethod
     def of(cls, perceived: Any, age_s: float) -> PerceptionInput:
-        """The decision's view of a camera result (jetson.camera_feed.Perceived), `age_s` old."""
+        """The decision's view of a camera result (jetson.camera_feed.Perceived), `age_s` old;
+        a result from a feed that reports no robots has none."""
         return cls(
-            perceived.id, age_s, perceived.rings_robot_xy, perceived.error, perceived.goals_robot
+            perceived.id,
+            age_s,
+            perceived.rings_robot_xy,
+            perceived.error,
+            perceived.goals_robot,
+            getattr(perceived, "robots_robot", NO_ROBOTS),
         )
 
 
@@ -259,7 +267,7 @@ def perceived_opponents(
     result, from none, or with our alliance unknown."""
     if perception is None or perceived_rings(perception, config)[1] != "fresh":
         return _NO_RINGS
-    robots = np.asarray(getattr(perception, "robots_robot", _NO_ROBOTS), dtype=np.float64)
+    robots = np.asarray(perception.robots_robot, dtype=np.float64)
     ours = _ALLIANCE_CODES.get(alliance)
     if ours is None or robots.size == 0:
         return _NO_RINGS

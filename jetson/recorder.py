@@ -8,7 +8,8 @@ gzip-compressed when the name ends in .gz (the default). Records, each with "kin
                 settings and control rate: what replay needs to rebuild the decision code
     reset       the decision's history was cleared (a new session starts with one)
     perception  a perception result the first time a State used it: id, time, rings (robot frame)
-                and, when the camera saw goals, goals (x, y robot frame, colour code)
+                and, when the camera saw goals, goals (x, y robot frame, colour code); when it
+                saw robots, robots (x, y robot frame, alliance code: 1 red, 2 blue)
     cycle       one State and its answer: clock time, the State's fields, the perception id and
                 age used, the Command, the decision's reason, and the latency (ms); while the
                 partner link is up, the partner's report the decision was given and its age
@@ -153,6 +154,9 @@ class Recorder:
         goals = getattr(result, "goals_robot", None)
         if goals is not None and len(goals):  # none: the key is left out, as before goals
             record["goals"] = goals.tolist()
+        robots = getattr(result, "robots_robot", None)
+        if robots is not None and len(robots):  # none: the key is left out, as before robots
+            record["robots"] = robots.tolist()
         self._put(record)
 
     def cycle(self, rec: CycleRecord) -> None:

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from jetson.autonomy.camera import MemoryCamera
 from jetson.autonomy.policy import OnnxPolicy, Policy
@@ -285,7 +286,10 @@ def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e
         elif kind == "reset":
             decider.reset()
         elif kind == "perception":
-            perceived[int(rec["id"])] = recorded_perception(rec)
+            try:
+                perceived[int(rec["id"])] = recorded_perception(rec)
+            except (KeyError, TypeError, ValueError) as exc:
+                raise ReplayError(f"{path}: a perception record is malformed: {exc}") from exc
         elif kind == "cycle":
             _compare(report, decider, rec, perceived, tolerance, path)
             latencies.append(float(rec.get("latency_ms", math.nan)) / 1e3)
@@ -301,10 +305,18 @@ def replay(path: str | Path, policy: Policy | None = None, tolerance: float = 1e
 
 def recorded_perception(rec: dict[str, Any]) -> PerceptionInput:
     """A recording's perception record as the decision reads it (its age comes with each cycle
-    that uses it); a record without goals (none seen, or recorded before goals) has none."""
+    that uses it); a record without goals or robots (none seen, or recorded before either) has
+    none."""
     xy = np.asarray(rec["rings"], dtype=np.float64).reshape(-1, 2)
     goals = np.asarray(rec.get("goals") or [], dtype=np.float64).reshape(-1, 3)
-    return PerceptionInput(int(rec["id"]), 0.0, xy, rec.get("error"), goals)
+    robots = recorded_robots(rec)
+    return PerceptionInput(int(rec["id"]), 0.0, xy, rec.get("error"), goals, robots)
+
+
+def recorded_robots(rec: dict[str, Any]) -> NDArray[np.float64]:
+    """A perception record's robots, (N, 3) x, y robot frame and alliance code: none when the
+    record has no `robots` (a daemon without the robot detector, or none seen)."""
+    return np.asarray(rec.get("robots") or [], dtype=np.float64).reshape(-1, 3)
 
 
 def recorded_partner(cycle: dict[str, Any]) -> PartnerInput | None:

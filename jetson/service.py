@@ -247,7 +247,9 @@ def build(
         # On the machine's own clock the camera runs in a process of its own; a lockstep
         # simulator's clock exists only in this process, so its camera is a thread here.
         own = isinstance(clock, MonotonicClock)
-        camera = make_camera(settings, clock, log, own_process=own)
+        camera = make_camera(
+            settings, clock, log, own_process=own, robots=policy_reads_robots(decider)
+        )
         perception = camera
     recordings = None
     if settings.record.dir:
@@ -325,19 +327,31 @@ def memory_camera(camera_settings: Any) -> Any:
     )  # fmt: skip
 
 
-def make_camera(settings: Settings, clock: Any, log: Any, own_process: bool = False) -> Any:
+def policy_reads_robots(decider: Any) -> bool:
+    """Whether the decider's observation reads the robots the camera sees: its spec's
+    `seen_opponents` (false for a spec without it, and for the scripted alliance)."""
+    return bool(getattr(getattr(decider, "spec", None), "seen_opponents", False))
+
+
+def make_camera(
+    settings: Settings, clock: Any, log: Any, own_process: bool = False, robots: bool = False
+) -> Any:
     """The camera thread over the configured source and pipeline; a camera that is absent or
     fails later is retried by the thread, forever. `own_process`: the thread runs in a process
     of its own (jetson/camera_process.py), not started yet: its start() builds the pipeline and
     fails as this function would; `clock` must then be the machine's monotonic clock. The goal
-    detector runs when Settings.detects_goals says so."""
+    detector runs when Settings.detects_goals says so, the robot detector when
+    Settings.detects_robots does; `robots`: the policy reads the robots it sees
+    (policy_reads_robots), which turns it on unless [camera] robots is set."""
     from dataclasses import replace
 
     from jetson.camera_feed import CameraWorker
     from jetson.perception.pipeline import make_pipeline
     from jetson.perception.sources import open_source
 
-    cs = replace(settings.camera, goals=settings.detects_goals())
+    cs = replace(
+        settings.camera, goals=settings.detects_goals(), robots=settings.detects_robots(robots)
+    )
     if own_process:
         from jetson.camera_process import CameraProcess
 

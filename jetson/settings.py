@@ -203,6 +203,10 @@ class CameraSettings:
     # Find the mobile goals in each frame too (jetson/perception/goals.py), for the scripted
     # alliance; None: on when [decision] player is "alliance" (Settings.detects_goals).
     goals: bool | None = None
+    # Find the robots in each frame too, by their licence plates (jetson/perception/robots.py),
+    # for a policy whose observation reads the robots it sees; None: as that policy needs
+    # (Settings.detects_robots, then jetson.service.make_camera).
+    robots: bool | None = None
 
     def __post_init__(self) -> None:
         _check_providers(self, "camera")
@@ -305,6 +309,15 @@ class Settings:
         if self.camera.goals is not None:
             return self.camera.goals
         return self.decision.player == "alliance"
+
+    def detects_robots(self, policy_reads_robots: bool = False) -> bool:
+        """Whether the camera finds robots: [camera] robots, or when it is not set, whether the
+        policy's observation reads the robots it sees (`policy_reads_robots`). That is known only
+        once the policy is loaded, so the settings alone say off: jetson.service.build passes it
+        for a policy whose spec reads seen opponents (`seen_opponents`), through make_camera."""
+        if self.camera.robots is not None:
+            return self.camera.robots
+        return policy_reads_robots
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Settings:

@@ -11,7 +11,10 @@ The goals the camera saw (a daemon with the goal detector records them with each
 result, jetson/recorder.py) go to the decision with the rings, as they went on the robot, and
 each snapshot shows the last fresh result's goals as it shows its rings: `field.goals_seen`,
 [x, y, colour code] in the field frame (jetson.autonomy.goal_colours), and their count in
-`perception.goals` and in the cycles (the report's figures).
+`perception.goals` and in the cycles (the report's figures). The robots the camera saw (a daemon
+with the robot detector records them the same way) go to the decision too, and show as
+`field.robots_seen`, [x, y, alliance code] (jetson.perception.robots: 1 red, 2 blue), with their
+count in `perception.robots`.
 """
 
 from __future__ import annotations
@@ -34,13 +37,20 @@ from jetson.dashboard.snapshot import (
     field_view,
     goals_field,
     latency_view,
+    robots_field,
     state_snapshot,
     who_drives,
 )
 from jetson.decide import DRIVING_REASONS, Decider, PerceptionInput
 from jetson.errors import ReplayError
 from jetson.recorder import FORMAT, READABLE_VERSIONS
-from jetson.replay import Records, recorded_decider, recorded_partner, recorded_state
+from jetson.replay import (
+    Records,
+    recorded_decider,
+    recorded_partner,
+    recorded_robots,
+    recorded_state,
+)
 from protocol.framing import message_from_dict
 from protocol.messages import Command, State
 
@@ -85,6 +95,7 @@ class Timeline:
         forgetting = Forgetting(decider.spec.memory_merge_m if decider else 0.12)
         rings: dict[int, tuple[np.ndarray, str | None]] = {}
         goals: dict[int, np.ndarray] = {}
+        robots: dict[int, np.ndarray] = {}
         perceptions: dict[int, dict[str, Any]] = {}
         latencies: deque[float] = deque(maxlen=LATENCY_WINDOW)
         lines: deque[list[Any]] = deque(maxlen=30)
@@ -102,6 +113,7 @@ class Timeline:
                 xy = np.asarray(rec["rings"], dtype=np.float64).reshape(-1, 2)
                 rings[int(rec["id"])] = (xy, rec.get("error"))
                 goals[int(rec["id"])] = recorded_goals(rec)
+                robots[int(rec["id"])] = recorded_robots(rec)
                 perceptions[int(rec["id"])] = rec
             elif kind == "frame":
                 msg = {"kind": "frame", **{k: v for k, v in rec.items() if k != "kind"}}
@@ -119,7 +131,9 @@ class Timeline:
                 pid = rec.get("p")
                 if pid is not None and int(pid) in rings:
                     xy, error = rings[int(pid)]
-                    pin = PerceptionInput(int(pid), float(rec["age"]), xy, error, goals[int(pid)])
+                    pin = PerceptionInput(
+                        int(pid), float(rec["age"]), xy, error, goals[int(pid)], robots[int(pid)]
+                    )
                 if decider is not None:
                     decider.decide(state, pin, recorded_partner(rec))
                 latency = rec.get("latency_ms")
@@ -167,6 +181,7 @@ class Timeline:
         field = field_view(decider, state, seen)
         field["forgotten"] = forgetting.update(t, field)
         field["goals_seen"] = goals_field(goals_seen(pin, decision.perception), state)
+        field["robots_seen"] = robots_field(robots_seen(pin, decision.perception), state)
         h = self.header
         snap = {
             "kind": "state",
@@ -188,6 +203,7 @@ class Timeline:
                 "age_ms": None if pin is None else round(pin.age_s * 1e3, 1),
                 "rings": len(perception.get("rings") or ()),
                 "goals": len(perception.get("goals") or ()),
+                "robots": len(perception.get("robots") or ()),
                 "detections": perception.get("detections", 0),
                 "process_ms": perception.get("process_ms"), "error": perception.get("error"),
             },
@@ -235,6 +251,14 @@ def goals_seen(pin: PerceptionInput | None, perception: str | None) -> np.ndarra
     if pin is None or perception != "fresh":
         return np.zeros((0, 3))
     return pin.goals_robot
+
+
+def robots_seen(pin: PerceptionInput | None, perception: str | None) -> np.ndarray:
+    """The robots of the cycle's perception result when the decision took it fresh (the rings'
+    rule), else none."""
+    if pin is None or perception != "fresh":
+        return np.zeros((0, 3))
+    return pin.robots_robot
 
 
 class ReplaySource:

@@ -260,15 +260,27 @@ def field_view(decider: Any, state: Any, seen_robot_xy: Any = None) -> dict[str,
     return out
 
 
-def goals_field(goals_robot: np.ndarray, state: Any) -> list[list[float]]:
-    """Goals (robot frame, colour code) -> [x, y, colour code] in the field frame (GPS, metres)."""
-    if not len(goals_robot):
+def coded_field(rows_robot: np.ndarray, state: Any) -> list[list[float]]:
+    """Points with a code, (N, 3) x, y robot frame and code -> [x, y, code] in the field frame
+    (GPS, metres), from the State's pose."""
+    if not len(rows_robot):
         return []
-    xy = robot_to_field(goals_robot[:, :2], (float(state.x), float(state.y)), float(state.heading))
+    xy = robot_to_field(rows_robot[:, :2], (float(state.x), float(state.y)), float(state.heading))
     return [
         [round(float(x), 3), round(float(y), 3), int(c)]
-        for (x, y), c in zip(xy, goals_robot[:, 2], strict=True)
+        for (x, y), c in zip(xy, rows_robot[:, 2], strict=True)
     ]
+
+
+def goals_field(goals_robot: np.ndarray, state: Any) -> list[list[float]]:
+    """Goals (robot frame, colour code) -> [x, y, colour code] in the field frame (GPS, metres)."""
+    return coded_field(goals_robot, state)
+
+
+def robots_field(robots_robot: np.ndarray, state: Any) -> list[list[float]]:
+    """Robots the camera saw (robot frame, alliance code: jetson.perception.robots) -> [x, y,
+    alliance code] in the field frame (GPS, metres)."""
+    return coded_field(robots_robot, state)
 
 
 def claim_view(claim: Any) -> dict[str, Any] | None:
@@ -498,6 +510,10 @@ class Observer:
         # The goal detector's goals of the same result (jetson/perception/goals.py), when on.
         field["goals_seen"] = (
             goals_field(p.goals_robot, state) if p is not None and usable and state else []
+        )
+        # The robot detector's robots of the same result (jetson/perception/robots.py), when on.
+        field["robots_seen"] = (
+            robots_field(p.robots_robot, state) if p is not None and usable and state else []
         )
         field["claim"] = claim_view(raw["claim"])
         perception = None

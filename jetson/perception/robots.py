@@ -30,12 +30,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from jetson.autonomy.camera import Intrinsics
+from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES
 from jetson.perception.blobs import colour_blobs, image_intrinsics, robot_points
 from jetson.perception.camera import CameraConfig
 from jetson.perception.goals import colour_windows
 from jetson.perception.prefilter import HsvWindow
 
-ROBOT_ALLIANCE_CODES = {"red": 1, "blue": 2}
+# A robot's alliance as its plate's colour: the goal colour codes' red and blue, so one code
+# means one colour whatever was seen (jetson.decide reads the robots' codes with them).
+ROBOT_ALLIANCE_CODES = {name: GOAL_COLOUR_CODES[name] for name in ("red", "blue")}
 
 
 def _plate_windows() -> dict[str, tuple[HsvWindow, ...]]:

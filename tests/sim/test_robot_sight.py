@@ -1,20 +1,25 @@
 """The robot detector (jetson/perception/robots.py) on the twin's renders: a robot's licence plate
 within 2 m places the robot behind it; a robot side on or turned away shows none (the twin's
 robots carry one plate, across the front); an alliance goal and a platform of the same colours
-are not robots."""
+are not robots. The pipeline `[camera] robots` builds reports the same robot on the same render,
+and none without it."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterator
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from jetson.autonomy.geometry import field_to_robot
 from jetson.perception.camera import CameraConfig as JetsonCamera
+from jetson.perception.frame import Frame
+from jetson.perception.pipeline import make_pipeline
 from jetson.perception.robots import ROBOT_ALLIANCE_CODES, RobotDetector
+from jetson.settings import Settings
 from sim.camera import render_camera
 from sim.config import world_preset
 from sim.world.physics import World
@@ -162,3 +167,28 @@ def test_the_sight_model_projects_as_the_camera_does() -> None:
         assert not got[0, 0, 0] and not got[0, 1, 1]  # never itself
     assert all(a == b for a, b in answers)
     assert 30 < sum(a for a, _ in answers) < 270  # both answers were asked
+
+
+@pytest.mark.parametrize("robots", [True, False])
+def test_the_pipeline_finds_the_robot_when_robots_is_on(
+    world: World, robots: bool, tmp_path: Path
+) -> None:
+    """The daemon's pipeline, as `[camera] robots` and the twin's camera config build it, on the
+    twin's render of blue's robot facing red's 1.6 m ahead."""
+    _, truth = look(world, 1.6, 180.0, 0.0)
+    cam = world.robots[0].config.camera.scaled(240, 180)
+    config = tmp_path / "camera.json"
+    JetsonCamera(cam.intrinsics, cam.mount).save(config)
+    settings = Settings().with_overrides(
+        camera={"detector": "classical", "config": str(config), "robots": robots}
+    )
+    _, pipeline = make_pipeline(replace(settings.camera, robots=settings.detects_robots()))
+    f = render_camera(world, 0, cam)
+    frame = Frame(np.ascontiguousarray(f.rgb[:, :, ::-1]), f.depth, cam.intrinsics, 0.0, 1)
+    result = pipeline.process(frame)
+    if not robots:
+        assert result.robots_robot.shape == (0, 3) and "robots" not in result.timings_ms
+        return
+    ((x, y, code),) = result.robots_robot
+    assert code == ROBOT_ALLIANCE_CODES["blue"]
+    assert math.hypot(x - truth[0], y - truth[1]) < 0.06, (x, y, truth)

@@ -6,7 +6,7 @@
   const $ = (id) => document.getElementById(id);
   const D = {
     hello: null, state: null, prev: null, frame: null, jetson: null, cursor: null,
-    drawn: { robot: null, partner: null, claim: null, rings: { seen: 0, remembered: 0, forgotten: 0 }, goals: 0 },
+    drawn: { robot: null, partner: null, claim: null, rings: { seen: 0, remembered: 0, forgotten: 0 }, goals: 0, robots_seen: 0 },
     received: { state: 0, frame: 0, jetson: 0 },
     rates: { state_hz: 0, frame_hz: 0 },
     linkRates: { up_hz: null, down_hz: null },
@@ -287,6 +287,14 @@
     (f.goals_seen || []).forEach((p) => {
       hexagon(p, 8); g.fillStyle = ["#fd3", "#e33", "#38f"][p[2]] || "#fff"; g.fill();
     });
+    // the robots the camera saw by their licence plates (snapshot.py robots_field): [x, y, alliance code],
+    // a robot-sized square (0.38 m, its heading unknown) in the alliance's colour (1 red, 2 blue)
+    (f.robots_seen || []).forEach((p) => {
+      const [u, v] = T.px(p[0], p[1]), side = 0.38 * T.scale;
+      const colour = ({ 1: "#e33", 2: "#38f" })[p[2]] || "#fff";
+      g.globalAlpha = 0.45; g.fillStyle = colour; g.fillRect(u - side / 2, v - side / 2, side, side);
+      g.globalAlpha = 1; g.strokeStyle = colour; g.lineWidth = 2; g.strokeRect(u - side / 2, v - side / 2, side, side);
+    });
     (f.forgotten || []).forEach((p) => {
       const [u, v] = T.px(p[0], p[1]);
       const alpha = Math.max(0.15, 1 - p[2] / 5);
@@ -311,6 +319,8 @@
     }
     D.drawn.rings = { seen: (f.seen || []).length, remembered: (f.remembered || []).length, forgotten: (f.forgotten || []).length };
     D.drawn.goals = (f.goals || []).length;
+    D.drawn.robots_seen = (f.robots_seen || []).length;
+    text("robot-counts", D.drawn.robots_seen + " seen");
     text("ring-counts", D.drawn.rings.seen + " seen, " + D.drawn.rings.remembered + " remembered, " +
       D.drawn.rings.forgotten + " forgotten" + (f.memory ? "" : " (this policy has no ring memory)"));
     $("ring-counts").dataset.seen = D.drawn.rings.seen;

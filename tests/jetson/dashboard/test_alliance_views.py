@@ -105,3 +105,16 @@ def test_the_scripted_alliances_claim_reaches_the_page(tmp_path: Path) -> None:
         got = wait_for(claim)
         assert got and got["target"] in ("goal", "ring", "platform", "zone")
         assert all(abs(v) < 1.83 for v in got["xy"])  # on the field
+
+
+def test_robots_seen_go_to_the_field_frame_with_their_alliance() -> None:
+    from jetson.dashboard.snapshot import robots_field
+    from jetson.testing import default_state
+    from protocol.messages import State
+
+    s = State(**default_state(1, 0.0), seq=1, time_ms=0, last_command_seq=0, faults=0)
+    assert robots_field(np.zeros((0, 3)), s) == []
+    # A blue robot (code 2) 1.5 m straight ahead of the robot.
+    got = robots_field(np.array([[0.0, 1.5, 2.0]]), s)
+    h = np.radians(s.heading)
+    assert got == [[round(s.x + 1.5 * np.sin(h), 3), round(s.y + 1.5 * np.cos(h), 3), 2]]

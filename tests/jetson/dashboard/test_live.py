@@ -89,6 +89,8 @@ def test_websocket_updates_rates_and_content(live: Any) -> None:
     )
     assert s["field"]["memory"] and s["field"]["remembered"], "the shipped policy remembers rings"
     assert s["field"]["skill"] is not None
+    # This daemon runs neither the goal nor the robot detector: the camera sees none of either.
+    assert s["field"]["goals_seen"] == [] and s["field"]["robots_seen"] == []
     f = frames[-1]
     img = cv2.imdecode(np.frombuffer(base64.b64decode(f["jpeg"]), np.uint8), cv2.IMREAD_COLOR)
     assert img is not None and img.shape[1] == 320 and img.std() > 5

@@ -167,3 +167,30 @@ def test_the_timeline_shows_the_goals_the_camera_saw(recording: Path, tmp_path: 
         ((x, y, code),) = snap["field"]["goals_seen"]
         assert code == 2 and np.hypot(x - want[0], y - want[1]) < 0.01
     assert any(c["goals"] == 1 for c in tl.cycles)
+
+
+def test_the_timeline_shows_the_robots_the_camera_saw(recording: Path, tmp_path: Path) -> None:
+    """A daemon with the robot detector records each result's robots (jetson/recorder.py): the
+    timeline hands them to the decision and shows the last fresh result's robots in the field
+    frame, with their alliance, as it shows its goals."""
+    from jetson.autonomy.geometry import robot_to_field
+    from jetson.replay import Records
+
+    robot = [-0.2, 1.4, 1.0]  # a red robot 1.4 m ahead, a little left
+    path = tmp_path / "with-robots.jsonl"
+    with path.open("w") as f:
+        for rec in Records(recording):
+            if rec.get("kind") == "perception" and rec["id"] % 2 == 0:
+                rec["robots"] = [robot]
+            f.write(json.dumps(rec) + "\n")
+    plain, tl = Timeline(recording, memories=False), Timeline(path, memories=False)
+    assert not any(s["field"]["robots_seen"] for s in plain.snapshots)
+    shown = [s for s in tl.snapshots if s["field"]["robots_seen"]]
+    assert shown and len(shown) < len(tl.snapshots)  # the odd results have none
+    for snap in shown:
+        assert snap["perception"]["robots"] == 1 and snap["perception"]["id"] % 2 == 0
+        assert snap["command"]["perception"] == "fresh"
+        pose = snap["pose"]
+        want = robot_to_field(np.array([robot[:2]]), (pose["x"], pose["y"]), pose["heading"])[0]
+        ((x, y, code),) = snap["field"]["robots_seen"]
+        assert code == 1 and np.hypot(x - want[0], y - want[1]) < 0.01
