@@ -129,6 +129,17 @@ SOURCES: dict[str, Source] = {
         "trips per second on one core, and the C++ codec's times (`pete_codec_bench`, built by "
         "`make build`).",
     ),
+    "sight": Source(
+        "python -m bench.sight",
+        "What the robot sees besides rings (issue 46), per class: red, blue, neutral and the "
+        "tall neutral goal, red (the partner) and blue robots, on 1,200 random scenes of the 2v2 "
+        "field rendered at the full stack's 240x180 from the red 24\"'s camera: precision, "
+        "recall and F1 of the goal and robot detectors against the twin's sighting within 2 m "
+        "(goals: sim.goal_sight; robots: the plates sim.visibility.plates_in_view sees), the "
+        "true sightings' median localisation error, and frames per second of both detectors "
+        "(and of the ring pipeline with them) on one core. Misses by cause in sight_details.json "
+        "(docs/notes/2026-11-28-sight-benchmark.md).",
+    ),
     "sim": Source(
         "python -m bench.sim",
         "Control steps per second of the simulator for a full seeded match: the Gymnasium env "
