@@ -292,12 +292,16 @@ def plates_in_view(
     turn_rad_s: FloatArray,
     cams: list[CameraConfig],
     sizes: FloatArray,
+    goals_xy: FloatArray | None = None,
+    goal_discs: FloatArray | None = None,
 ) -> NDArray[np.bool_]:
     """(B, R, R): whether robot i's camera sees robot j's licence plate in match b (never its
     own), from the robots' poses and turn rates (B, R), their cameras (R) and their sizes (R, 3:
     width, length, height, metres). A camera turning faster than its max_turn_rate_rad_s sees
-    nothing (its picture is blurred), as for rings. No occlusion: a plate behind another robot
-    counts as seen."""
+    nothing (its picture is blurred), as for rings. A sampled point of the plate counts only
+    where no other robot's body (a box) and no goal hides it: `goals_xy` (B, G, 2) and
+    `goal_discs` (2G, 2: radius and height, the G bases then the G posts), the prisms of
+    `occluded`; without goals only the robots hide plates."""
     n_robots = len(cams)
     rad = np.radians(heading_deg)
     fwd = np.stack([np.sin(rad), np.cos(rad)], -1)  # (B, R, 2)
@@ -337,7 +341,7 @@ def plates_in_view(
         & (v >= 0) & (v < cam_value("height"))
     )  # fmt: skip
     near = np.sqrt((d**2).sum(-1) + dz[..., 0] ** 2) <= ROBOT_SIGHT_M
-    in_picture = (in_picture.sum(-1) >= PLATE_IN_PICTURE) & near
+    enough = in_picture.sum(-1) >= PLATE_IN_PICTURE
     # The plate faces the lens and shows enough of its length across the ray.
     flat = np.maximum(np.hypot(d[..., 0], d[..., 1]), _EPS)
     facing = -np.einsum("bijk,bjk->bij", d, fwd) / flat  # cos(plate normal, toward the lens)
@@ -345,4 +349,67 @@ def plates_in_view(
     limit = [math.inf if k.max_turn_rate_rad_s is None else k.max_turn_rate_rad_s for k in cams]
     steady = np.abs(turn_rad_s) <= np.asarray(limit)[None, :]
     own = np.eye(n_robots, dtype=bool)[None]
-    return in_picture & shows & steady[:, :, None] & ~own
+    seen = enough & near & shows & steady[:, :, None] & ~own
+    who = np.nonzero(seen)  # the few pairs left: the occlusion test runs on them only
+    if len(who[0]):
+        b, i, j = who
+        lens3 = np.concatenate([lens[b, i], np.array([k.height_m for k in cams])[i, None]], -1)
+        edge_xy = pts[who] + lens[b, i][:, None, :]  # (n, K, 2), field frame
+        edge_z = np.broadcast_to(
+            (height / 2 - PLATE_EDGE_M)[j][:, None, None], (*edge_xy.shape[:2], 1)
+        )
+        edge = np.concatenate([edge_xy, edge_z], -1)
+        hidden = _plates_hidden(lens3, edge, who, x, y, heading_deg, sizes, goals_xy, goal_discs)
+        seen[who] = (in_picture[who] & ~hidden).sum(-1) >= PLATE_IN_PICTURE
+    return seen
+
+
+def _plates_hidden(
+    lens: FloatArray,
+    edge: FloatArray,
+    who: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]],
+    x: FloatArray,
+    y: FloatArray,
+    heading_deg: FloatArray,
+    sizes: FloatArray,
+    goals_xy: FloatArray | None,
+    goal_discs: FloatArray | None,
+) -> NDArray[np.bool_]:
+    """(n, K): which of the sampled plate points `edge` (n, K, 3, field frame) the other robots'
+    bodies or the goals hide from the lens `lens` (n, 3) of camera i, for the pairs `who`
+    (match b, camera robot i, plate robot j): the prisms of sim.visibility.occluded."""
+    b, i, j = who
+    n, k = edge.shape[:2]
+    d3 = edge - lens[:, None, :]  # (n, K, 3)
+    d, dz = d3[..., :2], d3[..., 2]
+    hit = np.zeros((n, k), dtype=bool)
+    t_max = 1.0 - 1e-6
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # The robots' bodies, but the camera's own and the plate's (the plate is on its face).
+        index = np.arange(sizes.shape[0])[None]
+        others = (index != i[:, None]) & (index != j[:, None])
+        h = np.radians(heading_deg[b])  # (n, R)
+        s, co = np.sin(h)[:, None], np.cos(h)[:, None]  # (n, 1, R)
+        rel = lens[:, None, :2] - np.stack([x[b], y[b]], -1)  # (n, R, 2)
+        rx = (rel[..., 0] * co[:, 0] - rel[..., 1] * s[:, 0])[:, None]  # (n, 1, R)
+        ry = (rel[..., 0] * s[:, 0] + rel[..., 1] * co[:, 0])[:, None]
+        dx, dy = d[..., 0][..., None], d[..., 1][..., None]  # (n, K, 1)
+        lo_x, hi_x = _slab_interval(rx, dx * co - dy * s, sizes[:, 0] / 2)
+        lo_y, hi_y = _slab_interval(ry, dx * s + dy * co, sizes[:, 1] / 2)
+        t0, t1 = np.maximum(lo_x, lo_y), np.minimum(hi_x, hi_y)
+        z0 = lens[:, 2][:, None, None]
+        boxes = _blocked(t0, t1, z0, dz[..., None], sizes[:, 2], t_max)  # (n, K, R)
+        hit |= (boxes & others[:, None, :]).any(-1)
+        if goals_xy is not None and goal_discs is not None and goal_discs.size:
+            centres = np.concatenate([goals_xy[b], goals_xy[b]], axis=1)  # bases, then posts
+            relg = lens[:, None, :2] - centres  # (n, M, 2)
+            qa = (d * d).sum(-1)[..., None]  # (n, K, 1)
+            qb = 2.0 * np.einsum("nkc,nmc->nkm", d, relg)
+            qc = (relg * relg).sum(-1)[:, None, :] - goal_discs[:, 0] ** 2
+            disc = qb * qb - 4 * qa * qc
+            ok = (disc >= 0) & (qa > _EPS)
+            root = np.sqrt(np.where(ok, disc, 0.0))
+            g0 = np.where(ok, (-qb - root) / (2 * qa), np.inf)
+            g1 = np.where(ok, (-qb + root) / (2 * qa), -np.inf)
+            hit |= _blocked(g0, g1, z0, dz[..., None], goal_discs[:, 1], t_max).any(-1)
+    return hit

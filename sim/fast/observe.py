@@ -113,7 +113,9 @@ class FastObserver:
         (sim.visibility.plates_in_view, as sim.world.sensors.robots_in_view)."""
         w = self.world
         rcs = w.robot_configs
-        return plates_in_view(w.x, w.y, w.heading, w.w, [rc.camera for rc in rcs], self._sizes)
+        cams = [rc.camera for rc in rcs]
+        goals = np.stack([w.gx, w.gy], -1)
+        return plates_in_view(w.x, w.y, w.heading, w.w, cams, self._sizes, goals, self._discs)
 
     # --- frames -----------------------------------------------------------------------------
 

@@ -242,15 +242,23 @@ def obstacles(
 
 def robots_in_view(world: WorldState) -> np.ndarray:
     """(R, R): whether robot i's camera sees robot j's licence plate now
-    (sim.visibility.plates_in_view, the robot detector's reach: the fast backend asks the same
-    of every match at once)."""
+    (sim.visibility.plates_in_view, the robot detector's reach, the other robots and the goals
+    hiding plates: the fast backend asks the same of every match at once)."""
     rs = world.robots
     pose = np.array([[r.x, r.y, r.heading, r.w] for r in rs], dtype=np.float64).reshape(-1, 4)
     sizes = np.array([(r.config.width_m, r.config.length_m, r.config.height_m) for r in rs])
     cams = [r.config.camera for r in rs]
+    gs = world.goals
+    goals = np.array([(g.x, g.y) for g in gs], dtype=np.float64).reshape(1, -1, 2)
+    discs = np.array(
+        [(g.spec.base_radius, g.spec.base_height) for g in gs]
+        + [(POST_RADIUS, g.spec.height) for g in gs],
+        dtype=np.float64,
+    ).reshape(-1, 2)  # the bases, then the posts (as obstacles() has them)
     return plates_in_view(
-        pose[None, :, 0], pose[None, :, 1], pose[None, :, 2], pose[None, :, 3], cams, sizes
-    )[0]
+        pose[None, :, 0], pose[None, :, 1], pose[None, :, 2], pose[None, :, 3], cams, sizes,
+        goals, discs,
+    )[0]  # fmt: skip
 
 
 def visible_rings(world: WorldState, index: int) -> np.ndarray:

@@ -192,3 +192,30 @@ def test_the_pipeline_finds_the_robot_when_robots_is_on(
     ((x, y, code),) = result.robots_robot
     assert code == ROBOT_ALLIANCE_CODES["blue"]
     assert math.hypot(x - truth[0], y - truth[1]) < 0.06, (x, y, truth)
+
+
+def test_a_robot_in_between_hides_the_plate_from_the_model_and_the_detector() -> None:
+    """The sight model's occlusion (sim.visibility._plates_hidden): red's 15" standing between
+    red's 24" camera and blue's 24" hides blue's plate; moved aside, both see it again."""
+    from sim.world.sensors import robots_in_view
+
+    w = World(replace(world_preset("tipping_point_2v2", preloads=False), fidelity="training"))
+    try:
+        w.reset(np.random.default_rng(0))
+        w.set_floor_rings(np.zeros((0, 2)))
+        for g, (x, y) in zip(w.goals, SPOTS * 2, strict=False):
+            w.place_goal(g.index, x, y)
+        cam = w.robots[0].config.camera.scaled(240, 180)
+        detector = RobotDetector(JetsonCamera(cam.intrinsics, cam.mount))
+        w.place_robot(0, -1.0, 0.0, 90.0)  # red 24", looking along +x
+        w.place_robot(2, 0.5, 0.0, 270.0)  # blue 24", its plate toward red's camera
+        w.place_robot(3, 0.5, 1.5, 0.0)  # blue 15", out of the way
+        answers = []
+        for partner_y in (0.0, 1.2):  # red 15" in between (its plate away from us), then aside
+            w.place_robot(1, -0.2, partner_y, 90.0)
+            f = render_camera(w, 0, cam)
+            got = detector.detect(np.ascontiguousarray(f.rgb[:, :, ::-1]), f.depth, cam.intrinsics)
+            answers.append((bool(robots_in_view(w)[0, 2]), [s.alliance for s in got]))
+        assert answers == [(False, []), (True, ["blue"])]
+    finally:
+        w.close()
