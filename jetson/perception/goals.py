@@ -17,8 +17,11 @@ goal only where those points are shaped like a base standing on the floor:
   a margin) of its middle. A piece of a platform of a goal's colour (the twin's platforms are the
   alliance goals' red and blue), bigger than a base or thin, leaves points outside;
 - in view: a base running off more of the image's edges than `max_cut_edges` is not tested (no
-  telling it from something bigger), and one whose middle is out of view is not reported, as the
-  twin's geometric sighting (sim/goal_sight.py) does not report it.
+  telling it from something bigger, such as a piece of a platform of its colour); a yellow one
+  may run off two (`max_cut_edges_yellow`: nothing else on the field is yellow, and a neutral
+  goal at the robot's front corner runs off the image's bottom and a side). One whose middle is
+  out of view is not reported, as the twin's geometric sighting (sim/goal_sight.py) does not
+  report it.
 
 The middle is a base radius beyond the base's near face along the ray (the camera never sees its
 far side from below; when the image's bottom cuts the near face, a radius before its top's far
@@ -85,6 +88,10 @@ class GoalDetectorConfig:
     disc_margin_m: float = 0.06  # a base's point lies within its radius and this of its middle
     min_inside: float = 0.9  # the share of the base's points that must
     max_cut_edges: int = 1  # a base running off more of the image's edges is not tested
+    # The same for a yellow (neutral) base: nothing else on the field is yellow, so a base cut
+    # by the image's bottom and a side (a goal near the robot's front corner) is placed from the
+    # part in view.
+    max_cut_edges_yellow: int = 2
 
     def __post_init__(self) -> None:
         unknown = set(self.windows) - set(COLOUR_CODES)
@@ -176,14 +183,18 @@ class GoalDetector:
                 if mine.sum() < cfg.min_base_points:
                     continue
                 puv, pz = uv[low][mine], z[low][mine]
-                shape = self.shape(puv, pz, intr)
+                shape = self.shape(puv, pz, intr, colour)
                 u, v = (float(c) for c in puv.mean(axis=0))
                 sighting = GoalSighting(colour, u, v, float(np.median(pz)), shape.x, shape.y)
                 out.append((sighting, shape))
         return out
 
     def shape(
-        self, uv: NDArray[np.float64], depth: NDArray[np.float64], intr: Intrinsics
+        self,
+        uv: NDArray[np.float64],
+        depth: NDArray[np.float64],
+        intr: Intrinsics,
+        colour: str = "red",
     ) -> BlobShape:
         """The shape tests (the module's doc) on a blob's pixels (N, 2) and their depths (N,),
         in an image of `intr`'s size."""
@@ -203,7 +214,8 @@ class GoalDetector:
             "bottom": pix[:, 1].max() > intr.height - 2,
         }
         edges = ",".join(k for k, v in cut.items() if v)
-        if sum(cut.values()) > cfg.max_cut_edges:
+        limit = cfg.max_cut_edges_yellow if colour == "yellow" else cfg.max_cut_edges
+        if sum(cut.values()) > limit:
             return BlobShape(False, "cut by the image", edges=edges)
         # The ray from the camera to the blob, on the floor: along it (s) and across it (a, to
         # the right, as the image's u grows).

@@ -101,6 +101,36 @@ def test_a_goal_cut_by_the_images_edge_is_placed_from_its_visible_side() -> None
     assert len(found) == 1 and found[0][1:] == pytest.approx((x_edge - 0.03, y), abs=0.07)
 
 
+def test_a_near_neutral_base_cut_by_two_edges_is_placed_and_an_alliance_one_is_not() -> None:
+    """A base at the robot's front corner runs off the image's bottom and a side. Nothing else
+    on the field is yellow, so a neutral one is placed from the part in view
+    (max_cut_edges_yellow); an alliance-coloured one is not tested (a platform's piece, cut to
+    a base's size, looks the same: max_cut_edges)."""
+    intr, mount = CAMERA.intrinsics, CAMERA.mount
+    # The floor's point at the image's bottom-right corner; the base's middle a little inside.
+    ys = np.linspace(0.2, 1.5, 1301)
+    pts = mount.robot_to_camera_points(np.column_stack([ys * 0, ys, ys * 0 + 0.04]))
+    uv, _ = project_points(pts, intr.fx, intr.fy, intr.cx, intr.cy)
+    y_bottom = float(ys[np.argmax(uv[:, 1] < intr.height)])
+    xs = np.linspace(0.0, 1.0, 1001)
+    pts = mount.robot_to_camera_points(
+        np.column_stack([xs, np.full_like(xs, y_bottom + 0.08), xs * 0 + 0.04])
+    )
+    uv, _ = project_points(pts, intr.fx, intr.fy, intr.cx, intr.cy)
+    x_edge = float(xs[np.argmax(uv[:, 0] >= intr.width)])
+    where = (x_edge - 0.05, y_bottom + 0.08)
+    detector = GoalDetector(CAMERA)
+    for colour in ("yellow", "red"):
+        bgr, depth = frame(base(colour, *where))
+        shapes = [shape for _, shape in detector.blobs(bgr, depth)]
+        assert len(shapes) == 1 and set(shapes[0].edges.split(",")) == {"bottom", "right"}
+        if colour == "yellow":
+            assert shapes[0].goal
+            assert (shapes[0].x, shapes[0].y) == pytest.approx(where, abs=0.07)
+        else:
+            assert not shapes[0].goal and shapes[0].why == "cut by the image"
+
+
 def test_bad_inputs_are_refused() -> None:
     with pytest.raises(ValueError, match="purple"):
         GoalDetectorConfig(windows={"purple": ()})
