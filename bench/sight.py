@@ -19,15 +19,16 @@ of the goal it matches), red_robot (the partner, the red 15"), blue_robot (both 
 The truth, within `WITHIN_M` of the lens (the floor distance to the goal's or robot's middle):
 the goals the twin's geometric sighting reports (sim.goal_sight.visible_goals: the base's middle
 in view, no robot in the way) and the robots whose plates its robot model sees
-(sim.world.sensors.robots_in_view: a plate facing the lens, in the picture, within 2 m; no
-occlusion), each at its true middle in the robot frame. A sighting of a colour is matched,
-nearest pairs first, to an unmatched truth of that colour within `REACH_M` (sim.goal_survey's
-match_m): a true sighting. One left over within reach of a goal or robot of its colour that the
-truth leaves out (not seen by the twin's model, or farther than `WITHIN_M`) counts neither way
-(the survey's "beyond"); the rest are false (a yellow one is put to the class of the neutral goal
-nearest it on the field), each put down to what stands where it was placed
-(sim.goal_survey.what_is_there). Per class: precision, recall, F1 = 2 TP / (2 TP + FP + FN), and
-the true sightings' localisation error (median: the distance to the truth's middle).
+(sim.world.sensors.robots_in_view: a plate facing the lens, in the picture, within 2 m, not
+hidden by another robot's body or a goal), each at its true middle in the robot frame. A
+sighting of a colour is matched, nearest pairs first, to an unmatched truth of that colour
+within `REACH_M` (sim.goal_survey's match_m): a true sighting. One left over within reach of a
+goal or robot of its colour that the truth leaves out (not seen by the twin's model, or farther
+than `WITHIN_M`) counts neither way (the survey's "beyond"); the rest are false (a yellow one is
+put to the class of the neutral goal nearest it on the field), each put down to what stands
+where it was placed (sim.goal_survey.what_is_there). Per class: precision, recall,
+F1 = 2 TP / (2 TP + FP + FN), and the true sightings' localisation error (median: the distance
+to the truth's middle).
 
 Speed: the first `SPEED_FRAMES` renders are kept and the goal and robot detectors timed on them
 (per frame, the mean over the set, median of 5 passes) with OpenCV on one thread and the process
@@ -130,7 +131,7 @@ class Tally:
     # truth's tags (distance band, cut by the image, how a plate faces the lens)
     false_by_what: Counter[str] = field(default_factory=Counter)
     hidden_truths: int = 0  # truths over half hidden behind a robot or goal (the twin's robot
-    # sight has no occlusion; its goal sight tests the base's middle against robots only)
+    # sight needs two clear points of the plate; its goal sight tests the base's middle)
     hidden_true: int = 0
     missed_by: Counter[str] = field(default_factory=Counter)
 

@@ -353,6 +353,7 @@ class Decider:
     ) -> Decision:
         """The answer to one State, from the newest perception and (for a spec with the
         partner block) the partner's newest report."""
+        self._drove = False  # until this State's answer drives
         decision = self._decide(state, perception, partner)
         self._drove = decision.drove
         return decision

@@ -37,7 +37,7 @@ from jetson.decide import Decider, Decision, PerceptionInput
 from jetson.handshake import Handshake, LinkState
 from jetson.link import LinkClosed, LinkOpenError, PortLocator, SerialLink
 from jetson.log import EventLog, LatencyStats
-from jetson.partner import REPORT_PERIOD_S, PartnerInput, partner_report
+from jetson.partner import NOTHING, REPORT_PERIOD_S, PartnerInput, partner_report
 from jetson.recorder import CycleRecord, Recorder, RecordingDir
 from jetson.settings import LinkConfig
 from jetson.stats import Counters, Snapshot, summary_fields, summary_line
@@ -388,7 +388,12 @@ class Daemon:
             return
         self._next_partner_report = now + REPORT_PERIOD_S
         link = None if self.partner_status is None else self.partner_status.link
-        report = partner_report(state, decision.drove, link, self.decider.claim(state))
+        try:
+            claim = self.decider.claim(state) if decision.drove else NOTHING
+        except Exception as exc:  # a claim that cannot be made is none; the report still goes
+            self._error_once("claim", f"cannot name the claimed target: {exc}")
+            claim = NOTHING
+        report = partner_report(state, decision.drove, link, claim)
         try:
             self._write(framing.encode_downlink(report, self._tx_seq))
         except LinkClosed as exc:

@@ -33,7 +33,10 @@ from protocol.messages import (
 
 REPORT_PERIOD_S = 0.1
 NO_INDEX = 255  # Partner.goal / target_id: none
-NO_RINGS = 255  # Partner.rings: the sender has no ring counter
+# A reported point farther than this from the field's middle (metres, either axis: the field is
+# 3.66 m across) is no place on the field: the receiver reads it as none.
+FIELD_REACH_M = 2.5
+MAX_RINGS = 30  # more than a robot carries: a count beyond it (255: no counter) reads as none
 _I16 = 32767
 
 
@@ -65,7 +68,7 @@ def partner_report(
     a goal, its rings, whether its Jetson drives it, whether it plays alone (its partner link is
     not up), and the target it claims."""
     flags = PartnerFlags(0)
-    posed = state.pose_fix != PoseFix.LOST
+    posed = state.pose_fix != PoseFix.LOST and math.isfinite(state.x) and math.isfinite(state.y)
     if posed:
         flags |= PartnerFlags.POSE_OK
     if state.goal_clamped == 1:
@@ -102,11 +105,12 @@ class PartnerInput:
         cls, report: Partner | None, status: PartnerStatus | None, match_ms: int
     ) -> PartnerInput | None:
         """The newest report while the link is up (None otherwise: the robot plays alone). Its
-        age is our match clock less the report's (both follow field control); a report stamped
-        after our clock (a clock not yet in step) is as old as the Brain says (status.age_ms)."""
+        age is the larger of our match clock less the report's (both follow field control) and
+        what the Brain last said (status.age_ms, at most a status period old): clocks that stand
+        still (no field control) or a report stamped after our clock still age."""
         if report is None or status is None or status.link is not PartnerLink.UP:
             return None
-        ms = match_ms - report.match_ms if report.match_ms <= match_ms else status.age_ms
+        ms = max(match_ms - report.match_ms, status.age_ms)
         return cls(report, ms / 1000.0)
 
     def view(self, x: float, y: float, heading_deg: float) -> PartnerView:
@@ -115,7 +119,9 @@ class PartnerInput:
         r = self.report
         here = np.array([x, y])
 
-        def local(x_mm: int, y_mm: int) -> tuple[float, float]:
+        def local(x_mm: int, y_mm: int) -> tuple[float, float] | None:
+            if max(abs(x_mm), abs(y_mm)) > 1000.0 * FIELD_REACH_M:
+                return None  # off the field: a report's garbage, not a place
             p = field_to_robot(np.array([[x_mm / 1000.0, y_mm / 1000.0]]), here, heading_deg)
             return float(p[0, 0]), float(p[0, 1])
 
@@ -124,6 +130,6 @@ class PartnerInput:
         return PartnerView(
             xy=local(r.x_mm, r.y_mm) if posed else None,
             clamped=PartnerFlags.HOLDING_GOAL in r.flags,
-            rings=0 if r.rings == NO_RINGS else r.rings,
+            rings=r.rings if r.rings <= MAX_RINGS else 0,
             claim_xy=local(r.target_x_mm, r.target_y_mm) if claimed else None,
         )

@@ -321,10 +321,14 @@ def recorded_robots(rec: dict[str, Any]) -> NDArray[np.float64]:
 
 def recorded_partner(cycle: dict[str, Any]) -> PartnerInput | None:
     """The partner's report a recorded cycle's decision was given (none: the link was not up,
-    or the recording predates partner reports)."""
+    or the recording predates partner reports). ReplayError for one that cannot be read."""
     if cycle.get("partner") is None:
         return None
-    return PartnerInput(message_from_dict(Partner, cycle["partner"]), float(cycle["partner_age"]))
+    try:
+        report = message_from_dict(Partner, cycle["partner"])
+        return PartnerInput(report, float(cycle["partner_age"]))
+    except (KeyError, ValueError, TypeError) as exc:
+        raise ReplayError(f"a cycle's partner report is malformed: {exc!r}") from exc
 
 
 def recorded_state(data: dict[str, Any]) -> State:

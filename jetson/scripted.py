@@ -32,7 +32,7 @@ from jetson.autonomy.alliance_config import (
     RobotRole,
 )
 from jetson.autonomy.field_layout import FieldLayout, load_layout
-from jetson.autonomy.geometry import AllianceName, to_alliance_frame
+from jetson.autonomy.geometry import AllianceName
 from jetson.autonomy.goal_memory import GoalMemory
 from jetson.autonomy.goal_sightings import off_the_platforms
 from jetson.autonomy.ring_memory import RingMemory
@@ -144,12 +144,9 @@ class ScriptedDecider:
         phases or with the alliance unknown."""
         if state.alliance == Alliance.UNKNOWN or not self._drives:
             return NOTHING
-        kind, xy = self.strategy.claim()
-        if kind == "nothing" or xy is None:
-            return NOTHING
         alliance: AllianceName = "red" if state.alliance == Alliance.RED else "blue"
-        fx, fy = to_alliance_frame(np.asarray(xy, dtype=np.float64), None, alliance)[0]
-        return Claim(_CLAIMS[kind], (float(fx), float(fy)))
+        got = self.strategy.field_claim(alliance)
+        return NOTHING if got is None else Claim(_CLAIMS[got[0]], got[1])
 
     def decide(
         self, state: State, perception: PerceptionInput | None, partner: object = None

@@ -222,19 +222,22 @@ def robot_view(
     pose: tuple[float, float, float],
     rings: np.ndarray,
     claims: list[tuple[float, float] | None] | None = None,
+    in_view: np.ndarray | None = None,
 ) -> RobotView:
     """What robot `index` knows (MatchCore.view): `pose` (its GPS reading, field frame), the
     floor rings `rings` (indices) its camera sees, in its frame, the other robots (when the
     spec has slots for them), its intake and its clamp, and with spec.partner its alliance
-    partner (partner_view: `claims`, each robot's claimed target by index). sim.fast.players
-    builds a fast match's views with it too."""
+    partner (partner_view: `claims`, each robot's claimed target by index); with
+    spec.seen_opponents the other robots' slots hold the opponents its camera sees (`in_view`:
+    sensors.robots_in_view's matrix, computed here when not given). sim.fast.players builds a
+    fast match's views with it too."""
     r = world.robots[index]
     # Most steps see no ring: the frame conversion of nothing is nothing.
     seen = sensors.rings_in_robot_frame(world, index, rings) if len(rings) else np.zeros((0, 2))
     others = np.zeros((0, 2))
     if spec.n_other_robots:
         if spec.seen_opponents:  # the opponents whose plates its camera sees
-            sees = sensors.robots_in_view(world)[index]
+            sees = (sensors.robots_in_view(world) if in_view is None else in_view)[index]
             pts = [(o.x, o.y) for o in world.robots if sees[o.index] and o.alliance != r.alliance]
         else:
             pts = [(o.x, o.y) for o in world.robots if o.index != index]
@@ -408,6 +411,7 @@ class MatchCore:
         # Each robot's claimed target (field frame; None: nothing), the partner block's claim:
         # a skill-driven robot claims its skill's target (MatchCore.command).
         self.claims: list[tuple[float, float] | None] = []
+        self._in_view: tuple[float, np.ndarray] | None = None  # (time, robots_in_view)
 
     def skill_driver(self, index: int, skills: SkillConfig) -> SkillDriver:
         """A fresh controller for robot `index`, its platform and size from this world."""
@@ -439,6 +443,8 @@ class MatchCore:
                 f"got shape {np.shape(action)}"
             )
         if not np.all(np.isfinite(a)):
+            if self.claims:
+                self.claims[index] = None  # a stop claims nothing (as the Jetson's decision)
             return DriveCommand(0.0, 0.0, intake=False, clamp=None)
         rc = self.world.robots[index].config
         if self.config.skills is not None:
@@ -492,6 +498,7 @@ class MatchCore:
                     self._start_at_goal(r.index, rng)
         self.stacks = [FrameStack(self.spec) for _ in self.world.robots]
         self.claims = [None for _ in self.world.robots]
+        self._in_view = None
         if self.config.skills is not None:
             self.drivers = [
                 self.skill_driver(r.index, self.config.skills) for r in self.world.robots
@@ -547,7 +554,12 @@ class MatchCore:
         else:
             pose = (r.x, r.y, r.heading)
         rings = sensors.visible_rings(w, index)
-        return robot_view(w, self.spec, index, pose, rings, self.claims)
+        in_view = None
+        if self.spec.seen_opponents:  # one matrix a control step serves every robot's view
+            if self._in_view is None or self._in_view[0] != w.time_s:
+                self._in_view = (w.time_s, sensors.robots_in_view(w))
+            in_view = self._in_view[1]
+        return robot_view(w, self.spec, index, pose, rings, self.claims, in_view)
 
     def gps(self, index: int) -> GpsReading:
         """Robot `index`'s noisy GPS reading now. Read twice in one step (the frame, then a

@@ -99,6 +99,8 @@ class PolicyPlayer:
             return core.command(index, self.fn(obs))
         action = np.asarray(self.fn(obs), dtype=np.float64)
         if not np.all(np.isfinite(action)):
+            if core.claims:
+                core.claims[index] = None  # a stop claims nothing
             return DriveCommand(0.0, 0.0)
         command = DriveCommand(*self._driver.command(obs, action))
         core.claim(index, self._driver)  # its skill's target: its partner's observation reads it

@@ -85,6 +85,7 @@ from jetson.autonomy.alliance_steal import StealPhases
 from jetson.autonomy.carried_goal import CarriedGoalTracker
 from jetson.autonomy.field_layout import FieldLayout, GoalLayout
 from jetson.autonomy.geometry import (
+    AllianceName,
     angle_diff_deg,
     field_to_robot,
     heading_of,
@@ -257,6 +258,15 @@ class AllianceStrategy(StealPhases):
         if self._ring_target is not None:
             return "ring", np.array(self._ring_target, dtype=np.float64)
         return "nothing", None
+
+    def field_claim(self, alliance: AllianceName) -> tuple[str, tuple[float, float]] | None:
+        """claim() in the field frame for a robot of `alliance` (what its partner report and the
+        twin's partner block carry); None when it claims nothing."""
+        kind, xy = self.claim()
+        if kind == "nothing" or xy is None:
+            return None
+        fx, fy = to_alliance_frame(np.asarray(xy, dtype=np.float64), None, alliance)[0]
+        return kind, (float(fx), float(fy))
 
     def step(self, inputs: AllianceInputs) -> AllianceAction:
         xy, heading = to_alliance_frame((inputs.x, inputs.y), inputs.heading_deg, inputs.alliance)

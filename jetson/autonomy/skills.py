@@ -222,8 +222,9 @@ class SkillDriver:
         self._commit_point: NDArray[np.float64] | None = None  # alliance frame
         self._commit_until = -1.0
         # What the last command() drove to: ("ring" | "goal" | "platform", robot-frame point
-        # of that moment, metres); None when it searched or backed off (the partner report's
-        # claim, jetson.decide.Decider.claim).
+        # of that moment, metres); None when it searched or was backing off when called (a
+        # back-off that starts within the call keeps the target it was driving to); the
+        # partner report's claim (jetson.decide.Decider.claim).
         self.target: tuple[str, tuple[float, float]] | None = None
 
     def reset(self) -> None:

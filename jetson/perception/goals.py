@@ -88,9 +88,9 @@ class GoalDetectorConfig:
     disc_margin_m: float = 0.06  # a base's point lies within its radius and this of its middle
     min_inside: float = 0.9  # the share of the base's points that must
     max_cut_edges: int = 1  # a base running off more of the image's edges is not tested
-    # The same for a yellow (neutral) base: nothing else on the field is yellow, so a base cut
-    # by the image's bottom and a side (a goal near the robot's front corner) is placed from the
-    # part in view.
+    # The same for a yellow (neutral) base that runs off the image's bottom and a side (a goal
+    # at the robot's front corner): nothing else on the field is yellow, so it is placed from
+    # the part in view.
     max_cut_edges_yellow: int = 2
 
     def __post_init__(self) -> None:
@@ -214,7 +214,9 @@ class GoalDetector:
             "bottom": pix[:, 1].max() > intr.height - 2,
         }
         edges = ",".join(k for k, v in cut.items() if v)
-        limit = cfg.max_cut_edges_yellow if colour == "yellow" else cfg.max_cut_edges
+        # A yellow base may run off the bottom and one side (a goal at the robot's front corner).
+        corner = cut["bottom"] and not cut["top"] and not (cut["left"] and cut["right"])
+        limit = cfg.max_cut_edges_yellow if colour == "yellow" and corner else cfg.max_cut_edges
         if sum(cut.values()) > limit:
             return BlobShape(False, "cut by the image", edges=edges)
         # The ray from the camera to the blob, on the floor: along it (s) and across it (a, to

@@ -128,6 +128,9 @@ class AlliancePlayer:
         assert self.strategy is not None, "act() before reset()"
         inputs = inputs_from_view(core, index, self.goal_detector, self.layout.platform)
         self.last_action = self.strategy.step(inputs)
+        if core.claims:  # the partner's observation reads it (spec.partner), as on the robot
+            got = self.strategy.field_claim(inputs.alliance)
+            core.claims[index] = None if got is None else got[1]
         return to_command(self.last_action)
 
 

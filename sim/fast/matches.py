@@ -377,7 +377,8 @@ class FastMatches:
             n = cfg.skills.n_options
             obs = self.obs[np.arange(self.n), who]
             lin, ang = self._drivers.command(obs, actions[:, :n], who, ok)
-            self._claim(who, ok)
+            if self.spec.partner:  # only the partner block reads the claims
+                self._claim(who, ok)
         tail = a[:, n:]
         intake = ok & (tail[:, 0] > 0 if cfg.action_intake else True)
         clamp = np.full(self.n, -1, dtype=np.int8)

@@ -438,20 +438,21 @@ class DaemonProcess:
 
 def result_row(index: int, p: Perceived) -> list[Any]:
     """A camera result as a turn's answer carries it (JSON): the frame's index, the result's id,
-    stamp, rings, frame index and error, and the goals the goal detector saw (x, y, colour code
-    rows; none without one)."""
+    stamp, rings, frame index and error, the goals the goal detector saw (x, y, colour code
+    rows; none without one) and the robots the robot detector saw (x, y, alliance code rows)."""
     return [
         index, p.id, p.stamp_s, p.rings_robot_xy.tolist(), p.frame_index, p.error,
-        p.goals_robot.tolist(),
+        p.goals_robot.tolist(), p.robots_robot.tolist(),
     ]  # fmt: skip
 
 
 def result_of_row(row: list[Any]) -> tuple[int, Perceived]:
     """result_row's inverse: (the frame's index, the result)."""
-    index, rid, stamp, rings, frame, error, goals = row
+    index, rid, stamp, rings, frame, error, goals, robots = row
     return int(index), Perceived(
         int(rid), float(stamp), np.asarray(rings, dtype=np.float64).reshape(-1, 2), int(frame),
         error=error, goals_robot=np.asarray(goals, dtype=np.float64).reshape(-1, 3),
+        robots_robot=np.asarray(robots, dtype=np.float64).reshape(-1, 3),
     )  # fmt: skip
 
 

@@ -38,8 +38,12 @@ def test_a_lost_pose_reports_no_position_and_a_link_not_up_says_alone() -> None:
 
 
 def test_numbers_out_of_range_are_held_to_the_field() -> None:
-    s = state(x=1e6, y=-math.inf, heading=359.999, pose_fix=PoseFix.ODOMETRY)
+    s = state(x=1e6, y=-2e6, heading=359.999, pose_fix=PoseFix.ODOMETRY)
     r = partner_report(s, True, PartnerLink.UP, Claim(TargetKind.GOAL, (40.0, -40.0), 3))
-    assert r.x_mm == 32767 and r.y_mm == 0 and r.heading_cdeg <= 35999
+    assert r.x_mm == 32767 and r.y_mm == -32767 and r.heading_cdeg <= 35999
     assert (r.target_x_mm, r.target_y_mm, r.target_id) == (32767, -32767, 3)
+    framing.encode_packet(r, 0)
+    # A pose that is not a number is no pose: the report says so rather than send the middle.
+    r = partner_report(state(x=1.0, y=-math.inf, pose_fix=PoseFix.ODOMETRY), True, PartnerLink.UP)
+    assert PartnerFlags.POSE_OK not in r.flags and (r.x_mm, r.y_mm) == (0, 0)
     framing.encode_packet(r, 0)

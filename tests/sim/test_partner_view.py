@@ -63,3 +63,39 @@ def test_each_robot_sees_its_partner_and_the_target_its_skill_driver_claimed() -
     plat = core.world.field.platform("red").center
     platform_robot = next(k for k in range(2) if (k + 2) % n == n - 1)
     assert core.claims[platform_robot] == pytest.approx(tuple(plat), abs=1e-6)
+
+
+def test_a_stop_claims_nothing_and_the_scripted_alliance_claims_as_on_the_robot() -> None:
+    """A non-finite action is a stop and drops the robot's claim (the fast backend and the
+    Jetson's decision claim nothing then); the scripted alliance (AlliancePlayer) claims in the
+    twin what it claims in a partner report (AllianceStrategy.field_claim)."""
+    from sim.baselines.alliance import AlliancePlayer
+
+    cfg = make_config(
+        world={
+            "red": ["24in", "15in"], "blue": ["24in", "15in"], "game": "tipping_point",
+            "isolation_s": 15.0,
+        },
+        observation={"version": 6, "partner": True, "n_stack": 0, "goal_memory": True,
+                     "match_length_s": 120.0},
+        skills={"ring_options": 2, "goal_options": 1, "platform": True},
+        obs_noise=False, gps_noise=False,
+    )  # fmt: skip
+    core = MatchCore(cfg)
+    core.reset(np.random.default_rng(2))
+    n = core.config.skills.n_options
+    core.command(0, np.where(np.arange(n) == n - 1, 1.0, -1.0))  # the platform
+    assert core.claims[0] is not None
+    core.command(0, np.full(n, np.nan))
+    assert core.claims[0] is None
+    player = AlliancePlayer()
+    player.reset(core, 1)
+    claims = []
+    for _ in range(60):
+        commands = [core.command(0, np.full(n, np.nan)), player.act(core, 1)]
+        commands += [core.command(k, np.full(n, np.nan)) for k in (2, 3)]
+        core.step(commands)
+        got = player.strategy.field_claim("red")
+        assert core.claims[1] == (None if got is None else got[1])
+        claims.append(core.claims[1])
+    assert any(c is not None for c in claims)

@@ -204,3 +204,33 @@ def test_partner_max_age_is_checked() -> None:
     for bad in (0.0, -1.0, 6.0, True, "0.5"):
         with pytest.raises(SettingsError, match="partner_max_age_s"):
             DecisionConfig(partner_max_age_s=bad)  # type: ignore[arg-type]
+
+
+def test_a_malformed_recorded_partner_is_a_replay_error() -> None:
+    from jetson.errors import ReplayError
+
+    with pytest.raises(ReplayError, match="partner report is malformed"):
+        recorded_partner({"partner": {"x_mm": "far"}, "partner_age": 0.1})
+    good = Recorder._cycle_dict(
+        CycleRecord(
+            1.0, state(1000), None, None, Command(seq=1), "policy", "-", 0, None, 1.0, 0.5,
+            PartnerInput(report(), 0.1),
+        )
+    )  # fmt: skip
+    del good["partner_age"]
+    with pytest.raises(ReplayError, match="partner report is malformed"):
+        recorded_partner(good)
+
+
+def test_garbage_in_a_report_is_no_place_and_no_rings() -> None:
+    far = PartnerInput(report(x_mm=30000, target_x_mm=-30000, rings=200), 0.0)
+    v = far.view(1.0, 0.0, 90.0)
+    assert v.xy is None and v.claim_xy is None and v.rings == 0 and v.clamped
+    # Clocks that stand still (no field control) still age a report by what the Brain says.
+    still = PartnerInput.of(report(match_ms=0), PartnerStatus(PartnerLink.UP, 700), 0)
+    assert still is not None and still.age_s == pytest.approx(0.7)
+    # A sender whose pose is not a number says it has none.
+    from jetson.partner import partner_report
+
+    sent = partner_report(state(0, x=float("nan")), True, PartnerLink.UP)
+    assert PartnerFlags.POSE_OK not in sent.flags

@@ -17,7 +17,7 @@ from jetson.autonomy.geometry import robot_to_field
 from jetson.autonomy.skills import SkillDriver
 from sim.fast.matches import FastMatches
 from sim.fast.planner import INTENTS
-from sim.fast.skills import FastSkillDrivers, OptionLabels
+from sim.fast.skills import TARGET_KINDS, FastSkillDrivers, OptionLabels
 from sim.match import EnvConfig
 from sim.training.config import load_config
 from sim.training.rollout import RolloutConfig, intent_label
@@ -78,6 +78,14 @@ def test_the_batched_controller_drives_as_skill_driver_step_for_step() -> None:
                 seen[env.skills.option_names()[driver.option(scores[k, i])]] += 1
                 want = driver.command(obs[k], scores[k, i])
                 assert (lin[k], ang[k]) == pytest.approx(want, rel=0, abs=1e-12), where
+                # What it drove to (the partner report's claim): SkillDriver.target.
+                kind, point = batched.targets(who)
+                if driver.target is None:
+                    assert kind[k] == 0, where
+                else:
+                    assert TARGET_KINDS[kind[k]] == driver.target[0], where
+                    assert tuple(point[k]) == pytest.approx(driver.target[1], abs=1e-9), where
+                    seen[f"claims {driver.target[0]}"] += 1
         assert not batched.overflow.any()
         # The match's own robots drive the same scores (its controllers are batched too).
         step_result = fm.step(scores[rows, fm.learner], scores[rows, 1 - fm.learner])
@@ -85,7 +93,8 @@ def test_the_batched_controller_drives_as_skill_driver_step_for_step() -> None:
             batched.reset(np.array([k]))
             python[k] = [SkillDriver(c, fm.spec) for c in fm._drivers.configs]  # type: ignore[union-attr]
             seen["restarts"] += 1
-    for what in ("route", "ring0", "ring3", "goal0", "goal1", "platform", "committed"):
+    for what in ("route", "ring0", "ring3", "goal0", "goal1", "platform", "committed",
+                 "claims ring", "claims goal", "claims platform"):  # fmt: skip
         assert seen[what] > 20, (what, seen)
     assert seen["backing off"] > 0 and seen["restarts"] >= n, seen
 
