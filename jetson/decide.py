@@ -55,7 +55,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from jetson.autonomy.camera import MemoryCamera
-from jetson.autonomy.geometry import angle_diff_deg, robot_to_field, wrap_heading
+from jetson.autonomy.geometry import AllianceName, angle_diff_deg, robot_to_field, wrap_heading
 from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES
 from jetson.autonomy.goal_memory import GoalMemory
 from jetson.autonomy.observation import FrameStack, RobotView, build_frame
@@ -235,6 +235,12 @@ def pose_speed_scale(state: State, config: DecisionConfig) -> float:
     if state.pose_std <= limit:  # NaN never reaches here (the codec refuses it)
         return 1.0
     return max(UNCERTAIN_SPEED_MIN, limit / state.pose_std)
+
+
+def alliance_name(alliance: Alliance) -> AllianceName:
+    """The State's alliance as the autonomy code names it; callers have stopped on UNKNOWN
+    (why_not_drive) before they ask."""
+    return "red" if alliance == Alliance.RED else "blue"
 
 
 def perceived_rings(
@@ -436,7 +442,7 @@ class Decider:
             x=state.x,
             y=state.y,
             heading_deg=state.heading,
-            alliance="red" if state.alliance == Alliance.RED else "blue",
+            alliance=alliance_name(state.alliance),
             time_s=t,
             rings_robot_xy=rings,
             rings_held=rings_held(state, self.config),

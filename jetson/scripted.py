@@ -32,7 +32,6 @@ from jetson.autonomy.alliance_config import (
     RobotRole,
 )
 from jetson.autonomy.field_layout import FieldLayout, load_layout
-from jetson.autonomy.geometry import AllianceName
 from jetson.autonomy.goal_memory import GoalMemory
 from jetson.autonomy.goal_sightings import off_the_platforms
 from jetson.autonomy.ring_memory import RingMemory
@@ -42,6 +41,7 @@ from jetson.decide import (
     Decision,
     PerceptionInput,
     PhaseTracker,
+    alliance_name,
     perceived_goals,
     perceived_rings,
     pose_speed_scale,
@@ -144,8 +144,7 @@ class ScriptedDecider:
         phases or with the alliance unknown."""
         if state.alliance == Alliance.UNKNOWN or not self._drives:
             return NOTHING
-        alliance: AllianceName = "red" if state.alliance == Alliance.RED else "blue"
-        got = self.strategy.field_claim(alliance)
+        got = self.strategy.field_claim(alliance_name(state.alliance))
         return NOTHING if got is None else Claim(_CLAIMS[got[0]], got[1])
 
     def decide(
@@ -177,7 +176,7 @@ class ScriptedDecider:
                 x=state.x,
                 y=state.y,
                 heading_deg=state.heading,
-                alliance="red" if state.alliance == Alliance.RED else "blue",
+                alliance=alliance_name(state.alliance),
                 time_s=self.match_time_s(state),
                 rings_robot_xy=np.asarray(rings, dtype=np.float64).reshape(-1, 2),
                 rings_held=rings_held(state, self.config),
