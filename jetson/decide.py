@@ -452,8 +452,8 @@ class Decider:
             intake_fills=self.config.intake_fills,
             others_robot_xy=opponents,
         )
-        fresh_partner = partner is not None and partner.age_s <= self.config.partner_max_age_s
-        if self.spec.partner and partner is not None and fresh_partner:
+        # A report older than partner_max_age_s is none: the robot plays alone.
+        if self.spec.partner and partner and partner.age_s <= self.config.partner_max_age_s:
             view.partner = partner.view(state.x, state.y, state.heading)
         # Only a fresh camera frame may tell the memory that a ring is gone.
         view = self._memory.observe(view, seen_from) if fresh else self._memory.recall(view)

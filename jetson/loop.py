@@ -389,7 +389,7 @@ class Daemon:
         self._next_partner_report = now + REPORT_PERIOD_S
         link = None if self.partner_status is None else self.partner_status.link
         try:
-            claim = self.decider.claim(state) if decision.drove else NOTHING
+            claim = self.decider.claim(state)  # nothing unless this State's answer drove
         except Exception as exc:  # a claim that cannot be made is none; the report still goes
             self._error_once("claim", f"cannot name the claimed target: {exc}")
             claim = NOTHING
