@@ -15,7 +15,7 @@ planner playing through FastCore.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,6 +38,10 @@ class FastCore:
     config: EnvConfig
     seen_pose: NDArray[np.float64]  # (R, 3): each robot's GPS reading this step
     seen_rings: NDArray[np.bool_]  # (R, N): the floor rings each robot's camera saw
+    # Each robot's claimed target (field frame, None: nothing), as MatchCore.claims: empty
+    # unless the spec has the partner block. A player writes its robot's claim here and
+    # FastMatches hands it on to the observer.
+    claims: list[tuple[float, float] | None] = field(default_factory=list)
 
     @classmethod
     def of(
@@ -49,12 +53,19 @@ class FastCore:
         k: int,
     ) -> FastCore:
         """Match k now (a copy: stepping the world does not change it)."""
+        claims: list[tuple[float, float] | None] = []
+        if spec.partner:
+            claims = [
+                None if np.isnan(c).any() else (float(c[0]), float(c[1]))
+                for c in observer.claims[k]
+            ]
         return cls(
             match_view(world, k),
             spec,
             config,
             observer.seen_pose[k].copy(),
             observer.seen_rings[k].copy(),
+            claims,
         )
 
     def view(self, index: int) -> RobotView:
@@ -62,7 +73,8 @@ class FastCore:
         saw this step in its frame, the other robots, its intake and clamp."""
         x, y, h = (float(v) for v in self.seen_pose[index])
         rings = np.flatnonzero(self.seen_rings[index])
-        return robot_view(self.world, self.spec, index, (x, y, h), rings)  # type: ignore[arg-type]
+        claims = self.claims or None
+        return robot_view(self.world, self.spec, index, (x, y, h), rings, claims)  # type: ignore[arg-type]
 
 
 def command_row(cmd: DriveCommand) -> tuple[float, float, bool, int]:

@@ -19,7 +19,14 @@ from sim.config import WorldConfig
 from sim.fast.world import FastWorld
 from sim.field import FieldSpec
 from sim.world.batch import ALLIANCE_CODES
-from sim.world.state import RING_FLOOR, RING_HELD, GoalState, PlatformState, RobotState
+from sim.world.state import (
+    RING_FLOOR,
+    RING_HELD,
+    GoalState,
+    PlatformState,
+    RobotState,
+    intake_rect,
+)
 
 
 @dataclass
@@ -29,6 +36,7 @@ class MatchView:
     config: WorldConfig
     field: FieldSpec
     time_s: float
+    isolation_s: float
     match_length_s: float
     robots: list[RobotState]
     goals: list[GoalState]
@@ -38,6 +46,10 @@ class MatchView:
     training: bool = True
     lineup: list[tuple[str, str]] = field(default_factory=list)
     platforms: dict[str, PlatformState] = field(default_factory=dict)  # the whole game's boards
+
+    def intake_rect(self, r: RobotState) -> tuple[tuple[float, float], tuple[float, float]]:
+        """Robot r's intake zone, robot frame, as World.intake_rect."""
+        return intake_rect(r.config, self.field.ring.radius)
 
 
 def match_view(world: FastWorld, k: int) -> MatchView:
@@ -91,6 +103,7 @@ def match_view(world: FastWorld, k: int) -> MatchView:
         config=world.config,
         field=world.field,
         time_s=float(world.time_s[k]),
+        isolation_s=world.isolation_s,
         match_length_s=world.match_length_s,
         robots=robots,
         goals=goals,

@@ -121,7 +121,7 @@ class ImitationConfig:
 
 
 BACKENDS = ("pybullet", "fast")
-FAST_OPPONENTS = ("pool", "random", "idle", "planner", "scripted")
+FAST_OPPONENTS = ("pool", "random", "idle", "planner", "scripted", "alliance")
 
 
 @dataclass(frozen=True)
@@ -253,7 +253,19 @@ class TrainConfig:
 
     def opponent_slots(self) -> list[str]:
         """The opponent kind of each rollout slot: shares apportioned by largest remainder, dealt
-        round-robin over the workers so every worker gets a similar mix."""
+        round-robin over the workers so every worker gets a similar mix. On the fast backend a
+        match of `a` robots a side is `a` slots (its learning robots, sim.fast.matches): the
+        kinds are dealt per match, each repeated for the match's slots."""
+        group = len(self.env_config().world.red) if self.backend == "fast" else 1
+        if group > 1:
+            per_match = replace(
+                self,
+                rollout=replace(
+                    self.rollout, envs_per_worker=self.rollout.envs_per_worker // group
+                ),
+                backend="pybullet",
+            )
+            return [k for k in per_match.opponent_slots() for _ in range(group)]
         n = self.rollout.n_envs
         total = sum(self.opponents.values())
         exact = {k: v / total * n for k, v in self.opponents.items() if v > 0}

@@ -12,6 +12,7 @@ plays both); the other is the opponent, of a kind chosen per slot:
     policy     actions come from the caller (the self-play pool runs in the training process)
     planner    sim.baselines.planner's route planner
     scripted   sim.baselines.scripted's greedy chaser
+    alliance   the whole game's scripted alliance (sim.baselines.alliance), its role's strategy
     random     uniform random actions
     idle       stands still
     none       no opponent robot on the field
@@ -56,6 +57,7 @@ from numpy.typing import ArrayLike
 from jetson.autonomy.geometry import field_to_robot, other_alliance
 from jetson.autonomy.skills import SkillConfig, SkillDriver, option_for
 from jetson.autonomy.spec import ObservationSpec
+from sim.baselines.alliance import AlliancePlayer
 from sim.baselines.planner import Planner, PlannerConfig
 from sim.config import RewardConfig, RobotConfig
 from sim.errors import ConfigError, WorkerError
@@ -63,7 +65,7 @@ from sim.match import REWARD_COMPONENTS, EnvConfig, MatchCore
 from sim.players import IdlePlayer, Player, RandomPlayer, ScriptedPlayer
 from sim.world.state import DriveCommand
 
-OPPONENT_KINDS = ("policy", "planner", "scripted", "random", "idle", "none")
+OPPONENT_KINDS = ("policy", "planner", "scripted", "alliance", "random", "idle", "none")
 TEACHERS = ("none", "planner", "route")
 ADVICE_SIZE = 2  # a teacher advises (linear, angular): the drive, not the intake or clamp
 
@@ -318,7 +320,7 @@ class _Slot:
         if len(lineup) - 1 != len(others) or len(others) > 1:
             raise ConfigError("training matches are 1v1: one robot per alliance")
         self.opponent = others[0] if others else None
-        self.player = _make_player(self.kind) if self.opponent is not None else None
+        self.player = make_player(self.kind) if self.opponent is not None else None
         if self.player is not None and self.opponent is not None:
             self.player.reset(self.core, self.opponent, rng)
         if self._teachers:
@@ -416,7 +418,12 @@ class _Slot:
             core.close()
 
 
-def _make_player(kind: str) -> Player | None:
+def make_player(kind: str) -> Player | None:
+    """The player of opponent kind `kind` (None for a policy, which the caller drives, and for
+    none: no robot). "alliance" is the whole game's scripted alliance (sim.baselines.alliance),
+    each robot playing its role's strategy."""
+    if kind == "alliance":
+        return AlliancePlayer()
     if kind == "planner":
         return Planner()
     if kind == "scripted":

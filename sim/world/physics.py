@@ -67,6 +67,7 @@ from sim.world.state import (
     PlatformState,
     RobotState,
     StepEvents,
+    intake_rect,
 )
 
 _PARK_Z = -5.0  # collected ring bodies wait here, under the floor and out of every ray
@@ -899,16 +900,8 @@ class World:
             self.ring_z[i] = pos[2]
 
     def intake_rect(self, r: RobotState) -> tuple[tuple[float, float], tuple[float, float]]:
-        """The intake zone, robot frame: x (across) and y (forward) ranges a ring centre must be
-        in. It starts one ring radius behind the front face, so a ring touching the bumper
-        counts, and reaches intake_depth_m plus a radius ahead of it."""
-        rc = r.config
-        rad = self.field.ring.radius
-        front = rc.length_m / 2
-        return (-rc.intake_width_m / 2, rc.intake_width_m / 2), (
-            front - rad,
-            front + rc.intake_depth_m + rad,
-        )
+        """Robot r's intake zone, robot frame (sim.world.state.intake_rect)."""
+        return intake_rect(r.config, self.field.ring.radius)
 
     def _push_rings(self) -> None:
         """Training fidelity: floor rings inside a robot's footprint (grown by a ring radius)

@@ -191,6 +191,19 @@ class PlatformState:
     tilt: float = 0.0
 
 
+def intake_rect(
+    rc: RobotConfig, ring_radius: float
+) -> tuple[tuple[float, float], tuple[float, float]]:
+    """A robot's intake zone, robot frame: x (across) and y (forward) ranges a ring centre must
+    be in. It starts one ring radius behind the front face, so a ring touching the bumper
+    counts, and reaches intake_depth_m plus a radius ahead of it."""
+    front = rc.length_m / 2
+    return (-rc.intake_width_m / 2, rc.intake_width_m / 2), (
+        front - ring_radius,
+        front + rc.intake_depth_m + ring_radius,
+    )
+
+
 class WorldState(Protocol):
     """What the rules and the sensors read of a world. Rings are a table: position (N, 2), height
     of the centre (N), state (RING_*) and owner (the robot holding it or the goal it is on)."""

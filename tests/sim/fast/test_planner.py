@@ -175,8 +175,8 @@ def test_fast_matches_teach_and_play_with_the_planner_as_planner_label_does(name
     commands: list[tuple[np.ndarray, ...]] = []
     opponents = fm._opponents
 
-    def spy(actions: np.ndarray) -> tuple[np.ndarray, ...]:
-        commands.append(opponents(actions))
+    def spy(actions: np.ndarray, random: np.ndarray, j: int) -> tuple[np.ndarray, ...]:
+        commands.append(opponents(actions, random, j))
         return commands[-1]
 
     fm._opponents = spy  # type: ignore[method-assign]

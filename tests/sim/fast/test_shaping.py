@@ -102,7 +102,7 @@ def test_fast_matches_pay_sim_rewards_potentials() -> None:
             w.ring_xy, w.ring_floor, w.clamp_offsets[me], np.stack([w.gx, w.gy], -1),
             fm._scores_for[me] & (w.carrier < 0), w.carried[rows, me] >= 0, platform, weights,
         )  # fmt: skip
-        got = fm._potential_now()
+        got = fm._potential_now(0)
         for j, name in enumerate(("approach", "goal_approach", "park")):
             np.testing.assert_array_equal(got[name], want[:, j], err_msg=name)
         paid += (want != 0).sum(axis=0)
