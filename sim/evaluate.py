@@ -268,6 +268,9 @@ class MatchRecord:
     length_s: float
     # The whole game: (A's alliance, B's) score by element (element_breakdown); None in the race.
     breakdown: tuple[dict[str, Any], dict[str, Any]] | None = None
+    # (A's, B's) collisions between the two robots of one alliance: each time partners that
+    # were apart come into contact (World.touching); 0 for an alliance of one robot.
+    partner_collisions: tuple[int, int] = (0, 0)
 
     @property
     def result(self) -> float:
@@ -339,12 +342,22 @@ def play_match(
     for i, p in players.items():
         p.reset(core, i, np.random.default_rng((seed, i)))
     fill: list[float | None] = [None] * len(sides)
+    partners = [[(i, j) for i in robots for j in robots if i < j] for robots in sides]
+    in_contact: set[tuple[int, int]] = set()
+    collisions = [0] * len(sides)
     while True:
         commands = [players[i].act(core, i, obs[i]) for i in range(len(lineup))]
         results, ended, _ = core.step(commands)
         obs = [r.observation for r in results]
         if on_step is not None:
             on_step(core, results)
+        for k, pairs in enumerate(partners):
+            for pair in pairs:
+                if core.world.touching(*pair):
+                    collisions[k] += pair not in in_contact
+                    in_contact.add(pair)
+                else:
+                    in_contact.discard(pair)
         for k, robots in enumerate(sides):
             collected = sum(core.world.robots[i].collected for i in robots)
             if fill[k] is None and collected >= FILL_TARGET:
@@ -377,6 +390,7 @@ def play_match(
         ended_by_pin=core.ended_by_pin,
         length_s=world.time_s,
         breakdown=breakdown,
+        partner_collisions=(collisions[0], collisions[1] if len(collisions) > 1 else 0),
     )
 
 
@@ -454,6 +468,7 @@ class Summary:
             "pins": mean_ci([float(r.pins[k]) for r in m]),
             "fill_rate": len(filled) / len(m) if m else math.nan,
             "fill_median_s": statistics.median(filled) if filled else math.nan,
+            "partner_collisions": mean_ci([float(r.partner_collisions[k]) for r in m]),
         }
 
     @property
@@ -542,6 +557,9 @@ class Summary:
             ("median fill s", f"{sa['fill_median_s']:.2f}", f"{sb['fill_median_s']:.2f}"),
         ]
         if self.whole_game:
+            rows.append(
+                ("partner collisions", str(sa["partner_collisions"]), str(sb["partner_collisions"]))
+            )
             ea, eb = self.elements(0), self.elements(1)
             for key, name in ELEMENTS:
                 if key in YES_NO:

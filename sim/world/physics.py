@@ -1002,6 +1002,11 @@ class World:
 
     # --- rules (sim.world.rules) ----------------------------------------------------------
 
+    def touching(self, i: int, j: int) -> bool:
+        """Whether robots i and j are in contact (within pin_contact_m), as the pin rule and
+        the fouls judge contact."""
+        return self._touching(self.robots[i], self.robots[j])
+
     def _touching(self, a: RobotState, b: RobotState) -> bool:
         """Whether two robots are in contact (within pin_contact_m), for the pin rule."""
         margin = self.config.pin_contact_m

@@ -5,7 +5,10 @@ players for 2v2, and the pictures (platform tilt, goal owners, rings on branches
 from __future__ import annotations
 
 import json
+import math
+from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -14,10 +17,21 @@ from PIL import Image
 from sim.cli import main
 from sim.config import world_preset
 from sim.errors import EvalError
-from sim.evaluate import ELEMENTS, evaluate, load_player, load_side, side_label
+from sim.evaluate import (
+    ELEMENTS,
+    eval_env,
+    evaluate,
+    load_player,
+    load_side,
+    make_cores,
+    play_match,
+    side_label,
+)
+from sim.players import IdlePlayer
 from sim.render import game_caption, goal_label, top_down
 from sim.world import rules
 from sim.world.physics import World
+from sim.world.state import DriveCommand
 
 RING_RACE_KEYS = [
     "a", "b", "scenario", "fidelity", "matches", "a_stats", "b_stats", "a_wins", "draws",
@@ -218,3 +232,40 @@ def test_the_picture_frames_an_elevated_robot_in_white() -> None:
         img = top_down(w, size, show_frustum=False)
         assert (_pixel(img, w, x, plat.center[1], size) >= 250).all()
         assert not (before >= 250).all()
+
+
+class _Rammer:
+    """Drives at its alliance partner, and backs off for a second after each contact (the two
+    start in the open, 1.2 m apart)."""
+
+    def __init__(self) -> None:
+        self.back_until = -1.0
+
+    def reset(self, core: Any, index: int, rng: object = None) -> None:
+        self.back_until = -1.0
+        slot = core.world.robots[index].slot
+        core.world.place_robot(index, -0.8, 0.6 - 1.2 * slot, 90.0)
+
+    def act(self, core: Any, index: int, obs: object = None) -> DriveCommand:
+        w = core.world
+        me = w.robots[index]
+        mate = next(r for r in w.robots if r.alliance == me.alliance and r.index != index)
+        if w.touching(index, mate.index):
+            self.back_until = w.time_s + 1.0
+        if w.time_s < self.back_until:
+            return DriveCommand(-0.5, 0.0)
+        bearing = math.degrees(math.atan2(mate.x - me.x, mate.y - me.y))
+        error = (bearing - me.heading + 180.0) % 360.0 - 180.0
+        return DriveCommand(0.6 if abs(error) < 30 else 0.0, math.radians(error) * 3.0)
+
+
+def test_eval_counts_the_collisions_between_partners() -> None:
+    """Each time two robots of one alliance come into contact is one partner collision."""
+    env = eval_env(world="tipping_point_2v2")
+    cores = make_cores(replace(env, max_steps=15 * 12))
+    try:
+        record = play_match(cores, [_Rammer(), _Rammer()], [IdlePlayer(), IdlePlayer()], 3, "red")
+    finally:
+        for core in cores.values():
+            core.close()
+    assert record.partner_collisions[0] >= 2 and record.partner_collisions[1] == 0
