@@ -450,6 +450,7 @@ class Decider:
             # never sees a goal taken.
             goal_clamped=state.goal_clamped == CLAMP_HOLDS,
             intake_fills=self.config.intake_fills,
+            tall=self.config.role == "24in",
             others_robot_xy=opponents,
         )
         # A report older than partner_max_age_s is none: the robot plays alone.

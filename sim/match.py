@@ -254,6 +254,7 @@ def robot_view(
         others_robot_xy=others,
         goal_clamped=r.carried_goal is not None,
         intake_fills=r.config.ring_capacity is not None,
+        tall=r.config.reaches_high_branch,
         partner=partner_view(world, index, claims) if spec.partner else None,
     )
 

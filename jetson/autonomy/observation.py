@@ -57,6 +57,7 @@ class RobotView:
     # The route's stops, robot frame, tour order (RingMemory with spec.route_slots).
     route_robot_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
     intake_fills: bool = True  # the intake has a capacity (False: it never fills)
+    tall: bool = False  # the alliance's robot that reaches the high branch (spec role_flag)
     # The alliance partner's newest report (spec.partner); None without a fresh one.
     partner: PartnerView | None = None
 
@@ -109,6 +110,7 @@ class _Layout:
     ring_offset: int
     clamped: int  # the scalars' indices; -1 when the spec has none
     fills: int
+    tall: int
 
 
 # Layouts by spec, kept with their spec so that an id is never mistaken for another's.
@@ -129,6 +131,7 @@ def _layout(spec: ObservationSpec) -> _Layout:
         ring_offset=spec.ring_offset,
         clamped=scalars.index("clamped") if "clamped" in scalars else -1,
         fills=scalars.index("fills") if "fills" in scalars else -1,
+        tall=scalars.index("tall") if "tall" in scalars else -1,
     )
     if len(_LAYOUTS) >= 64:  # a process that makes many specs keeps only the recent ones
         _LAYOUTS.clear()
@@ -170,6 +173,8 @@ def build_frame(
         _fill_slots(out, lay.goal_offset, spec.n_goals, goals, unit, 0.0, None)
     if spec.intake_flag:
         out[lay.fills] = 1.0 if view.intake_fills else 0.0
+    if spec.role_flag:
+        out[lay.tall] = 1.0 if view.tall else 0.0
     rel = spec.relative_noise
     _fill_slots(out, lay.n_scalars, spec.n_other_robots, others, unit, rel, rng)
     ok = None

@@ -37,6 +37,8 @@ SCALAR_MEANINGS = {
     "held": "rings held / ring_capacity_norm",
     "clamped": "1 while the clamp holds a mobile goal, else 0 (goal_memory)",
     "fills": "1 when the intake has a capacity, 0 when it never fills (intake_flag)",
+    "tall": "1 for the alliance's robot that reaches the high branch (the 24-inch), else 0 "
+    "(role_flag)",
 }
 # Version 6: the alliance partner's block (spec.partner), from its newest report over VEXlink.
 PARTNER_NAMES = (
@@ -157,6 +159,9 @@ class ObservationSpec:
     # 2 m), nearest first, instead of every other robot wherever it is. The partner is the
     # partner block's; an opponent out of view leaves its slot empty.
     seen_opponents: bool = False
+    # Version 6 too: the robot's role in its alliance (the `tall` scalar): one network plays
+    # both robots of a 2v2 alliance and knows which of the two it drives.
+    role_flag: bool = False
 
     def __post_init__(self) -> None:
         if self.version not in SUPPORTED_VERSIONS:
@@ -174,6 +179,8 @@ class ObservationSpec:
             raise ObservationError("intake_flag needs observation spec version 5")
         if self.partner and self.version < 6:
             raise ObservationError("partner needs observation spec version 6")
+        if self.role_flag and self.version < 6:
+            raise ObservationError("role_flag needs observation spec version 6")
         if self.seen_opponents and (self.version < 6 or self.n_other_robots < 1):
             raise ObservationError(
                 "seen_opponents needs observation spec version 6 and n_other_robots >= 1"
@@ -233,6 +240,7 @@ class ObservationSpec:
     @property
     def scalars(self) -> tuple[str, ...]:
         extra = ("clamped",) * self.goal_memory + ("fills",) * self.intake_flag
+        extra += ("tall",) * self.role_flag
         return (*SCALARS, *extra)
 
     def scalar_index(self, name: str) -> int:
@@ -362,6 +370,8 @@ class ObservationSpec:
             layout.pop("partner")
         if not self.seen_opponents:
             layout.pop("seen_opponents")
+        if not self.role_flag:
+            layout.pop("role_flag")
         blob = json.dumps(layout, sort_keys=True).encode()
         return hashlib.sha256(blob).hexdigest()[:16]
 

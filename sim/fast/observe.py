@@ -80,6 +80,7 @@ class FastObserver:
         self._discs = np.stack([radius, height], -1).reshape(-1, 2)
         self._cam = np.array([_camera_row(rc.camera) for rc in rcs]).reshape(-1, 14)
         self._blue = np.array([a == "blue" for a in world.alliances])
+        self._tall = np.array([rc.reaches_high_branch for rc in rcs], np.float32)  # role_flag
         self.memory: FastRingMemory | None = None
         if spec.ring_memory:
             ring_z = world.field.ring.thickness / 2
@@ -170,6 +171,8 @@ class FastObserver:
         if spec.intake_flag:
             fills = w.room_cap < (1 << 30)
             out[..., spec.scalar_index("fills")] = fills
+        if spec.role_flag:
+            out[..., spec.scalar_index("tall")] = self._tall
         if spec.n_other_robots and w.n_robots > 1:
             true_h = np.radians(w.heading)
             s, c = np.sin(true_h)[..., None], np.cos(true_h)[..., None]

@@ -152,3 +152,21 @@ def test_the_seen_opponents_equal_the_per_robot_builder() -> None:
                 assert np.allclose(frames[k, i, lo : lo + 6], ref[lo : lo + 6], atol=1e-6)
                 seen += int(ref[lo + 2] > 0)
     assert seen > 10  # opponents were in view, not only empty slots
+
+
+def test_the_role_flag_marks_the_robot_that_reaches_the_high_branch() -> None:
+    """role_flag's `tall` scalar, batched, as sim.match.robot_view builds it: 1 for each
+    alliance's 24-inch robot, 0 for its 15-inch one."""
+    from sim.match import robot_view
+
+    spec = ObservationSpec(version=6, role_flag=True, n_stack=0, match_length_s=120.0)
+    world = FastWorld(world_preset("tipping_point_2v2"), 2)
+    world.reset(range(2))
+    frames = FastObserver(world, spec, obs_noise=False, gps_noise=False).frames()
+    k = spec.scalar_index("tall")
+    for m in range(2):
+        v = match_view(world, m)
+        for i, r in enumerate(v.robots):
+            ref = build_frame(spec, robot_view(v, spec, i, (r.x, r.y, r.heading), np.zeros(0, int)))
+            assert frames[m, i, k] == ref[k] == float(r.config.reaches_high_branch)
+    assert frames[:, :, k].tolist() == [[1.0, 0.0, 1.0, 0.0]] * 2
