@@ -44,7 +44,9 @@ def add_match_command(sub: argparse._SubParsersAction) -> None:
         "--policy",
         type=Path,
         default=None,
-        help="policy.onnx (policy.json beside it) (default: jetson/models/policy/policy.onnx)",
+        help="policy.onnx (policy.json beside it) (default: jetson/models/policy/policy.onnx); "
+        "with --world, the policy on our robots' Jetsons instead of the scripted alliance (a "
+        "learned alliance: sim/configs/alliance.toml)",
     )
     p.add_argument(
         "--opponent", default="planner", help="planner, scripted, idle, a policy.onnx, or none"
@@ -180,6 +182,8 @@ def cmd_match(args: argparse.Namespace) -> int:
             dashboard=args.dashboard,
             world=getattr(args, "world", None),
             partner=args.partner,
+            # In the whole game a policy named on the command line decides on our robots.
+            player="policy" if args.policy and getattr(args, "world", None) else None,
         )
         progress = None if args.quiet or args.json else (lambda m: print(m, flush=True))
         result = run_match(options, progress)

@@ -74,6 +74,11 @@ class MatchOptions:
     # camera; sim.fullstack.partner_stack), the two Brains linked by VEXlink.
     world: str | None = None
     partner: str = "alliance"
+    # What decides on our robots' Jetsons ([decision] player): "policy" (`policy`) or
+    # "alliance" (the scripted alliance, the whole game only); None: the scripted alliance in
+    # the whole game, the policy in the ring race. A learned alliance is "policy" with its
+    # policy.onnx on both robots (--partner stack).
+    player: str | None = None
 
     def __post_init__(self) -> None:
         if self.stack not in STACKS:
@@ -118,6 +123,10 @@ class MatchOptions:
                 raise MatchError(
                     f"world must be one of {', '.join(WORLD_PRESETS)}, got {self.world!r}"
                 )
+        if self.player not in (None, "policy", "alliance"):
+            raise MatchError(f"player must be policy or alliance, got {self.player!r}")
+        if self.player == "alliance" and not self.whole_game:
+            raise MatchError("the scripted alliance plays the whole game: give --world")
         if self.partner == "stack":
             if self.stack != "full" or not self.whole_game:
                 raise MatchError(
@@ -126,6 +135,13 @@ class MatchOptions:
                 )
             if self.realtime:
                 raise MatchError("--partner stack runs in lockstep only: drop --realtime")
+
+    @property
+    def jetson_player(self) -> str:
+        """What decides on our robots' Jetsons (`player`, its default by the match)."""
+        if self.player is not None:
+            return self.player
+        return "alliance" if self.whole_game else "policy"
 
     @property
     def whole_game(self) -> bool:

@@ -422,8 +422,9 @@ class FullStackMatch:
         self.detector = kind
         jopts = DaemonOptions(
             policy=o.policy,
-            # The whole game: the scripted alliance decides on the robot, as this robot's role.
-            player="alliance" if o.whole_game else "policy",
+            # The whole game: the scripted alliance decides on the robot, as this robot's role,
+            # unless a policy was asked for (a learned alliance).
+            player=o.jetson_player,
             role=self.world.robots[self.ia].config.name if o.whole_game else "24in",
             camera=o.camera,
             detector=kind,

@@ -42,20 +42,10 @@ def test_the_learned_alliance_rows_in_short_matches(tmp_path: Path) -> None:
     """--part learned: an (untrained) alliance policy against the scripted alliance, itself and
     the ring-race alliance in 2 s matches; the rows and targets are written, and the stack's rows
     of the last run are kept."""
-    import torch
-
     from bench import alliance
-    from sim.fast.matches import FastMatches
-    from sim.ppo import Agent, PPOConfig
-    from sim.training.config import load_config
-    from sim.training.export import export_policy
-    from sim.training.rollout import RolloutConfig
+    from tests.sim.alliance_policy import untrained_alliance_policy
 
-    env = load_config("alliance").env_config()
-    spec = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=2), seed=0).spec
-    torch.manual_seed(0)
-    agent = Agent(spec.size, env.action_size, PPOConfig(hidden=(16,)))
-    onnx_path, _ = export_policy(agent, spec, env, tmp_path / "policy")
+    onnx_path = untrained_alliance_policy(tmp_path / "policy")
     old = {"benchmark": "alliance", "metrics": {"vexlink_late": 0}, "targets": {}}
     (tmp_path / "alliance.json").write_text(json.dumps(old))
     rc = alliance.main([

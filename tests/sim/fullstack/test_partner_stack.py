@@ -101,3 +101,25 @@ def test_our_faults_leave_the_partner_playing(tmp_path: Path, fault: str) -> Non
         v = p["vexlink"]
         assert v["late"] == 0 and v["lost"] >= 5  # a second of the partner's reports
         assert p["our_partner_link"][-1][1] == "up"  # the new Brain hears the partner again
+
+
+def test_a_learned_alliance_plays_its_policy_on_both_robots(tmp_path: Path) -> None:
+    """--policy in the whole game: both robots' daemons run the policy (player "policy"), each
+    as its own role, and hear each other over VEXlink."""
+    from tests.sim.alliance_policy import untrained_alliance_policy
+
+    policy = untrained_alliance_policy(tmp_path / "policy")
+    out = tmp_path / "learned"
+    result = run_match(options(out, policy=policy, player="policy", seconds=3.0))
+    assert result.passed, [c for c in result.checks if not c.passed]
+    for name, role in (("daemon.jsonl", "24in"), ("partner_daemon.jsonl", "15in")):
+        config = next(r for r in log(out / name) if r.get("event") == "config")
+        decision = config["settings"]["decision"]
+        assert (decision["player"], decision["role"]) == ("policy", role), name
+        assert config["msg"].startswith(f"policy {policy}")
+        said = [r for r in log(out / name) if r.get("event") == "partner_link"]
+        assert said and "playing as an alliance" in said[0]["msg"], name
+    p = result.partner
+    assert p is not None and p["jetson_share"] >= 0.95
+    with pytest.raises(MatchError, match="whole game"):
+        MatchOptions(player="alliance", out=tmp_path)
