@@ -166,6 +166,13 @@ class FastMatches:
         self.pins = np.zeros(self.n, dtype=np.int64)
         self._potentials: list[dict[str, F64]] = [{} for _ in range(a)]  # by alliance robot
         self._margin = np.zeros(b)
+        # The learning alliances' partner pairs (robot j and j + 1 of each side: World's order)
+        # and whether each was in contact last step, for partner collisions.
+        self._partner_pairs = np.array(
+            [(s * a, s * a + 1) for s in (0, 1)] if a == 2 else [], dtype=np.int64
+        ).reshape(-1, 2)
+        self._partners_touching = np.zeros((b, len(self._partner_pairs)), dtype=bool)
+        self.partner_collisions = np.zeros(b, dtype=np.int64)  # the learning alliance's
         self.obs = np.zeros((b, self.world.n_robots, self.spec.size), np.float32)
         # The route teacher: the route skill's controller of each learning robot.
         self._route_teacher = teacher == "route"
@@ -294,6 +301,7 @@ class FastMatches:
         robots = self.row_robots()
         by_row = np.repeat(mr, a)
         self.pins += pinned[by_row, robots]
+        self._count_partner_collisions()
         filled = np.isnan(self.fill_time) & (
             w.collected[by_row, robots] >= self.rollout.fill_target
         )
@@ -377,6 +385,10 @@ class FastMatches:
                     me = int(self.robot_of(j)[m])
                     self._teachers[j].reset(np.array([m]), np.array([me]), teaching)
         self.steps[which] = 0
+        self.partner_collisions[which] = 0
+        if len(self._partner_pairs):
+            gap = -self.world.overlaps(self._partner_pairs)[which]
+            self._partners_touching[which] = gap <= self.world.config.pin_contact_m
         rows = (which[:, None] * a + np.arange(a)).reshape(-1)
         self.total[rows] = 0.0
         self.totals[rows] = 0.0
@@ -425,6 +437,17 @@ class FastMatches:
         )
         if pose is not None:
             w.place_robot(k, i, *pose)
+
+    def _count_partner_collisions(self) -> None:
+        """Each learning alliance's partners coming into contact this step (within
+        pin_contact_m, as World.touching) is one partner collision."""
+        if not len(self._partner_pairs):
+            return
+        gap = -self.world.overlaps(self._partner_pairs)
+        touching = gap <= self.world.config.pin_contact_m  # (B, 2): red's pair, blue's
+        began = touching & ~self._partners_touching
+        self._partners_touching = touching
+        self.partner_collisions += began[np.arange(self.b), self.learner]
 
     def _pinned(self, pins: NDArray[np.bool_]) -> NDArray[np.bool_]:
         """Each robot of each match in a pinned red-blue pair this step, (B, R)."""
@@ -663,6 +686,7 @@ class FastMatches:
             pins=int(self.pins[row]),
             length=int(self.steps[m]),
             ended_by_pin=by_pin,
+            partner_collisions=int(self.partner_collisions[m]),
         )
 
     def _core(self, k: int) -> FastCore:

@@ -183,6 +183,9 @@ class EpisodeStats:
     pins: int
     length: int
     ended_by_pin: bool
+    # Collisions between the learner and its alliance partner (each time they came into
+    # contact); 0 for a robot that plays alone.
+    partner_collisions: int = 0
 
 
 @dataclass

@@ -122,6 +122,7 @@ def episode_summary(episodes: list[EpisodeStats]) -> dict[str, float]:
         "match/score": _mean([e.score for e in episodes]),
         "match/score_margin": _mean([e.score - e.opponent_score for e in episodes]),
         "match/pins": _mean([float(e.pins) for e in episodes]),
+        "match/partner_collisions": _mean([float(e.partner_collisions) for e in episodes]),
         "match/fill_rate": _mean([float(e.fill_time_s is not None) for e in episodes]),
     }
     fills = [e.fill_time_s for e in episodes if e.fill_time_s is not None]

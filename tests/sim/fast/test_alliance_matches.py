@@ -137,3 +137,19 @@ def test_the_trainer_trains_an_alliance_on_the_fast_backend(tmp_path: Path) -> N
     assert kinds[0::2] == kinds[1::2] and set(kinds) == {"pool", "alliance"}
     result = train(cfg, tmp_path / "run", progress=False, export=False)
     assert result.steps == 512 and result.episodes >= 8
+
+
+def test_partners_that_drive_into_each_other_count_a_collision() -> None:
+    fm = matches(n=4, seed=4, max_steps=30)
+    fm.set_kinds([("idle", -1)] * 4)
+    fm.reset()
+    side = int(fm.learner[0])
+    fm.world.place_robot(0, side * 2, -0.9, 0.45, 180.0)  # match 0: face to face, 0.9 m apart
+    fm.world.place_robot(0, side * 2 + 1, -0.9, -0.45, 0.0)
+    ahead = np.tile(np.float32([0.6, 0.0]), (4, 1))
+    ahead[2:] = 0.0  # match 1's robots stand where they started, apart
+    episodes = []
+    for _ in range(30):
+        episodes += fm.step(ahead, np.zeros((4, 2), np.float32)).episodes
+    by_row = {ep.slot: ep.partner_collisions for ep in episodes}
+    assert by_row[0] == by_row[1] == 1 and by_row[2] == by_row[3] == 0
