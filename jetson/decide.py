@@ -397,9 +397,10 @@ class Decider:
                 if self.spec.seen_opponents
                 else _NO_RINGS
             )
+            goals = perceived_goals(perception, self.config) if self.spec.goal_sight else None
             obs = self._observation(
                 state, rings, fresh=seen == "fresh", seen_from=seen_from, partner=partner,
-                opponents=opponents,
+                opponents=opponents, goals=goals,
             )  # fmt: skip
             action = np.asarray(self.policy(obs), dtype=np.float64).reshape(-1)
         except Exception as exc:
@@ -434,6 +435,7 @@ class Decider:
         seen_from: tuple[float, float, float] | None = None,
         partner: PartnerInput | None = None,
         opponents: NDArray[np.float64] = _NO_RINGS,
+        goals: NDArray[np.float64] | None = None,
     ) -> NDArray[np.float32]:
         t = state.phase_ms / 1000.0
         if state.phase == MatchPhase.DRIVER:
@@ -458,7 +460,9 @@ class Decider:
             view.partner = partner.view(state.x, state.y, state.heading)
         # Only a fresh camera frame may tell the memory that a ring is gone.
         view = self._memory.observe(view, seen_from) if fresh else self._memory.recall(view)
-        view = self._goals.observe(view)
+        if fresh and goals is not None:  # a fresh camera result's goals correct the memory
+            view.goals_seen_robot = goals
+        view = self._goals.observe(view, seen_from)
         frame = build_frame(self.spec, view)
         now_ms = float(state.time_ms)
         if self._stack is None:

@@ -248,8 +248,9 @@ def build(
         # simulator's clock exists only in this process, so its camera is a thread here.
         own = isinstance(clock, MonotonicClock)
         camera = make_camera(
-            settings, clock, log, own_process=own, robots=policy_reads_robots(decider)
-        )
+            settings, clock, log, own_process=own, robots=policy_reads_robots(decider),
+            goals=policy_reads_goals(decider),
+        )  # fmt: skip
         perception = camera
     recordings = None
     if settings.record.dir:
@@ -333,8 +334,19 @@ def policy_reads_robots(decider: Any) -> bool:
     return bool(getattr(getattr(decider, "spec", None), "seen_opponents", False))
 
 
+def policy_reads_goals(decider: Any) -> bool:
+    """Whether the decider's goal memory is corrected by the goals the camera sees: its spec's
+    `goal_sight` (false for a spec without it; the scripted alliance: Settings.detects_goals)."""
+    return bool(getattr(getattr(decider, "spec", None), "goal_sight", False))
+
+
 def make_camera(
-    settings: Settings, clock: Any, log: Any, own_process: bool = False, robots: bool = False
+    settings: Settings,
+    clock: Any,
+    log: Any,
+    own_process: bool = False,
+    robots: bool = False,
+    goals: bool = False,
 ) -> Any:
     """The camera thread over the configured source and pipeline; a camera that is absent or
     fails later is retried by the thread, forever. `own_process`: the thread runs in a process
@@ -342,7 +354,8 @@ def make_camera(
     fails as this function would; `clock` must then be the machine's monotonic clock. The goal
     detector runs when Settings.detects_goals says so, the robot detector when
     Settings.detects_robots does; `robots`: the policy reads the robots it sees
-    (policy_reads_robots), which turns it on unless [camera] robots is set."""
+    (policy_reads_robots), which turns it on unless [camera] robots is set; `goals` likewise
+    the goals (policy_reads_goals)."""
     from dataclasses import replace
 
     from jetson.camera_feed import CameraWorker
@@ -350,7 +363,9 @@ def make_camera(
     from jetson.perception.sources import open_source
 
     cs = replace(
-        settings.camera, goals=settings.detects_goals(), robots=settings.detects_robots(robots)
+        settings.camera,
+        goals=settings.detects_goals(goals),
+        robots=settings.detects_robots(robots),
     )
     if own_process:
         from jetson.camera_process import CameraProcess

@@ -303,12 +303,13 @@ class Settings:
     dashboard: DashboardSettings = field(default_factory=DashboardSettings)
     system: SystemSettings = field(default_factory=SystemSettings)
 
-    def detects_goals(self) -> bool:
+    def detects_goals(self, policy_reads_goals: bool = False) -> bool:
         """Whether the camera finds goals: [camera] goals, or when it is not set, whether the
-        scripted alliance decides (it reads goals; a policy does not)."""
+        scripted alliance decides (it reads goals) or the policy's goal memory is corrected by
+        sight (`policy_reads_goals`, known once the policy is loaded: spec goal_sight)."""
         if self.camera.goals is not None:
             return self.camera.goals
-        return self.decision.player == "alliance"
+        return self.decision.player == "alliance" or policy_reads_goals
 
     def detects_robots(self, policy_reads_robots: bool = False) -> bool:
         """Whether the camera finds robots: [camera] robots, or when it is not set, whether the

@@ -30,6 +30,7 @@ from jetson.autonomy.spec import ObservationSpec
 from sim.config import CameraConfig, RewardConfig, RobotConfig, WorldConfig, merge
 from sim.errors import ConfigError
 from sim.field import FieldSpec
+from sim.goal_sight import visible_goals
 from sim.rewards import goal_potential, park_potential, ring_potential
 from sim.world import rules, sensors
 from sim.world.physics import World
@@ -576,6 +577,8 @@ class MatchCore:
         memory)."""
         rng = self._obs_rngs[index] if self.config.obs_noise else None
         view = self.memories[index].observe(self.view(index))
+        if self.spec.goal_sight:  # the goals the camera sees correct the goal memory
+            view.goals_seen_robot = visible_goals(self.world, index)
         view = self.goal_memories[index].observe(view)
         return build_frame(self.spec, view, rng)
 

@@ -54,6 +54,10 @@ class RobotView:
     goal_clamped: bool = False  # the Brain's clamp holds a mobile goal
     # Mobile goals the robot could score with, robot frame (GoalMemory.observe).
     goals_robot_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
+    # The goals a fresh camera result shows, (N, 3) x, y robot frame and colour code
+    # (goal_colours), for a goal memory corrected by sight (spec.goal_sight); None: no fresh
+    # result (nothing to correct by).
+    goals_seen_robot: NDArray[np.float64] | None = None
     # The route's stops, robot frame, tour order (RingMemory with spec.route_slots).
     route_robot_xy: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
     intake_fills: bool = True  # the intake has a capacity (False: it never fills)

@@ -162,6 +162,17 @@ class ObservationSpec:
     # Version 6 too: the robot's role in its alliance (the `tall` scalar): one network plays
     # both robots of a 2v2 alliance and knows which of the two it drives.
     role_flag: bool = False
+    # Version 6 too: the goal memory corrected by sight (with goal_memory). Each fresh camera
+    # result's goals the robot could score with (yellow and its alliance's colour, from the goal
+    # detector) move the remembered goal nearest them within goal_sight_merge_m there, or join
+    # the memory; a remembered goal within the detector's reach (goal_sight_fov_deg about the
+    # heading, goal_sight_near_m to goal_sight_far_m from the robot's centre) that no sighting
+    # matched is not there and is forgotten.
+    goal_sight: bool = False
+    goal_sight_merge_m: float = 0.35
+    goal_sight_fov_deg: float = 60.0
+    goal_sight_near_m: float = 0.4
+    goal_sight_far_m: float = 1.8
 
     def __post_init__(self) -> None:
         if self.version not in SUPPORTED_VERSIONS:
@@ -181,6 +192,14 @@ class ObservationSpec:
             raise ObservationError("partner needs observation spec version 6")
         if self.role_flag and self.version < 6:
             raise ObservationError("role_flag needs observation spec version 6")
+        if self.goal_sight and (self.version < 6 or not self.goal_memory):
+            raise ObservationError("goal_sight needs observation spec version 6 and goal_memory")
+        sight = (self.goal_sight_merge_m, self.goal_sight_near_m, self.goal_sight_far_m)
+        if not (0 < self.goal_sight_fov_deg < 180 and min(sight) >= 0 and sight[1] < sight[2]):
+            raise ObservationError(
+                "goal sight: goal_sight_fov_deg in (0, 180), goal_sight_merge_m >= 0, "
+                "0 <= goal_sight_near_m < goal_sight_far_m"
+            )
         if self.seen_opponents and (self.version < 6 or self.n_other_robots < 1):
             raise ObservationError(
                 "seen_opponents needs observation spec version 6 and n_other_robots >= 1"
@@ -372,6 +391,8 @@ class ObservationSpec:
             layout.pop("seen_opponents")
         if not self.role_flag:
             layout.pop("role_flag")
+        if not self.goal_sight:
+            layout = {k: v for k, v in layout.items() if not k.startswith("goal_sight")}
         blob = json.dumps(layout, sort_keys=True).encode()
         return hashlib.sha256(blob).hexdigest()[:16]
 

@@ -42,10 +42,11 @@ Bool = NDArray[np.bool_]
 
 
 def unsupported_memory(spec: ObservationSpec) -> list[str]:
-    """What of `spec`'s ring memory the batched memory does not keep (empty: all of it)."""
+    """What of `spec`'s memories the batched memories do not keep (empty: all of it)."""
+    out = ["goal_sight"] if spec.goal_sight else []
     if not spec.ring_memory:
-        return []
-    return [n for n in ("memory_forget_intake", "memory_push") if getattr(spec, n)]
+        return out
+    return out + [n for n in ("memory_forget_intake", "memory_push") if getattr(spec, n)]
 
 
 @dataclass

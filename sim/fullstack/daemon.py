@@ -30,7 +30,7 @@ from typing import Any, TextIO
 from jetson.camera_feed import Perceived
 from jetson.clock import Clock
 from jetson.frames import FrameTap
-from jetson.service import build, make_camera, policy_reads_robots
+from jetson.service import build, make_camera, policy_reads_goals, policy_reads_robots
 from jetson.settings import Settings
 from jetson.stats import Counters
 from protocol import messages
@@ -160,8 +160,11 @@ class DaemonHost:
         self.camera: Any = None
         if options.camera:
             try:
-                robots = policy_reads_robots(self.daemon.decider)
-                self.camera = make_camera(self.settings, clock, self.log, robots=robots)
+                decider = self.daemon.decider
+                self.camera = make_camera(
+                    self.settings, clock, self.log, robots=policy_reads_robots(decider),
+                    goals=policy_reads_goals(decider),
+                )  # fmt: skip
             except Exception as exc:  # a missing detector model, a bad camera config
                 raise DaemonError(f"the daemon's camera cannot start: {exc}") from exc
             if isinstance(self.feed, RecordingFeed):
