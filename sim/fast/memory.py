@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from jetson.autonomy.camera import MemoryCamera, robot_to_camera_rotation
+from jetson.autonomy.goal_colours import GOAL_COLOUR_CODES
 from jetson.autonomy.spec import REMEMBERED, SEEN, ObservationSpec
 from sim.errors import ConfigError
 from sim.fast.kernels import insert_nearest, threads_for
@@ -43,10 +44,9 @@ Bool = NDArray[np.bool_]
 
 def unsupported_memory(spec: ObservationSpec) -> list[str]:
     """What of `spec`'s memories the batched memories do not keep (empty: all of it)."""
-    out = ["goal_sight"] if spec.goal_sight else []
     if not spec.ring_memory:
-        return out
-    return out + [n for n in ("memory_forget_intake", "memory_push") if getattr(spec, n)]
+        return []
+    return [n for n in ("memory_forget_intake", "memory_push") if getattr(spec, n)]
 
 
 @dataclass
@@ -165,22 +165,44 @@ class FastGoalMemory(_Known):
         # makes before the robot drives over (and so forgets) the old places.
         super().__init__(world, prior, len(prior) + 16)
         self.holding = np.zeros((world.n, world.n_robots), dtype=bool)
+        # (R, G): the goals of each robot's colours (yellow and its alliance's), goal_sight's.
+        colours = [GOAL_COLOUR_CODES[g.alliance or "yellow"] for g in world.field.goals]
+        self._ours = np.array(
+            [[c in (GOAL_COLOUR_CODES["yellow"], GOAL_COLOUR_CODES[a]) for c in colours]
+             for a in world.alliances],
+            dtype=bool,
+        ).reshape(world.n_robots, -1)  # fmt: skip
         self.reset()
 
     def _restart(self, rows: NDArray[np.int64]) -> None:
         self.holding[rows] = False
 
-    def observe(self, active: Bool, pose: F64) -> tuple[F64, NDArray[np.int64]]:
-        """Feed the matches where `active` with each robot's clamp and GPS pose; returns the
-        nearest spec.n_goals remembered goals in each robot's frame, nearest first
-        (B, R, n_goals, 2), and how many slots are filled (B, R)."""
+    def observe(
+        self, active: Bool, pose: F64, goals_seen: Bool | None = None
+    ) -> tuple[F64, NDArray[np.int64]]:
+        """Feed the matches where `active` with each robot's clamp and GPS pose (and with
+        spec.goal_sight the goals each robot's camera sees, (B, R, G): FastObserver.
+        goals_in_view); returns the nearest spec.n_goals remembered goals in each robot's frame,
+        nearest first (B, R, n_goals, 2), and how many slots are filled (B, R)."""
         s = self.spec
-        clamped = self.world.carried >= 0
-        with threads_for(self.world.n):
+        w = self.world
+        clamped = w.carried >= 0
+        goal_xy = np.stack([w.gx, w.gy], -1)
+        seen = np.zeros((w.n, w.n_robots, w.n_goals), dtype=bool)
+        if s.goal_sight:
+            if goals_seen is None:
+                raise ValueError("a goal memory corrected by sight needs the goals seen")
+            seen = np.asarray(goals_seen, dtype=np.bool_) & self._ours[None]
+        sight = np.array(
+            [float(s.goal_sight), s.goal_sight_merge_m, s.goal_sight_fov_deg,
+             s.goal_sight_near_m, s.goal_sight_far_m],
+        )  # fmt: skip
+        with threads_for(w.n):
             return _goal_step(
                 self.known, self.count, self.holding, self.overflow,
                 np.asarray(active, dtype=np.bool_), pose, self._blue, clamped,
                 s.goal_clamp_offset_m, s.goal_forget_m, s.n_goals,
+                sight, w.x, w.y, w.heading, goal_xy, seen,
             )  # fmt: skip
 
 
@@ -491,13 +513,44 @@ def _two_opt(order, pair):
     return best
 
 
+@nb.njit(cache=True, inline="always")
+def _by_sight(
+    kn, k_n, keep, b, i, px, py, s, c, x, y, heading, goal_xy, goal_seen, local, found, sight
+):  # fmt: skip
+    """GoalMemory._by_sight for robot i of match b (GPS pose px, py, s, c in its alliance
+    frame): remembered goals matched by a sighting or in the detector's reach go, the
+    sightings join. Returns the new count (more than kn holds: the caller counts overflow)."""
+    nf = place_seen(b, i, x, y, heading, goal_xy, goal_seen, px, py, s, c, local, found)
+    for k in range(k_n):
+        dx = kn[k, 0] - px
+        dy = kn[k, 1] - py
+        lx = dx * c - dy * s
+        ly = dx * s + dy * c
+        dist = math.hypot(lx, ly)
+        bearing = math.degrees(abs(math.atan2(lx, ly)))
+        reach = bearing <= sight[2] / 2 and dist >= sight[3] and dist <= sight[4]
+        keep[k] = not (reach or near_any(kn[k, 0], kn[k, 1], found, nf, sight[1]))
+    k_n = _compact(kn, k_n, ~keep)
+    total = k_n + nf
+    for j in range(nf):
+        if k_n + j < kn.shape[0]:
+            kn[k_n + j, 0] = found[j, 0]
+            kn[k_n + j, 1] = found[j, 1]
+    return total
+
+
 @nb.njit(cache=True, parallel=True)
 def _goal_step(
-    known, count, holding, overflow, active, gps, blue, clamped, offset, forget, slots
+    known, count, holding, overflow, active, gps, blue, clamped, offset, forget, slots,
+    sight, x, y, heading, goal_xy, goal_seen,
 ):  # fmt: skip
-    """GoalMemory.observe for every robot of the active matches, and the goal slots."""
+    """GoalMemory.observe for every robot of the active matches, and the goal slots. sight:
+    goal_sight's [on, merge_m, fov_deg, near_m, far_m]; goal_seen (B, R, G): the goals of its
+    colours each robot's camera sees (goal_xy (B, G, 2)), placed from the true pose (x, y,
+    heading) as sim.goal_sight reports them."""
     n_match, n_robot = clamped.shape
     cap = known.shape[2]
+    n_goal = goal_xy.shape[1]
     out = np.zeros((n_match, n_robot, slots, 2))
     filled = np.zeros((n_match, n_robot), dtype=np.int64)
     for b in nb.prange(n_match):
@@ -506,6 +559,8 @@ def _goal_step(
         keep = np.empty(cap, dtype=np.bool_)
         d2 = np.empty(slots)
         ok = np.empty(slots)
+        local_seen = np.empty((n_goal, 2))
+        found = np.empty((n_goal, 2))
         for i in range(n_robot):
             px, py, s, c = _alliance_pose(gps, blue, b, i)
             cx = px - offset * s
@@ -535,6 +590,14 @@ def _goal_step(
             for k in range(k_n):
                 keep[k] = not math.hypot(kn[k, 0] - px, kn[k, 1] - py) <= forget
             k_n = _compact(kn, k_n, ~keep)
+            if sight[0] > 0.5:
+                k_n = _by_sight(
+                    kn, k_n, keep, b, i, px, py, s, c, x, y, heading, goal_xy, goal_seen,
+                    local_seen, found, sight,
+                )  # fmt: skip
+                if k_n > cap:
+                    overflow[b, i] += k_n - cap
+                    k_n = cap
             count[b, i] = k_n
             # build_frame's goal slots: nearest first, equal distances in memory order.
             m = 0

@@ -81,6 +81,11 @@ class FastObserver:
         self._cam = np.array([_camera_row(rc.camera) for rc in rcs]).reshape(-1, 14)
         self._blue = np.array([a == "blue" for a in world.alliances])
         self._tall = np.array([rc.reaches_high_branch for rc in rcs], np.float32)  # role_flag
+        # Where sim.goal_sight looks at a goal: the middle of its base (one height for all).
+        heights = {x.base_height for x in g}
+        if spec.goal_sight and len(heights) > 1:
+            raise ConfigError("the fast backend's goal sight needs one base height for all goals")
+        self._goal_z = heights.pop() / 2 if heights else 0.0
         self.memory: FastRingMemory | None = None
         if spec.ring_memory:
             ring_z = world.field.ring.thickness / 2
@@ -107,6 +112,20 @@ class FastObserver:
             return visible_rings(
                 w.x, w.y, w.heading, w.w, w.ring_xy, w.ring_floor, w.ring_z,
                 self._cam, self._boxes, w.gx, w.gy, self._discs,
+            )  # fmt: skip
+
+    def goals_in_view(self) -> Bool:
+        """(B, R, G): the goals each robot's camera sees (sim.goal_sight.visible_goals in
+        training fidelity: the middle of the base in the frustum, no robot in the way), by the
+        rings' compiled test with the goals as points and no goal as an obstacle."""
+        w = self.world
+        goal_xy = np.stack([w.gx, w.gy], -1)
+        every = np.ones(w.gx.shape, dtype=bool)
+        none = np.zeros((w.n, 0))
+        with threads_for(w.n):
+            return visible_rings(
+                w.x, w.y, w.heading, w.w, goal_xy, every, self._goal_z, self._cam, self._boxes,
+                none, none, self._discs[:0],
             )  # fmt: skip
 
     def robots_in_view(self) -> Bool:
@@ -193,7 +212,8 @@ class FastObserver:
         active = np.ones(w.n, dtype=bool) if rows is None else rows
         if self.goal_memory is not None:
             out[..., spec.scalar_index("clamped")] = w.carried >= 0
-            goals, count = self.goal_memory.observe(active, pose)
+            seen = self.goals_in_view() if spec.goal_sight else None
+            goals, count = self.goal_memory.observe(active, pose, seen)
             ok = np.where(np.arange(spec.n_goals) < count[..., None], SEEN, 0.0)
             self._write(out, spec.goal_offset, goals, ok, noise=False)
         if self.memory is None:

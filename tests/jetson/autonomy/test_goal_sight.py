@@ -79,10 +79,9 @@ def test_goal_sight_needs_version_6_and_the_goal_memory() -> None:
 
 
 def test_the_twin_corrects_its_goal_memory_by_what_its_camera_sees() -> None:
-    """MatchCore: a goal moved off its starting place is seen where it is and the memory follows;
-    the fast backend refuses the feature by name."""
+    """MatchCore: a goal moved off its starting place is seen where it is and the memory
+    follows (the fast backend's batched memory: tests/sim/fast/test_memory.py)."""
     from sim.config import world_preset
-    from sim.errors import ConfigError
     from sim.fast.observe import unsupported_spec
     from sim.match import MatchCore, make_config
     from sim.world.state import DriveCommand
@@ -114,12 +113,7 @@ def test_the_twin_corrects_its_goal_memory_by_what_its_camera_sees() -> None:
         assert not any(np.hypot(k[0] - old[0], k[1] - old[1]) < 0.3 for k in memory.known)
     finally:
         core.close()
-    assert unsupported_spec(core.spec) == ["goal_sight"]
-    with pytest.raises(ConfigError, match="goal_sight"):
-        from sim.fast.matches import FastMatches
-        from sim.training.rollout import RolloutConfig
-
-        FastMatches(env, RolloutConfig(workers=0, envs_per_worker=1), seed=0)
+    assert unsupported_spec(core.spec) == []  # the fast backend batches it too
 
 
 def test_the_decision_corrects_the_memory_from_fresh_camera_results_only() -> None:

@@ -5,6 +5,8 @@ the route's target switches and goals clamped and put down."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -142,3 +144,49 @@ def test_memory_features_not_batched_are_refused_by_name() -> None:
     )
     with pytest.raises(ConfigError, match="memory_forget_intake"):
         FastObserver(world, spec)
+
+
+def test_goal_memories_corrected_by_sight_equal_goalmemory_value_for_value() -> None:
+    """spec.goal_sight: the batched goal memory fed the goals each camera sees
+    (FastObserver.goals_in_view) equals GoalMemory fed sim.goal_sight's report, through goals
+    pushed, clamped and put down."""
+    from sim.goal_sight import visible_goals
+
+    n = 4
+    world = FastWorld(RING_RACE_2V2, n)
+    world.reset(range(n))
+    goals = [g.position for g in world.field.goals if g.alliance in (None, "red")]
+    spec = ObservationSpec(
+        version=6, n_stack=0, n_other_robots=1, goal_memory=True, goal_sight=True,
+        prior_goals=tuple((float(x), float(y)) for x, y in np.round(goals, 4)),
+        goal_clamp_offset_m=round(abs(float(world.clamp_offsets[0, 0])), 4),
+    )  # fmt: skip
+    obs = FastObserver(world, spec, obs_noise=False, gps_noise=True, rng=np.random.default_rng(3))
+    memories = [[GoalMemory(spec) for _ in range(4)] for _ in range(n)]
+    plain = replace(spec, goal_sight=False)  # dead reckoning alone, to tell what sight changed
+    reckoned = [[GoalMemory(plain) for _ in range(4)] for _ in range(n)]
+    rng = np.random.default_rng(1)
+    seen = corrected = 0
+    for t in range(150):
+        if t:
+            back = -1.0 if (t // 25) % 2 else 1.0
+            linear = back * rng.uniform(-0.3, 1.0, (n, 4))
+            clamp = np.where(rng.random((n, 4)) < 0.05, 0, -1)
+            world.step(linear, rng.uniform(-2.0, 2.0, (n, 4)), clamp=clamp)
+        pose = obs.pose()
+        in_view = obs.goals_in_view()
+        frames = obs.frames(obs.visible(), pose)
+        for k in range(n):
+            v = match_view(world, k)
+            for i in range(4):
+                view = _view(world, k, i, pose)
+                view.goals_seen_robot = visible_goals(v, i)
+                assert in_view[k, i].sum() == len(view.goals_seen_robot), (t, k, i)
+                seen += len(view.goals_seen_robot)
+                ref = build_frame(spec, memories[k][i].observe(view))
+                assert np.allclose(frames[k, i], ref, atol=1e-6), (t, k, i)
+                alone = reckoned[k][i]
+                alone.observe(view)
+                got = memories[k][i].known
+                corrected += got.shape != alone.known.shape or not np.allclose(got, alone.known)
+    assert seen > 300 and corrected > 100, (seen, corrected)
