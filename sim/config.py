@@ -235,6 +235,8 @@ class RewardConfig:
     hurry: per second while the robot has fewer than `ring_cap` rings (off without a cap); a
     negative weight is a cost of time: potential shaping only steers, this makes a faster fill
     worth more than the discount alone does (the competence test judges the fill time).
+    partner_contact: each time the robot and its alliance partner come into contact (within
+    pin_contact_m, World.touching), to both; a negative weight teaches partners to keep apart.
     """
 
     ring: float = 5.0
@@ -251,6 +253,7 @@ class RewardConfig:
     goal_approach: float = 0.0
     score: float = 0.0
     hurry: float = 0.0
+    partner_contact: float = 0.0
     goal_zone: Literal["home", "half"] = "home"
 
     def __post_init__(self) -> None:

@@ -56,6 +56,7 @@ REWARD_COMPONENTS = (
     "goal_approach",
     "score",
     "hurry",
+    "partner",
 )
 
 
@@ -413,6 +414,8 @@ class MatchCore:
         # Each robot's claimed target (field frame; None: nothing), the partner block's claim:
         # a skill-driven robot claims its skill's target (MatchCore.command).
         self.claims: list[tuple[float, float] | None] = []
+        self._mates: list[int | None] = []  # each robot's alliance partner (partner_of)
+        self._with_mate: list[bool] = []  # in contact with it last step (partner_contact)
         self._in_view: tuple[float, np.ndarray] | None = None  # (time, robots_in_view)
 
     def skill_driver(self, index: int, skills: SkillConfig) -> SkillDriver:
@@ -514,6 +517,9 @@ class MatchCore:
         self.pins = [0 for _ in self.world.robots]
         self.ended_by_pin = False
         self._margin = [self._score_margin(r.alliance) for r in self.world.robots]
+        alliances = [r.alliance for r in self.world.robots]
+        self._mates = [partner_of(alliances, i) for i in range(len(alliances))]
+        self._with_mate = self._partners_touching()
         n = len(self.world.robots)
         self._potentials = {k: [fn(i) for i in range(n)] for k, fn in self._shaping.items()}
         return [s.reset(self.frame(i)) for i, s in enumerate(self.stacks)]
@@ -606,6 +612,9 @@ class MatchCore:
         end_rewards = ended and not self.ended_by_pin
         # Nothing below changes the world: one score serves every robot's reward and info.
         score = w.score()
+        touching = self._partners_touching()
+        met = [now and not was for now, was in zip(touching, self._with_mate, strict=True)]
+        self._with_mate = touching
         results = []
         for r in w.robots:
             comp = dict.fromkeys(REWARD_COMPONENTS, 0.0)
@@ -629,6 +638,8 @@ class MatchCore:
                 comp["hurry"] = cfg.hurry * w.dt
             if cfg.clamp and r.index in clamped:
                 comp["clamp"] = cfg.clamp
+            if met[r.index]:
+                comp["partner"] = cfg.partner_contact
             if cfg.score:
                 margin = self._score_margin(r.alliance, score)
                 comp["score"] = cfg.score * (margin - self._margin[r.index])
@@ -646,6 +657,15 @@ class MatchCore:
             info["reward_components"] = comp
             results.append(RobotStep(obs, float(sum(comp.values())), comp, info))
         return results, ended, events
+
+    def _partners_touching(self) -> list[bool]:
+        """Whether each robot is in contact with its alliance partner now (False alone, and
+        always when no reward pays partner_contact: nothing asks PyBullet then)."""
+        if not self.reward.partner_contact:
+            return [False] * len(self.world.robots)
+        return [
+            mate is not None and self.world.touching(i, mate) for i, mate in enumerate(self._mates)
+        ]
 
     def _shapings(self) -> dict[str, Callable[[int], float]]:
         """The potential-based shapings: reward component (and its RewardConfig weight) ->

@@ -14,8 +14,8 @@ together; n_envs must be a multiple of `a`, and the rows of one match play one o
 The learner's side is drawn per match as VecMatches draws it (learner_side), from the same
 per-match generator np.random.default_rng((seed, match, match number)), which then starts the
 world as World.reset would. Rewards are MatchCore's components (sim.match.REWARD_COMPONENTS) for
-each learning robot (its rings, clamps, pins and shapings; the alliance's score margin, goals
-and platform for each), the shaping potentials sim.rewards' (sim.fast.shaping: compiled); the
+each learning robot (its rings, clamps, pins and shapings; the alliance's score margin, goals,
+platform and partners' contacts for each), the shaping potentials sim.rewards' (sim.fast.shaping: compiled); the
 start curricula (goal_start_share, midgame_start_share) are drawn as MatchCore draws them.
 Opponents: "policy" (the caller's actions), "random", "idle", "planner" (sim.fast.planner: the
 planner for every match at once, one for each opponent robot), and the Python players written
@@ -285,6 +285,7 @@ class FastMatches:
         events = w.step(lin, ang, intake, clamp)
         self.obs = self.observer.push()
         pinned = self._pinned(events.pins)  # (B, R)
+        met = self._partners_met()  # (B,): the learning alliance's partners came into contact
         ended = events.match_over | (pinned.any(axis=1) & self.config.end_on_pin)
         rewards = np.zeros(n)
         comps = np.zeros((n, len(REWARD_COMPONENTS)))
@@ -292,7 +293,7 @@ class FastMatches:
         for j in range(a):
             me, rows = self.robot_of(j), self._rows(j)
             rewards[rows], comps[rows] = self._reward(
-                j, before[j], events.clamped[mr, me], pinned[mr, me], ended, margin
+                j, before[j], events.clamped[mr, me], pinned[mr, me], ended, margin, met
             )
         self._margin = margin
         self.steps += 1
@@ -301,7 +302,7 @@ class FastMatches:
         robots = self.row_robots()
         by_row = np.repeat(mr, a)
         self.pins += pinned[by_row, robots]
-        self._count_partner_collisions()
+        self.partner_collisions += met
         filled = np.isnan(self.fill_time) & (
             w.collected[by_row, robots] >= self.rollout.fill_target
         )
@@ -438,16 +439,16 @@ class FastMatches:
         if pose is not None:
             w.place_robot(k, i, *pose)
 
-    def _count_partner_collisions(self) -> None:
-        """Each learning alliance's partners coming into contact this step (within
-        pin_contact_m, as World.touching) is one partner collision."""
+    def _partners_met(self) -> NDArray[np.bool_]:
+        """Whether each match's learning alliance's partners came into contact this step
+        (within pin_contact_m, as World.touching): one partner collision, (B,)."""
         if not len(self._partner_pairs):
-            return
+            return np.zeros(self.b, dtype=bool)
         gap = -self.world.overlaps(self._partner_pairs)
         touching = gap <= self.world.config.pin_contact_m  # (B, 2): red's pair, blue's
         began = touching & ~self._partners_touching
         self._partners_touching = touching
-        self.partner_collisions += began[np.arange(self.b), self.learner]
+        return began[np.arange(self.b), self.learner]
 
     def _pinned(self, pins: NDArray[np.bool_]) -> NDArray[np.bool_]:
         """Each robot of each match in a pinned red-blue pair this step, (B, R)."""
@@ -588,10 +589,11 @@ class FastMatches:
         pinned: NDArray[np.bool_],
         ended: NDArray[np.bool_],
         margin: F64,
+        met: NDArray[np.bool_],
     ) -> tuple[F64, F64]:
         """Learning robot j's reward for the step just taken (MatchCore.step's components),
         (B,) and (B, components): its own rings, pins, shapings and clamps; its alliance's
-        score margin, goals, side and platform at the end."""
+        score margin, goals, side and platform at the end; both partners' contact."""
         w = self.world
         mr = np.arange(self.b)
         me = self.robot_of(j)
@@ -616,6 +618,7 @@ class FastMatches:
             scores = self._scores_for[side, g] & ok
             comp[:, col["clamp"]] = np.where(scores, self._reward_config("clamp"), 0.0)
         comp[:, col["score"]] = self._reward_config("score") * (margin - self._margin)
+        comp[:, col["partner"]] = np.where(met, self._reward_config("partner_contact"), 0.0)
         end = ended & ~(pinned & self.config.end_on_pin)
         if end.any():
             comp[:, col["goals_end"]] = np.where(

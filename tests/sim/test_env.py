@@ -30,7 +30,7 @@ def test_registered_and_passes_check_env() -> None:
         assert set(info["reward_components"]) == set(REWARD_COMPONENTS)
         assert set(REWARD_COMPONENTS) == {
             "rings", "pin", "goals_end", "side_end", "elevated_end", "approach", "park",
-            "clamp", "goal_approach", "score", "hurry"
+            "clamp", "goal_approach", "score", "hurry", "partner"
         }  # fmt: skip
     finally:
         env.close()

@@ -140,7 +140,9 @@ def test_the_trainer_trains_an_alliance_on_the_fast_backend(tmp_path: Path) -> N
 
 
 def test_partners_that_drive_into_each_other_count_a_collision() -> None:
-    fm = matches(n=4, seed=4, max_steps=30)
+    """A collision is counted (and paid partner_contact, to both) as the partners meet, once
+    however long they push; MatchCore pays it the same."""
+    fm = matches(n=4, seed=4, max_steps=30, reward={"partner_contact": -2.0})
     fm.set_kinds([("idle", -1)] * 4)
     fm.reset()
     side = int(fm.learner[0])
@@ -153,3 +155,27 @@ def test_partners_that_drive_into_each_other_count_a_collision() -> None:
         episodes += fm.step(ahead, np.zeros((4, 2), np.float32)).episodes
     by_row = {ep.slot: ep.partner_collisions for ep in episodes}
     assert by_row[0] == by_row[1] == 1 and by_row[2] == by_row[3] == 0
+    paid = {ep.slot: ep.components["partner"] for ep in episodes}
+    assert paid == {0: -2.0, 1: -2.0, 2: 0.0, 3: 0.0}
+
+
+def test_matchcore_pays_partner_contact_as_the_fast_backend_does() -> None:
+    from sim.match import MatchCore
+    from sim.world.state import DriveCommand
+
+    config = make_config(
+        {"world": GAME, "observation": OBSERVATION, "reward": {"partner_contact": -2.0}}
+    )
+    core = MatchCore(config)
+    try:
+        core.reset(np.random.default_rng(0))
+        core.world.place_robot(0, -0.9, 0.45, 180.0)  # red's two robots face to face
+        core.world.place_robot(1, -0.9, -0.45, 0.0)
+        paid = np.zeros(4)
+        for _ in range(30):
+            ahead = DriveCommand(0.5, 0.0)
+            results, _, _ = core.step([ahead, ahead, DriveCommand(), DriveCommand()])
+            paid += [r.components["partner"] for r in results]
+    finally:
+        core.close()
+    assert paid.tolist() == [-2.0, -2.0, 0.0, 0.0]
