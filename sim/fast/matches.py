@@ -15,8 +15,9 @@ The learner's side is drawn per match as VecMatches draws it (learner_side), fro
 per-match generator np.random.default_rng((seed, match, match number)), which then starts the
 world as World.reset would. Rewards are MatchCore's components (sim.match.REWARD_COMPONENTS) for
 each learning robot (its rings, clamps, pins and shapings; the alliance's score margin, goals,
-platform and partners' contacts for each), the shaping potentials sim.rewards' (sim.fast.shaping: compiled); the
-start curricula (goal_start_share, midgame_start_share) are drawn as MatchCore draws them.
+platform and partners' contacts for each), the shaping potentials sim.rewards' (sim.fast.shaping:
+compiled); the start curricula (goal_start_share, midgame_start_share) are drawn as MatchCore
+draws them.
 Opponents: "policy" (the caller's actions), "random", "idle", "planner" (sim.fast.planner: the
 planner for every match at once, one for each opponent robot), and the Python players written
 against MatchCore, playing their match through sim.fast.players.FastCore, a Python call per
