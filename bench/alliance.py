@@ -47,6 +47,7 @@ import time
 from pathlib import Path
 
 from bench.common import RESULTS_DIR, Result
+from jetson.models import ALLIANCE_POLICY
 from sim.errors import EvalError, MatchError
 from sim.evaluate import PlayerSpec, Summary
 from sim.fullstack.options import MatchOptions
@@ -56,7 +57,7 @@ WORLD = "tipping_point_2v2"
 WALL_TARGET_S = 120.0
 SCORE_RATIO_TARGET = 0.9
 FAULT_AT_S = 30.0
-LEARNED = Path("jetson/models/alliance/policy.onnx")
+LEARNED = ALLIANCE_POLICY
 RING_RACE = "planner-collector,scripted"  # sim.baselines.alliance's ring-race alliance
 WIN_TARGET = 0.7
 SCORE_OVER_SCRIPTED_TARGET = 1.1
@@ -248,7 +249,12 @@ def main(argv: list[str] | None = None) -> int:
         "--part", choices=("all", "learned", "stack"), default="all",
         help="the learned alliance's rows, the full stack's, or both (default)",
     )  # fmt: skip
-    ap.add_argument("--learned", type=Path, default=LEARNED, help=f"policy (default {LEARNED})")
+    ap.add_argument(
+        "--learned",
+        type=Path,
+        default=LEARNED,
+        help="its policy.onnx (default: the shipped one, jetson/models/alliance/)",
+    )
     ap.add_argument("--learned-matches", type=int, default=100, help="default 100")
     ap.add_argument("--fidelity", choices=("training", "high"), default="high")
     ap.add_argument("--seeds", type=int, default=3, help="full-stack matches (default 3)")
