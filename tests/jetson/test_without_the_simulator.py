@@ -41,14 +41,16 @@ def test_pete_jetson_run_help_works_without_the_simulator() -> None:
 
 
 def test_the_shipped_policy_loads_and_runs_without_the_simulator() -> None:
-    """The one policy reader opens the shipped policy and gives a finite action."""
+    """The one policy reader opens the shipped policies (the robot's and the learned
+    alliance's) and gives a finite action."""
     out = run(
         "import numpy as np\n"
         "from jetson.autonomy.policy import OnnxPolicy\n"
-        "from jetson.settings import DEFAULT_POLICY\n"
-        "policy = OnnxPolicy(DEFAULT_POLICY)\n"
-        "action = policy(np.zeros(policy.spec.size, np.float32))\n"
-        "assert action.shape == (len(policy.action_names),) and np.all(np.isfinite(action))\n"
+        "from jetson.models import ALLIANCE_POLICY, DEFAULT_POLICY\n"
+        "for path in (DEFAULT_POLICY, ALLIANCE_POLICY):\n"
+        "    policy = OnnxPolicy(path)\n"
+        "    action = policy(np.zeros(policy.spec.size, np.float32))\n"
+        "    assert action.shape == (len(policy.action_names),) and np.all(np.isfinite(action))\n"
         "print('ok')\n"
     )
     assert out.returncode == 0, out.stderr

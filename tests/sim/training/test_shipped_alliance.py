@@ -1,0 +1,21 @@
+"""The shipped learned alliance (jetson/models/alliance/) is what sim/configs/alliance.toml
+trains: the same observation (fingerprint), the partner block, the seen opponents and the role
+input, the same skills."""
+
+from __future__ import annotations
+
+from jetson.autonomy.policy import OnnxPolicy
+from jetson.models import ALLIANCE_POLICY
+from sim.fast.matches import FastMatches
+from sim.training.config import load_config
+from sim.training.rollout import RolloutConfig
+
+
+def test_the_shipped_alliance_policy_is_what_alliance_toml_trains() -> None:
+    policy = OnnxPolicy(ALLIANCE_POLICY)
+    env = load_config("alliance").env_config()
+    spec = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=2), seed=0).spec
+    assert policy.spec.fingerprint() == spec.fingerprint()
+    assert policy.spec.partner and policy.spec.seen_opponents and policy.spec.role_flag
+    assert policy.skills is not None and env.skills is not None
+    assert policy.skills.option_names() == env.skills.option_names()
