@@ -68,12 +68,15 @@ class Source:
 SOURCES: dict[str, Source] = {
     "alliance": Source(
         "python -m bench.alliance",
-        "The alliance on the full stack (issue 46): whole-game lockstep matches with both red "
-        "robots on their own `brain_host`, daemon and camera, the two Brains linked by the "
-        "twin's VEXlink, the scripted alliance on both sides: wall time of a match, red's score "
-        "against the twin's own on the same seeds, VEXlink frames lost and late, and a "
-        "`vexlink-lost` match's checks. The learned alliance's rows wait for the learned "
-        "alliance.",
+        "The alliance (issue 46). The learned alliance (`learned_*`: one policy on both robots, "
+        "sim/configs/alliance.toml) against the scripted alliance, sides swapped per seed: win "
+        "rate, score, partner collisions a match, in the fidelity `learned_high_fidelity` says "
+        "(1 high, 0 training); against itself (red's win rate) and against the ring-race "
+        "alliance. The full stack: whole-game lockstep matches with both red robots on their own "
+        "`brain_host`, daemon and camera, the two Brains linked by the twin's VEXlink, the "
+        "scripted alliance on both sides: wall time of a match, red's score against the twin's "
+        "own on the same seeds, VEXlink frames lost and late, and a `vexlink-lost` match's "
+        "checks. `--part learned|stack` reruns one half and keeps the other's rows.",
     ),
     "brain_loop": Source(
         "python -m bench.brain_loop",
@@ -221,6 +224,13 @@ HEADLINES: tuple[Headline, ...] = (
         "Full stack over the policy directly in the simulator: rings, points",
         "match",
         "{rings_full_over_sim}, {score_full_over_sim}",
+    ),
+    Headline(
+        "The learned alliance against the scripted one: wins, points over its points, partner "
+        "collisions a match",
+        "alliance",
+        "{learned_vs_scripted_win_rate:pct}, {learned_score_over_scripted}, "
+        "{learned_partner_collisions_per_match}",
     ),
     Headline(
         "Both red robots on the full stack over VEXlink: a 2v2 match's wall time; radio frames "
