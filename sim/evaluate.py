@@ -180,9 +180,10 @@ def load_player(text: str) -> PlayerSpec:
             raise EvalError(str(e)) from e
         # The maker loads the file again (by its absolute path), so a PlayerSpec can travel to
         # another process (sim.training.ray_backend), which an onnxruntime session cannot.
-        return PlayerSpec(
-            path.parent.name or path.stem, partial(onnx_player, path.resolve()), policy.spec
-        )
+        label = path.parent.name or path.stem
+        if label in BUILTIN or label in registered:  # jetson/models/alliance/: not the script
+            label = f"policy:{label}"
+        return PlayerSpec(label, partial(onnx_player, path.resolve()), policy.spec)
     if path.suffix == ".pt":
         from sim.training.checkpoint import load_policy_fn
 

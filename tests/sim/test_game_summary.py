@@ -46,6 +46,8 @@ def test_a_side_is_one_name_for_all_its_robots_or_one_per_robot() -> None:
     assert side_label(both) == "planner+scripted" and side_label(load_side("idle,idle")) == "idle"
     with pytest.raises(EvalError, match="empty player name"):
         load_side("planner,")
+    # A policy whose folder is named like a built-in player is told apart from it.
+    assert load_player("jetson/models/alliance/policy.onnx").label == "policy:alliance"
     with pytest.raises(EvalError, match="unknown player 'wizard'"):
         load_side("planner,wizard")
 
