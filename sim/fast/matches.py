@@ -275,11 +275,12 @@ class FastMatches:
         intake = np.ones((b, w.n_robots), dtype=bool)
         clamp = np.full((b, w.n_robots), -1, dtype=np.int8)
         random = self._player_rng.uniform(-1.0, 1.0, opp.shape)  # one draw a step, all rows
+        cores: dict[int, FastCore] = {}  # each match as its Python players read it this step
         for j in range(a):
             me, them = self.robot_of(j), self.robot_of(j, learning=False)
             rows = self._rows(j)
             mine = self._commands(acts[rows], me)
-            theirs = self._opponents(opp[rows], random[rows], j)
+            theirs = self._opponents(opp[rows], random[rows], j, cores)
             for cmd, who in ((mine, me), (theirs, them)):
                 lin[mr, who], ang[mr, who], intake[mr, who], clamp[mr, who] = cmd
         before = [w.collected[mr, self.robot_of(j)].copy() for j in range(a)]
@@ -459,7 +460,7 @@ class FastMatches:
             out[:, blue] |= pins[:, p]
         return out
 
-    def _opponents(self, actions: F64, random: F64, j: int) -> Commands:
+    def _opponents(self, actions: F64, random: F64, j: int, cores: dict[int, FastCore]) -> Commands:
         """Opponent robot j's commands in each match: the caller's actions for a policy
         opponent, uniform random ones (RandomPlayer: through MatchCore.command, as a policy's),
         a stop (idle), a Python player's, or the planner's."""
@@ -473,7 +474,9 @@ class FastMatches:
             player = self._players[m * self.a + j]
             if player is not None:
                 i = int(them[m])
-                core: Any = self._core(m)
+                core: Any = cores.get(m)
+                if core is None:  # one view of the match serves both its robots' players
+                    core = cores[m] = self._core(m)
                 cmd = player.act(core, i, self.obs[m, i])
                 lin[m], ang[m], intake[m], clamp[m] = command_row(cmd)
                 if core.claims:  # what the player claimed, for its partner's observation

@@ -257,26 +257,20 @@ class TrainConfig:
         match of `a` robots a side is `a` slots (its learning robots, sim.fast.matches): the
         kinds are dealt per match, each repeated for the match's slots."""
         group = len(self.env_config().world.red) if self.backend == "fast" else 1
-        if group > 1:
-            per_match = replace(
-                self,
-                rollout=replace(
-                    self.rollout, envs_per_worker=self.rollout.envs_per_worker // group
-                ),
-                backend="pybullet",
-            )
-            return [k for k in per_match.opponent_slots() for _ in range(group)]
-        n = self.rollout.n_envs
+        workers = max(1, self.rollout.workers)
+        per = self.rollout.envs_per_worker // group  # matches a worker steps
         total = sum(self.opponents.values())
+        n = workers * per
         exact = {k: v / total * n for k, v in self.opponents.items() if v > 0}
         counts = {k: int(x) for k, x in exact.items()}
         for k in sorted(exact, key=lambda k: counts[k] - exact[k])[: n - sum(counts.values())]:
             counts[k] += 1
         order = [k for k in sorted(counts) for _ in range(counts[k])]
-        workers = max(1, self.rollout.workers)
-        per = self.rollout.envs_per_worker
-        # Deal round-robin: slot w * per + j gets the (j * workers + w)-th kind.
-        return [order[j * workers + w] for w in range(workers) for j in range(per)]
+        # Deal round-robin: match w * per + j gets the (j * workers + w)-th kind, each repeated
+        # for the match's slots.
+        return [
+            order[j * workers + w] for w in range(workers) for j in range(per) for _ in range(group)
+        ]
 
     def to_dict(self) -> dict[str, Any]:
         return _plain(asdict(self))

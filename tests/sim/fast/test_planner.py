@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 import pytest
@@ -175,8 +176,8 @@ def test_fast_matches_teach_and_play_with_the_planner_as_planner_label_does(name
     commands: list[tuple[np.ndarray, ...]] = []
     opponents = fm._opponents
 
-    def spy(actions: np.ndarray, random: np.ndarray, j: int) -> tuple[np.ndarray, ...]:
-        commands.append(opponents(actions, random, j))
+    def spy(actions: np.ndarray, random: np.ndarray, j: int, cores: Any) -> tuple[np.ndarray, ...]:
+        commands.append(opponents(actions, random, j, cores))
         return commands[-1]
 
     fm._opponents = spy  # type: ignore[method-assign]
