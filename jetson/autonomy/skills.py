@@ -9,7 +9,8 @@ policy, from the same observation):
                 rings the memory knows, jetson/autonomy/route.py), with `route_option`;
     ring k      drive onto the ring in ring slot k (nearest first) with pure pursuit;
     goal j      back onto the goal in goal slot j until the clamp takes it;
-    platform    drive onto the alliance's platform and stop there.
+    platform    drive onto the alliance's platform and stop there (with `share_platform` and
+                the observation's role flag, each robot of the alliance up its own lane).
 
 An empty slot makes its option a slow turn in place (looking for something). Control follows
 sim.baselines.planner: targets far off the nose are turned to in place, a target beside the
@@ -40,6 +41,14 @@ class SkillConfig:
     platform: bool = True
     # The alliance's platform in its alliance frame (centre x, y and half extents), metres.
     platform_box: tuple[float, float, float, float] = (0.0, -1.5, 0.6, 0.3)
+    # Two robots a side on one platform (needs the observation's role flag; off: both drive to
+    # its centre and push each other off it): each climbs its own lane as the scripted alliance
+    # does (platform_plan): to a stage in front of the board, facing the wall, then straight up
+    # at platform_speed_mps to the hinge. The lanes are offsets from the platform's centre
+    # along its long side, the tall robot's (the 24") first.
+    share_platform: bool = False
+    platform_lanes_m: tuple[float, float] = (-0.3, 0.4)
+    platform_speed_mps: float = 0.35
     # The robot's size and top speeds (filled from the robot's config by the simulator and
     # saved with the policy, so the Jetson drives the robot the policy was trained on).
     robot_length_m: float = 0.381
@@ -60,13 +69,16 @@ class SkillConfig:
         if any(isinstance(n, bool) or not isinstance(n, int) or n < 0 for n in counts):
             raise ValueError(f"skills: ring_options and goal_options must be >= 0, got {counts}")
         positive = ("robot_length_m", "max_linear_mps", "max_angular_rad_s", "lookahead_m",
-                    "turn_gain", "turn_in_place_rad", "stuck_window_s")  # fmt: skip
+                    "turn_gain", "turn_in_place_rad", "stuck_window_s",
+                    "platform_speed_mps")  # fmt: skip
         bad = [k for k in positive if not getattr(self, k) > 0]
         bad += [
             k for k in ("commit_goal_s", "stuck_distance_m", "backoff_s") if getattr(self, k) < 0
         ]
         if len(self.platform_box) != 4 or min(self.platform_box[2:], default=0) <= 0:
             bad.append("platform_box")
+        if len(self.platform_lanes_m) != 2:
+            bad.append("platform_lanes_m")
         if bad:
             raise ValueError(f"skills: out of range: {bad}")
 
@@ -91,6 +103,8 @@ class SkillConfig:
             raise ValueError(f"skills: {self.ring_options} ring options, {spec.n_rings} slots")
         if self.goal_options and (not spec.goal_memory or self.goal_options > spec.n_goals):
             raise ValueError("skills: goal options need the goal memory's slots")
+        if self.share_platform and not spec.role_flag:
+            raise ValueError("skills: share_platform needs the observation's role flag")
 
 
 class Trail:
@@ -196,6 +210,74 @@ def _to_alliance(
 ) -> NDArray[np.float64]:
     x, y = float(local[0]), float(local[1])
     return np.array([pos[0] + x * cos_h + y * sin_h, pos[1] - x * sin_h + y * cos_h])
+
+
+# platform_plan's modes: drive to the stage (pure pursuit), climb the lane, stop (there).
+STAGE, CLIMB, THERE = 0, 1, 2
+PLATFORM_STAGE_M = 0.65  # the stage: this far in front of the board's field edge, ...
+PLATFORM_STAGGER_M = 0.45  # ... and this much farther for the other robot (turning in place
+# at the stages, the two would touch)
+PLATFORM_LANE_M = 0.12  # within this of its lane (along the wall) a robot climbs
+PLATFORM_HINGE_M = 0.02  # within this of the hinge a climbing robot stops
+PLATFORM_AIM_M = 1.0  # a climbing robot steers at its lane's point this far past the hinge
+
+
+def platform_plan(
+    config: SkillConfig, tall: bool, x: float, y: float, partner: tuple[float, float] | None
+) -> tuple[int, float, float, float]:
+    """The platform skill for a robot at alliance-frame (x, y): (mode, target x, target y,
+    how far the robot stands from the hinge toward the field).
+
+    Without share_platform: the platform's centre, THERE well inside it, else STAGE (pursue
+    it). With it, in the robot's own lane: THERE at the hinge, CLIMB between the stage and the
+    board's wall edge (the target the lane's point over the hinge), else STAGE: the lane's
+    point PLATFORM_STAGE_M in front of the board on the field side. A robot's lane is its
+    role's (platform_lanes_m) on the side of the board where it stands against its partner
+    (at the partner's alliance-frame point, None: unknown): the two never cross to reach their
+    lanes. Climbing, the target is the lane's point PLATFORM_AIM_M past the hinge: steering at
+    it holds the robot along its lane (its point at the hinge swings about as it nears)."""
+    cx, cy, hx, hy = config.platform_box
+    if not config.share_platform:
+        inside = abs(x - cx) < hx - 0.2 and abs(y - cy) < hy - 0.2
+        return (THERE if inside else STAGE), cx, cy, 0.0
+    # In (depth, length) coordinates: the lanes run along the depth; the field side of the
+    # board is toward the field's centre (the alliance frame's origin).
+    flip = hx > hy
+    c_d, c_l, h_d, d, ell = (cy, cx, hy, y, x) if flip else (cx, cy, hx, x, y)
+    side = 1.0 if c_d <= 0 else -1.0
+    lane = config.platform_lanes_m[0 if tall else 1]
+    if partner is not None:
+        mate = partner[0] if flip else partner[1]
+        lane = abs(lane) if ell > mate else -abs(lane)
+    lane += c_l
+    ahead = (d - c_d) * side  # from the hinge toward the field
+    stage = h_d + PLATFORM_STAGE_M + (0.0 if tall else PLATFORM_STAGGER_M)
+    mode, t_d = STAGE, c_d + side * stage
+    if abs(ell - lane) < PLATFORM_LANE_M and -h_d < ahead < stage + 0.1:
+        mode, t_d = (THERE if abs(ahead) < PLATFORM_HINGE_M else CLIMB), c_d - side * PLATFORM_AIM_M
+    return ((mode, lane, t_d) if flip else (mode, t_d, lane)) + (ahead,)
+
+
+def climb(
+    tx: float,
+    ty: float,
+    ahead: float,
+    on_board: bool,
+    speed: float,
+    turn_gain: float,
+    max_angular: float,
+) -> tuple[float, float]:
+    """(v, w) up a lane to the hinge, `ahead` metres toward the field from it (< 0: past it),
+    steering at the lane's robot-frame point (tx, ty) beyond it: off the board, turn to face it
+    first; then on at most `speed`, slowing into the hinge (backing onto it from past it,
+    straight), steering gently (turning in place on a tilted board slides a robot sideways)."""
+    bearing = math.atan2(tx, ty)
+    if not on_board and ahead > 0 and abs(bearing) > 0.25:
+        return 0.0, max(-max_angular, min(max_angular, turn_gain * bearing))
+    v = max(-speed, min(speed, 2.0 * ahead))
+    if v < 0:
+        return v, 0.0
+    return v * max(0.0, math.cos(bearing)), max(-1.5, min(1.5, turn_gain * bearing))
 
 
 def skill_config_from_dict(data: dict[str, Any]) -> SkillConfig:
@@ -344,11 +426,33 @@ class SkillDriver:
         return v, w
 
     def _platform(self, f: NDArray[np.float64], pos: NDArray[np.float64]) -> tuple[float, float]:
-        cx, cy, hx, hy = self.config.platform_box
-        local = _to_robot(np.array([cx, cy]), pos, float(f[3]), float(f[4]))
+        s, c = self.spec, self.config
+        tall = s.role_flag and float(f[s.scalar_index("tall")]) > 0.5
+        partner = None
+        if c.share_platform and s.partner and f[s.partner_offset + 2] > 0.5:
+            at = s.partner_offset
+            mate = _to_alliance(f[at : at + 2] * s.length_unit_m, pos, float(f[3]), float(f[4]))
+            partner = (float(mate[0]), float(mate[1]))
+        mode, tx, ty, ahead = platform_plan(c, tall, float(pos[0]), float(pos[1]), partner)
+        local = _to_robot(np.array([tx, ty]), pos, float(f[3]), float(f[4]))
         self.target = ("platform", (float(local[0]), float(local[1])))
-        if abs(pos[0] - cx) < hx - 0.2 and abs(pos[1] - cy) < hy - 0.2:
+        if mode == THERE:
             return 0.0, 0.0
+        if mode == CLIMB:
+            cx, cy, hx, hy = c.platform_box
+            on_board = abs(pos[0] - cx) < hx and abs(pos[1] - cy) < hy
+            v, w = climb(
+                float(local[0]), float(local[1]), ahead, on_board, c.platform_speed_mps,
+                c.turn_gain, self.w_max,
+            )  # fmt: skip
+            now = float(f[0]) * s.match_length_s
+            if self._trail.stuck(now, abs(v)):
+                # The board's field edge is up (a load on its wall half), or something stands
+                # in the lane: straight back down it.
+                self._backoff_until = now + c.backoff_s
+                self._backoff_turn = 0.0
+                self._trail.clear()
+            return v, w
         return self._pursue(local, float(f[0]) * self.spec.match_length_s)
 
 

@@ -27,7 +27,17 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from jetson.autonomy.skills import SkillConfig
+from jetson.autonomy.skills import (
+    CLIMB,
+    PLATFORM_AIM_M,
+    PLATFORM_HINGE_M,
+    PLATFORM_LANE_M,
+    PLATFORM_STAGE_M,
+    PLATFORM_STAGGER_M,
+    STAGE,
+    THERE,
+    SkillConfig,
+)
 from jetson.autonomy.spec import ObservationSpec
 from sim.fast.kernels import threads_for
 from sim.fast.planner import (
@@ -47,10 +57,12 @@ I64 = NDArray[np.int64]
 Bool = NDArray[np.bool_]
 
 # Columns of a robot's configuration row: its SkillConfig's numbers and where its spec puts the
-# slots (the spec's offsets into a frame; _CLAMPED is -1 without a goal memory).
+# slots (the spec's offsets into a frame; _CLAMPED is -1 without a goal memory, _TALL without
+# the role flag, _PARTNER_AT without the partner block).
 (_ROUTE, _THROUGH, _RINGS, _GOALS, _PLATFORM, _BOX_X, _BOX_Y, _BOX_HX, _BOX_HY, _LENGTH, _MAX_V,
  _MAX_W, _LOOKAHEAD, _TURN_GAIN, _TURN_IN_PLACE, _COMMIT_S, _WINDOW, _STUCK_M, _BACKOFF, _UNIT,
- _MATCH_LENGTH, _ROUTE_AT, _RING_AT, _GOAL_AT, _CLAMPED) = range(25)  # fmt: skip
+ _MATCH_LENGTH, _ROUTE_AT, _RING_AT, _GOAL_AT, _CLAMPED, _SHARE, _LANE_TALL, _LANE_OTHER,
+ _CLIMB_V, _TALL, _PARTNER_AT) = range(31)  # fmt: skip
 # Columns of a controller's state: SkillDriver's back-off and committed goal manoeuvre, and
 # what its last command drove to (SkillDriver.target: TARGET_KINDS' index, robot-frame point).
 (_BACKOFF_UNTIL, _BACKOFF_TURN, _COMMITTED, _COMMIT_X, _COMMIT_Y, _COMMIT_UNTIL, _TARGET,
@@ -64,12 +76,15 @@ def config_row(config: SkillConfig, spec: ObservationSpec) -> list[float]:
     """One robot's SkillConfig and spec as the kernels read them (the column constants)."""
     c = config
     clamped = spec.scalar_index("clamped") if spec.goal_memory else -1
+    tall = spec.scalar_index("tall") if spec.role_flag else -1
+    partner = spec.partner_offset if spec.partner else -1
     return [
         float(c.route_option), float(c.route_through_next), c.ring_options, c.goal_options,
         float(c.platform), *c.platform_box, c.robot_length_m, c.max_linear_mps,
         c.max_angular_rad_s, c.lookahead_m, c.turn_gain, c.turn_in_place_rad, c.commit_goal_s,
         c.stuck_window_s, c.stuck_distance_m, c.backoff_s, spec.length_unit_m,
         spec.match_length_s, spec.route_offset, spec.ring_offset, spec.goal_offset, clamped,
+        float(c.share_platform), *c.platform_lanes_m, c.platform_speed_mps, tall, partner,
     ]  # fmt: skip
 
 
@@ -238,6 +253,45 @@ def _aim(st, r, kind, x, y):
 
 
 @nb.njit(cache=True)
+def _platform_plan(c, tall, x, y, known, mx, my):
+    """skills.platform_plan for a robot at alliance-frame (x, y), its partner at (mx, my) when
+    known: (mode: STAGE, CLIMB or THERE, target x, target y, metres from the hinge)."""
+    cx, cy, hx, hy = c[_BOX_X], c[_BOX_Y], c[_BOX_HX], c[_BOX_HY]
+    if not c[_SHARE] > 0.5:
+        inside = abs(x - cx) < hx - 0.2 and abs(y - cy) < hy - 0.2
+        return (THERE if inside else STAGE), cx, cy, 0.0
+    flip = hx > hy
+    c_d, c_l, h_d, d, ell = (cy, cx, hy, y, x) if flip else (cx, cy, hx, x, y)
+    side = 1.0 if c_d <= 0 else -1.0
+    lane = c[_LANE_TALL] if tall else c[_LANE_OTHER]
+    if known:
+        mate = mx if flip else my
+        lane = abs(lane) if ell > mate else -abs(lane)
+    lane += c_l
+    ahead = (d - c_d) * side
+    stage = h_d + PLATFORM_STAGE_M + (0.0 if tall else PLATFORM_STAGGER_M)
+    mode, t_d = STAGE, c_d + side * stage
+    if abs(ell - lane) < PLATFORM_LANE_M and -h_d < ahead < stage + 0.1:
+        mode, t_d = (THERE if abs(ahead) < PLATFORM_HINGE_M else CLIMB), c_d - side * PLATFORM_AIM_M
+    if flip:
+        return mode, lane, t_d, ahead
+    return mode, t_d, lane, ahead
+
+
+@nb.njit(cache=True)
+def _climb(tx, ty, ahead, on_board, speed, turn_gain, max_angular):
+    """skills.climb: (v, w) up a lane to the hinge `ahead` metres on, steering at its
+    robot-frame point (tx, ty)."""
+    bearing = math.atan2(tx, ty)
+    if not on_board and ahead > 0 and abs(bearing) > 0.25:
+        return 0.0, max(-max_angular, min(max_angular, turn_gain * bearing))
+    v = max(-speed, min(speed, 2.0 * ahead))
+    if v < 0:
+        return v, 0.0
+    return v * max(0.0, math.cos(bearing)), max(-1.5, min(1.5, turn_gain * bearing))
+
+
+@nb.njit(cache=True)
 def _command(f, a, r, c, trail, trail_n, overflow, st):
     """SkillDriver.command for controller r (config row c) on frame f and scores a."""
     unit = c[_UNIT]
@@ -293,11 +347,28 @@ def _command(f, a, r, c, trail, trail_n, overflow, st):
             st[r, _COMMITTED] = 1.0
         _aim(st, r, _GOAL, gx, gy)
         return _reverse_onto(gx, gy, now, r, c, trail, trail_n, st)
-    # The platform: stop well inside it, else drive onto its centre.
-    lx, ly = to_robot(c[_BOX_X], c[_BOX_Y], p0, p1, sin_h, cos_h)
+    # The platform (skills.platform_plan): stop there, climb its lane, else drive to it.
+    at = int(c[_TALL])
+    tall = at >= 0 and np.float64(f[at]) > 0.5
+    known, mx, my = False, 0.0, 0.0
+    at = int(c[_PARTNER_AT])
+    if c[_SHARE] > 0.5 and at >= 0 and f[at + 2] > 0.5:
+        # skills._to_alliance of the partner's robot-frame point.
+        qx, qy = np.float64(f[at]) * unit, np.float64(f[at + 1]) * unit
+        known, mx, my = True, p0 + qx * cos_h + qy * sin_h, p1 - qx * sin_h + qy * cos_h
+    mode, sx, sy, ahead = _platform_plan(c, tall, p0, p1, known, mx, my)
+    lx, ly = to_robot(sx, sy, p0, p1, sin_h, cos_h)
     _aim(st, r, _PLATFORM_TARGET, lx, ly)
-    if abs(p0 - c[_BOX_X]) < c[_BOX_HX] - 0.2 and abs(p1 - c[_BOX_Y]) < c[_BOX_HY] - 0.2:
+    if mode == THERE:
         return 0.0, 0.0
+    if mode == CLIMB:
+        on_board = abs(p0 - c[_BOX_X]) < c[_BOX_HX] and abs(p1 - c[_BOX_Y]) < c[_BOX_HY]
+        v, w = _climb(lx, ly, ahead, on_board, c[_CLIMB_V], c[_TURN_GAIN], c[_MAX_W])
+        if trail_stuck(trail, trail_n, r, now, abs(v), c[_WINDOW], c[_STUCK_M]):
+            st[r, _BACKOFF_UNTIL] = now + c[_BACKOFF]
+            st[r, _BACKOFF_TURN] = 0.0
+            trail_n[r] = 0
+        return v, w
     return _pursue(lx, ly, now, False, 0.0, 0.0, r, c, trail, trail_n, st)
 
 

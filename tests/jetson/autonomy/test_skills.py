@@ -8,8 +8,18 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from jetson.autonomy.observation import RobotView, build_frame
-from jetson.autonomy.skills import SkillConfig, SkillDriver, skill_config_from_dict
+from jetson.autonomy.observation import PartnerView, RobotView, build_frame
+from jetson.autonomy.skills import (
+    CLIMB,
+    PLATFORM_STAGE_M,
+    PLATFORM_STAGGER_M,
+    STAGE,
+    THERE,
+    SkillConfig,
+    SkillDriver,
+    platform_plan,
+    skill_config_from_dict,
+)
 from jetson.autonomy.spec import ObservationSpec
 from sim.errors import ConfigError
 from sim.evaluate import eval_env, make_cores, play_match
@@ -98,6 +108,99 @@ def test_the_platform_is_driven_to_and_the_robot_stops_on_it() -> None:
     v, w = d.command(frame(x=0.0, y=-0.5, heading=180.0), pick(PLATFORM))
     assert v > 0 and abs(w) < 1e-6
     assert d.command(frame(x=0.0, y=-1.5, heading=90.0), pick(PLATFORM)) == (0.0, 0.0)
+
+
+# The Tipping Point red platform in the alliance frame (skill_settings): the hinge runs along
+# y through x = -1.524, the board 0.61 m deep and 1.27 m long.
+BOARD = (-1.524, 0.0, 0.3048, 0.635)
+SHARED = SkillConfig(ring_options=0, goal_options=0, platform_box=BOARD, share_platform=True)
+ALLIANCE_SPEC = ObservationSpec(version=6, n_stack=0, role_flag=True, partner=True)
+
+
+def test_two_robots_share_the_platform_each_up_its_own_lane() -> None:
+    hinge, edge = BOARD[0], BOARD[0] + BOARD[2]
+    # Far away: to the stage in front of the board in its lane, the tall robot's -0.3, the
+    # other's +0.4 and farther out (two robots turning at their stages would touch).
+    mode, x, y, _ = platform_plan(SHARED, True, 0.0, -1.0, None)
+    assert (mode, x, y) == (STAGE, pytest.approx(edge + PLATFORM_STAGE_M), -0.3)
+    mode, x, y, _ = platform_plan(SHARED, False, 0.0, 1.0, None)
+    assert (mode, y) == (STAGE, 0.4)
+    assert x == pytest.approx(edge + PLATFORM_STAGE_M + PLATFORM_STAGGER_M)
+    # The partner known: each takes the end of the board on its side of the partner, whatever
+    # its role (the 24" north of the 15" takes the north end), so they never cross.
+    assert platform_plan(SHARED, True, 0.0, 0.5, (0.0, -0.5))[2] == 0.3
+    assert platform_plan(SHARED, False, 0.0, 0.5, (0.0, 0.9))[2] == -0.4
+    # In its lane between the stage and the hinge: climb (steering at the lane beyond it),
+    # then stop at the hinge; past it, climb back.
+    mode, x, y, ahead = platform_plan(SHARED, True, edge + 0.3, -0.28, None)
+    assert (mode, y) == (CLIMB, -0.3) and x < hinge and ahead == pytest.approx(0.6048)
+    assert platform_plan(SHARED, True, hinge + 0.01, -0.3, None)[0] == THERE
+    assert platform_plan(SHARED, True, hinge - 0.1, -0.3, None)[0] == CLIMB
+    # Without share_platform: the centre, as one robot drives it.
+    alone = replace(SHARED, share_platform=False)
+    assert platform_plan(alone, True, 0.0, -1.0, None)[:3] == (STAGE, -1.524, 0.0)
+    assert platform_plan(alone, True, -1.524, 0.1, None)[0] == THERE
+
+
+def climbing_frame(x: float, y: float, heading: float, tall: bool) -> np.ndarray:
+    # A partner report without a position: the lane is the role's.
+    view = RobotView(
+        x=x, y=y, heading_deg=heading, alliance="red", time_s=100.0,
+        rings_robot_xy=np.zeros((0, 2)), tall=tall,
+        partner=PartnerView(xy=None, clamped=False, rings=0, claim_xy=None),
+    )  # fmt: skip
+    return build_frame(ALLIANCE_SPEC, view)
+
+
+def test_a_robot_climbs_its_lane_facing_the_wall_and_stops_at_the_hinge() -> None:
+    d = SkillDriver(SHARED, ALLIANCE_SPEC)
+    platform = np.ones(1)
+    # In its lane in front of the board, facing the wall (heading 270): straight up, at the
+    # board's speed.
+    v, w = d.command(climbing_frame(-0.9, -0.3, 270.0, True), platform)
+    assert v == pytest.approx(SHARED.platform_speed_mps) and abs(w) < 1e-6
+    # Facing the field: turn to the wall first, in place.
+    v, w = d.command(climbing_frame(-0.9, -0.3, 90.0, True), platform)
+    assert v == 0.0 and abs(w) > 1.0
+    # Near the hinge it slows; at it, it stops; past it, it backs onto it.
+    v, _ = d.command(climbing_frame(-1.45, -0.3, 270.0, True), platform)
+    assert 0 < v < SHARED.platform_speed_mps
+    assert d.command(climbing_frame(-1.53, -0.3, 270.0, True), platform) == (0.0, 0.0)
+    v, w = d.command(climbing_frame(-1.6, -0.3, 270.0, True), platform)
+    assert v < 0 and w == 0.0
+    with pytest.raises(ValueError, match="role flag"):
+        SkillDriver(SHARED, ObservationSpec(n_stack=0))
+
+
+def test_both_robots_of_an_alliance_end_up_on_their_board_apart() -> None:
+    """The twin: both red robots of tipping_point_2v2 drive the platform skill from their starts
+    (the other alliance idle), 6 seeded matches of 45 s: in 5 at least, both stand on the board
+    at the hinge in their lanes, the board level; they touch each other at most once a match
+    on average."""
+    spec = replace(ALLIANCE_SPEC, match_length_s=120.0, n_other_robots=3)
+    env = eval_env("capped", "training", spec, {"max_steps": 12 * 45}, world="tipping_point_2v2")
+    cores = make_cores(env)
+    core = cores["duel"]
+    skills = replace(SHARED, platform_box=(0.0, -1.5, 0.6, 0.3))  # skill_settings fills it
+
+    def platform(obs: np.ndarray) -> np.ndarray:
+        return np.ones(1)
+
+    on_board, touches = 0, 0
+    try:
+        for seed in range(6):
+            red = [PolicyPlayer(platform, "platform", skills) for _ in range(2)]
+            record = play_match(cores, red, [IdlePlayer(), IdlePlayer()], seed, "red")
+            robots = core.world.robots[:2]
+            lanes = sorted(round(r.y, 1) for r in robots)
+            at_hinge = all(abs(r.x - BOARD[0]) < 0.1 for r in robots)
+            level = abs(core.world.platforms["red"].tilt) < 0.05
+            on_board += at_hinge and lanes == [-0.3, 0.4] and level
+            touches += record.partner_collisions[0]
+    finally:
+        for c in cores.values():
+            c.close()
+    assert on_board >= 5 and touches <= 6, (on_board, touches)
 
 
 def test_a_robot_that_stops_moving_backs_off() -> None:

@@ -38,33 +38,41 @@ def _python_drivers(fm: FastMatches) -> list[list[SkillDriver]]:
     return [[SkillDriver(c, fm.spec) for c in fm._drivers.configs] for _ in range(fm.n)]
 
 
-def test_the_batched_controller_drives_as_skill_driver_step_for_step() -> None:
-    """6 matches x 2 robots, each robot holding a random skill for a few steps, some steps
-    without a command (non-finite scores), matches ending and starting again: every command
-    and every committed() equal to SkillDriver's, through every branch."""
-    n = 6
-    env, fm = _matches(n, max_steps=150, seed=5)
-    assert env.skills is not None
-    n_opt = env.skills.n_options
-    rng = np.random.default_rng(0)
+def _drive_and_compare(
+    fm: FastMatches, steps: int, favourite: int | None = None, seed: int = 0
+) -> Counter[str]:
+    """Every robot of fm's matches holds a random skill for a few steps (`favourite` the one
+    most often), some steps without a command (non-finite scores), matches ending and starting
+    again: every command, committed() and target of FastSkillDrivers equal to SkillDriver's,
+    robot by robot. What was driven, counted."""
+    assert fm._drivers is not None
+    skills = fm._drivers.configs[0]
+    n, n_opt, robots = fm.b, skills.n_options, fm.world.n_robots
+    rng = np.random.default_rng(seed)
     fm.reset()
-    batched = FastSkillDrivers(fm._drivers.configs, fm.spec, n, fm.world.dt)  # type: ignore[union-attr]
+    batched = FastSkillDrivers(fm._drivers.configs, fm.spec, n, fm.world.dt)
     python = _python_drivers(fm)
-    pick = rng.integers(0, n_opt, (n, 2))
+
+    def draw(size: tuple[int, ...]) -> np.ndarray:
+        k = rng.integers(0, n_opt, size)
+        return k if favourite is None else np.where(rng.random(size) < 0.6, favourite, k)
+
+    pick = draw((n, robots))
     seen: Counter[str] = Counter()
     rows = np.arange(n)
-    for step in range(420):
-        change = rng.random((n, 2)) < 0.08
-        pick = np.where(change, rng.integers(0, n_opt, (n, 2)), pick)
-        scores = rng.normal(0.0, 0.3, (n, 2, n_opt))
-        scores[rows[:, None], [0, 1], pick] += 2.0
-        scores[rng.random((n, 2)) < 0.03] = 0.5  # ties: the first of the highest
-        active = rng.random((n, 2)) > 0.03
-        for i in (0, 1):
+    for step in range(steps):
+        change = rng.random((n, robots)) < 0.08
+        pick = np.where(change, draw((n, robots)), pick)
+        scores = rng.normal(0.0, 0.3, (n, robots, n_opt))
+        scores[rows[:, None], np.arange(robots), pick] += 2.0
+        scores[rng.random((n, robots)) < 0.03] = 0.5  # ties: the first of the highest
+        active = rng.random((n, robots)) > 0.03
+        for i in range(robots):
             who = np.full(n, i)
             obs = fm.obs[:, i]
             busy = batched.committed(obs, who, active[:, i])
             lin, ang = batched.command(obs, scores[:, i], who, active[:, i])
+            kind, point = batched.targets(who)
             for k in range(n):
                 where = f"step {step}, match {k}, robot {i}"
                 driver = python[k][i]
@@ -75,28 +83,50 @@ def test_the_batched_controller_drives_as_skill_driver_step_for_step() -> None:
                 now = float(obs[k, 0]) * fm.spec.match_length_s
                 seen["committed"] += int(busy[k])
                 seen["backing off"] += int(driver._backoff_until > now)
-                seen[env.skills.option_names()[driver.option(scores[k, i])]] += 1
+                seen[skills.option_names()[driver.option(scores[k, i])]] += 1
                 want = driver.command(obs[k], scores[k, i])
                 assert (lin[k], ang[k]) == pytest.approx(want, rel=0, abs=1e-12), where
                 # What it drove to (the partner report's claim): SkillDriver.target.
-                kind, point = batched.targets(who)
                 if driver.target is None:
                     assert kind[k] == 0, where
                 else:
                     assert TARGET_KINDS[kind[k]] == driver.target[0], where
                     assert tuple(point[k]) == pytest.approx(driver.target[1], abs=1e-9), where
                     seen[f"claims {driver.target[0]}"] += 1
+                    seen["stopped"] += int(driver.target[0] == "platform" and want == (0, 0))
         assert not batched.overflow.any()
         # The match's own robots drive the same scores (its controllers are batched too).
-        step_result = fm.step(scores[rows, fm.learner], scores[rows, 1 - fm.learner])
-        for k in np.flatnonzero(step_result.dones):
+        mine = np.stack([scores[rows, fm.robot_of(j)] for j in range(fm.a)], 1)
+        theirs = np.stack([scores[rows, fm.robot_of(j, False)] for j in range(fm.a)], 1)
+        step_result = fm.step(mine.reshape(fm.n, n_opt), theirs.reshape(fm.n, n_opt))
+        for k in np.flatnonzero(step_result.dones[:: fm.a]):
             batched.reset(np.array([k]))
-            python[k] = [SkillDriver(c, fm.spec) for c in fm._drivers.configs]  # type: ignore[union-attr]
+            python[k] = [SkillDriver(c, fm.spec) for c in fm._drivers.configs]
             seen["restarts"] += 1
+    return seen
+
+
+def test_the_batched_controller_drives_as_skill_driver_step_for_step() -> None:
+    """6 1v1 matches through every skill, back-offs and committed goal manoeuvres."""
+    _, fm = _matches(6, max_steps=150, seed=5)
+    seen = _drive_and_compare(fm, 420)
     for what in ("route", "ring0", "ring3", "goal0", "goal1", "platform", "committed",
                  "claims ring", "claims goal", "claims platform"):  # fmt: skip
         assert seen[what] > 20, (what, seen)
-    assert seen["backing off"] > 0 and seen["restarts"] >= n, seen
+    assert seen["backing off"] > 0 and seen["restarts"] >= 6, seen
+
+
+def test_the_batched_controller_shares_the_platform_as_skill_driver() -> None:
+    """alliance.toml's 2v2 with share_platform, the platform the favourite skill: every robot's
+    stage, climb and stop (each in its lane, found from where its partner stands) equal to
+    SkillDriver's."""
+    env = load_config("alliance").env_config()
+    assert env.skills is not None and env.skills.share_platform
+    env = replace(env, max_steps=400)
+    fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=8), seed=3)
+    fm.set_kinds([("policy", -1)] * 8)
+    seen = _drive_and_compare(fm, 520, favourite=env.skills.n_options - 1, seed=1)
+    assert seen["platform"] > 2000 and seen["stopped"] > 20 and seen["backing off"] > 0, seen
 
 
 def test_fast_matches_drive_their_robots_with_the_controllers() -> None:
