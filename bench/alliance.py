@@ -3,12 +3,15 @@ scripted alliance on the full stack (both red robots with their own Brain, daemo
 talking over VEXlink) against the blue alliance in the twin.
 
     python -m bench.alliance [--part all|learned|stack] [--learned POLICY]
-                             [--learned-matches 100] [--fidelity high] [--seeds 3] [--strict]
+                             [--learned-matches 100] [--fidelity high] [--ray ADDRESS]
+                             [--seeds 3] [--strict]
 
 The learned alliance (`--learned`, default jetson/models/alliance/policy.onnx: one skill policy
 on both robots, trained with sim/configs/alliance.toml) plays `--learned-matches` whole-game 2v2
 matches (tipping_point_2v2) against the scripted alliance (the robots' own strategy,
-jetson/autonomy/alliance.py), sides swapped per seed, in `--fidelity` (default high). Measured:
+jetson/autonomy/alliance.py), sides swapped per seed, in `--fidelity` (default high), here
+or with `--ray ADDRESS` as tasks on a Ray cluster (`local`: one on this machine, a process a
+core). Measured:
 
 - its win rate (target >= 0.7) and its mean score over the scripted alliance's (target >= 1.1);
 - collisions between its two robots, per match (target <= 1: sim.evaluate counts each time the
@@ -44,14 +47,16 @@ import json
 import statistics
 import sys
 import time
+from contextlib import nullcontext
 from pathlib import Path
 
 from bench.common import RESULTS_DIR, Result
 from jetson.models import ALLIANCE_POLICY
-from sim.errors import EvalError, MatchError
-from sim.evaluate import PlayerSpec, Summary
+from sim.errors import ClusterError, EvalError, MatchError
+from sim.evaluate import PlayerSpec, SeriesRunner, Summary
 from sim.fullstack.options import MatchOptions
 from sim.fullstack.runner import run_match
+from sim.training.ray_cli import ray_backend
 
 WORLD = "tipping_point_2v2"
 WALL_TARGET_S = 120.0
@@ -72,9 +77,11 @@ def learned_rows(
     fidelity: str,
     seconds: float | None = None,
     seed: int = 1000,
+    runner: SeriesRunner | None = None,
 ) -> dict[str, object]:
     """The learned alliance's rows (module docstring) into `r`, in matches of `seconds` (None:
-    whole matches); each series' summary returned for the details file."""
+    whole matches), played by `runner` (None: here); each series' summary returned for the
+    details file."""
     from sim.config import world_preset
     from sim.evaluate import evaluate, load_side
 
@@ -87,7 +94,7 @@ def learned_rows(
         cut = {"max_steps": max(1, round(seconds * world_preset(WORLD).control_hz))}
 
     def series(a: tuple[PlayerSpec, ...], b: tuple[PlayerSpec, ...], n: int) -> Summary:
-        return evaluate(a, b, n, seed, fidelity=fidelity, world=WORLD, base_env=cut)
+        return evaluate(a, b, n, seed, fidelity=fidelity, world=WORLD, base_env=cut, runner=runner)
 
     vs = series(learned, scripted, matches)
     mine = statistics.fmean(m.score[0] for m in vs.matches)
@@ -257,6 +264,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--learned-matches", type=int, default=100, help="default 100")
     ap.add_argument("--fidelity", choices=("training", "high"), default="high")
+    ap.add_argument(
+        "--ray", metavar="ADDRESS", default=None,
+        help="play the learned alliance's matches as tasks on a Ray cluster (local: this machine)",
+    )  # fmt: skip
     ap.add_argument("--seeds", type=int, default=3, help="full-stack matches (default 3)")
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--seconds", type=float, default=None, help="shorter matches (a quick look)")
@@ -273,15 +284,18 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.part in ("all", "learned"):
             if args.learned.is_file():
-                details["learned"] = learned_rows(
-                    r, args.learned, args.learned_matches, args.fidelity, args.seconds
-                )
+                cluster = ray_backend(args.ray)
+                with cluster or nullcontext():
+                    details["learned"] = learned_rows(
+                        r, args.learned, args.learned_matches, args.fidelity, args.seconds,
+                        runner=None if cluster is None else cluster.play,
+                    )  # fmt: skip
             else:
                 print(f"bench.alliance: no learned alliance at {args.learned}: not measured")
             learned_targets(r)
         if args.part in ("all", "stack"):
             details["matches"] = stack_rows(r, args)
-    except (MatchError, EvalError) as exc:
+    except (MatchError, EvalError, ClusterError) as exc:
         print(f"bench.alliance: {exc}", file=sys.stderr)
         return 2
     r.add("bench_wall_s", round(time.perf_counter() - t0, 1))

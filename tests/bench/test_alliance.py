@@ -73,3 +73,21 @@ def test_without_a_learned_alliance_its_targets_are_not_met(tmp_path: Path) -> N
     assert rc == 0
     result = json.loads((tmp_path / "alliance.json").read_text())
     assert not any(t["met"] for t in result["targets"].values()) and result["targets"]
+
+
+def test_a_ray_address_where_no_cluster_answers_is_a_clear_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--ray ADDRESS plays the learned alliance's matches on a cluster; none there: exit 2 with
+    the reason, at once, and no result written."""
+    from bench import alliance
+    from tests.sim.alliance_policy import untrained_alliance_policy
+
+    onnx_path = untrained_alliance_policy(tmp_path / "policy")
+    rc = alliance.main([
+        "--part", "learned", "--learned", str(onnx_path), "--ray", "127.0.0.1:9",
+        "--results", str(tmp_path),
+    ])  # fmt: skip
+    assert rc == 2
+    assert "no Ray cluster answers at 127.0.0.1:9" in capsys.readouterr().err
+    assert not (tmp_path / "alliance.json").exists()
