@@ -49,6 +49,12 @@ class SkillConfig:
     share_platform: bool = False
     platform_lanes_m: tuple[float, float] = (-0.3, 0.4)
     platform_speed_mps: float = 0.35
+    # Split the field with the partner (needs the observation's partner block): the rings and
+    # goals nearer the partner's reported position than this robot, by more than
+    # split_margin_m, are the partner's; option() passes over their options for the best one
+    # that is not (the best of all when none is left).
+    split_with_partner: bool = False
+    split_margin_m: float = 0.3
     # The robot's size and top speeds (filled from the robot's config by the simulator and
     # saved with the policy, so the Jetson drives the robot the policy was trained on).
     robot_length_m: float = 0.381
@@ -105,6 +111,8 @@ class SkillConfig:
             raise ValueError("skills: goal options need the goal memory's slots")
         if self.share_platform and not spec.role_flag:
             raise ValueError("skills: share_platform needs the observation's role flag")
+        if self.split_with_partner and not spec.partner:
+            raise ValueError("skills: split_with_partner needs the observation's partner block")
 
 
 class Trail:
@@ -328,9 +336,46 @@ class SkillDriver:
             return False
         return True
 
-    def option(self, action: NDArray[np.floating]) -> int:
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
-        return int(np.argmax(a[: self.config.n_options]))
+    def option(self, action: NDArray[np.floating], obs: NDArray[np.floating] | None = None) -> int:
+        """The option the action picks: the highest score (the first of equals); with
+        split_with_partner and the observation, the highest whose ring or goal is not the
+        partner's (nearer the partner than this robot by more than split_margin_m), the
+        highest of all when every one is."""
+        a = np.asarray(action, dtype=np.float64).reshape(-1)[: self.config.n_options]
+        best = int(np.argmax(a))
+        s, c = self.spec, self.config
+        if obs is None or not c.split_with_partner:
+            return best
+        f = np.asarray(obs, dtype=np.float64)[: s.frame_size]
+        at = s.partner_offset
+        if not f[at + 2] > 0.5:
+            return best
+        mx, my = float(f[at]) * s.length_unit_m, float(f[at + 1]) * s.length_unit_m
+        for k in np.argsort(-a, kind="stable"):
+            point = self._option_point(f, int(k))
+            if point is None:
+                return int(k)
+            px, py = point
+            if math.hypot(px, py) <= math.hypot(px - mx, py - my) + c.split_margin_m:
+                return int(k)
+        return best
+
+    def _option_point(self, f: NDArray[np.float64], k: int) -> tuple[float, float] | None:
+        """The robot-frame point (metres) of option k's ring or goal; None for the platform
+        and an empty slot."""
+        s, c = self.spec, self.config
+        route = int(c.route_option)
+        if k < route:
+            at = s.route_offset
+        elif k < route + c.ring_options:
+            at = s.ring_offset + 3 * (k - route)
+        elif k < route + c.ring_options + c.goal_options:
+            at = s.goal_offset + 3 * (k - route - c.ring_options)
+        else:
+            return None
+        if not f[at + 2] > 0:
+            return None
+        return float(f[at]) * s.length_unit_m, float(f[at + 1]) * s.length_unit_m
 
     def command(
         self, obs: NDArray[np.floating], action: NDArray[np.floating]
@@ -351,7 +396,7 @@ class SkillDriver:
             return self._reverse_onto(local, now)
         if now < self._backoff_until:
             return -0.6 * self.v_max, self._backoff_turn * 0.5 * self.w_max
-        k = self.option(action)
+        k = self.option(action, f)
         if c.route_option:
             if k == 0:
                 slot = f[s.route_offset : s.route_offset + 3]

@@ -62,7 +62,7 @@ Bool = NDArray[np.bool_]
 (_ROUTE, _THROUGH, _RINGS, _GOALS, _PLATFORM, _BOX_X, _BOX_Y, _BOX_HX, _BOX_HY, _LENGTH, _MAX_V,
  _MAX_W, _LOOKAHEAD, _TURN_GAIN, _TURN_IN_PLACE, _COMMIT_S, _WINDOW, _STUCK_M, _BACKOFF, _UNIT,
  _MATCH_LENGTH, _ROUTE_AT, _RING_AT, _GOAL_AT, _CLAMPED, _SHARE, _LANE_TALL, _LANE_OTHER,
- _CLIMB_V, _TALL, _PARTNER_AT) = range(31)  # fmt: skip
+ _CLIMB_V, _TALL, _PARTNER_AT, _SPLIT, _SPLIT_M) = range(33)  # fmt: skip
 # Columns of a controller's state: SkillDriver's back-off and committed goal manoeuvre, and
 # what its last command drove to (SkillDriver.target: TARGET_KINDS' index, robot-frame point).
 (_BACKOFF_UNTIL, _BACKOFF_TURN, _COMMITTED, _COMMIT_X, _COMMIT_Y, _COMMIT_UNTIL, _TARGET,
@@ -85,6 +85,7 @@ def config_row(config: SkillConfig, spec: ObservationSpec) -> list[float]:
         c.stuck_window_s, c.stuck_distance_m, c.backoff_s, spec.length_unit_m,
         spec.match_length_s, spec.route_offset, spec.ring_offset, spec.goal_offset, clamped,
         float(c.share_platform), *c.platform_lanes_m, c.platform_speed_mps, tall, partner,
+        float(c.split_with_partner), c.split_margin_m,
     ]  # fmt: skip
 
 
@@ -245,6 +246,46 @@ def _best(a, n):
 
 
 @nb.njit(cache=True)
+def _option_point(f, k, c):
+    """SkillDriver._option_point: (whether option k has a ring or goal, its robot-frame x,
+    y in metres)."""
+    route, rings, goals = int(c[_ROUTE]), int(c[_RINGS]), int(c[_GOALS])
+    if k < route:
+        at = int(c[_ROUTE_AT])
+    elif k < route + rings:
+        at = int(c[_RING_AT]) + 3 * (k - route)
+    elif k < route + rings + goals:
+        at = int(c[_GOAL_AT]) + 3 * (k - route - rings)
+    else:
+        return False, 0.0, 0.0
+    if not f[at + 2] > 0:
+        return False, 0.0, 0.0
+    return True, np.float64(f[at]) * c[_UNIT], np.float64(f[at + 1]) * c[_UNIT]
+
+
+@nb.njit(cache=True)
+def _choose(f, a, n, c):
+    """SkillDriver.option(action, obs): the best of the n scores whose ring or goal is not the
+    partner's (split_with_partner), the best of all when every one is."""
+    best = _best(a, n)
+    at = int(c[_PARTNER_AT])
+    if not c[_SPLIT] > 0.5 or at < 0 or not f[at + 2] > 0.5:
+        return best
+    mx, my = np.float64(f[at]) * c[_UNIT], np.float64(f[at + 1]) * c[_UNIT]
+    tried = np.zeros(n, dtype=np.bool_)
+    for _ in range(n):
+        k = -1  # the best untried score, the first of equals (a stable sort's order)
+        for j in range(n):
+            if not tried[j] and (k < 0 or a[j] > a[k]):
+                k = j
+        tried[k] = True
+        has, px, py = _option_point(f, k, c)
+        if not has or math.hypot(px, py) <= math.hypot(px - mx, py - my) + c[_SPLIT_M]:
+            return k
+    return best
+
+
+@nb.njit(cache=True)
 def _aim(st, r, kind, x, y):
     """Controller r drives to a `kind` target at robot-frame (x, y) (SkillDriver.target)."""
     st[r, _TARGET] = kind
@@ -312,7 +353,7 @@ def _command(f, a, r, c, trail, trail_n, overflow, st):
     search = 0.0, 0.3 * c[_MAX_W]  # an empty slot: a slow turn in place
     rings, goals = int(c[_RINGS]), int(c[_GOALS])
     route = int(c[_ROUTE])
-    k = _best(a, route + rings + goals + int(c[_PLATFORM]))
+    k = _choose(f, a, route + rings + goals + int(c[_PLATFORM]), c)
     if route:
         if k == 0:
             at = int(c[_ROUTE_AT])

@@ -172,6 +172,38 @@ def test_a_robot_climbs_its_lane_facing_the_wall_and_stops_at_the_hinge() -> Non
         SkillDriver(SHARED, ObservationSpec(n_stack=0))
 
 
+def test_the_rings_nearer_the_partner_are_left_to_it() -> None:
+    skills = SkillConfig(ring_options=2, goal_options=0, split_with_partner=True)
+    d = SkillDriver(skills, ALLIANCE_SPEC)
+    near = [(0.0, 0.8), (1.5, 1.0)]
+
+    def seen(partner_xy: tuple[float, float] | None, rings: list = near) -> np.ndarray:  # type: ignore[type-arg]
+        view = RobotView(
+            x=0.0, y=0.0, heading_deg=0.0, alliance="red", time_s=30.0,
+            rings_robot_xy=np.array(rings),
+            partner=PartnerView(xy=partner_xy, clamped=False, rings=0, claim_xy=None),
+        )  # fmt: skip
+        return build_frame(ALLIANCE_SPEC, view)
+
+    favours_ring0 = np.array([1.0, 0.5, -1.0])
+    # The partner stands 0.36 m from ring 0 (0.8 m from this robot): ring 0 is its, ring 1
+    # this robot's.
+    assert d.option(favours_ring0, seen((-0.2, 1.1))) == 1
+    # Nearer the partner, but by less than the margin: still this robot's.
+    assert d.option(favours_ring0, seen((0.0, 1.5))) == 0
+    # Every ring the partner's: the best of the rest (the platform is nobody's), else the best.
+    far = seen((0.75, 1.7), [(0.0, 1.6), (1.5, 1.6)])
+    assert d.option(favours_ring0, far) == 2
+    rings_only = SkillDriver(replace(skills, platform=False), ALLIANCE_SPEC)
+    assert rings_only.option(favours_ring0[:2], far) == 0
+    # No partner position, or no observation: the best score.
+    assert d.option(favours_ring0, seen(None)) == 0 and d.option(favours_ring0) == 0
+    _, w = d.command(seen((-0.2, 1.1)), favours_ring0)  # to ring 1, on the right
+    assert w > 0
+    with pytest.raises(ValueError, match="partner block"):
+        SkillDriver(skills, ObservationSpec(n_stack=0))
+
+
 def test_both_robots_of_an_alliance_end_up_on_their_board_apart() -> None:
     """The twin: both red robots of tipping_point_2v2 drive the platform skill from their starts
     (the other alliance idle), 6 seeded matches of 45 s: in 5 at least, both stand on the board

@@ -84,6 +84,9 @@ def _drive_and_compare(
                 seen["committed"] += int(busy[k])
                 seen["backing off"] += int(driver._backoff_until > now)
                 seen[skills.option_names()[driver.option(scores[k, i])]] += 1
+                # split_with_partner: the best option's ring or goal is the partner's.
+                left = driver.option(scores[k, i], obs[k]) != driver.option(scores[k, i])
+                seen["left to the partner"] += int(left and not busy[k])
                 want = driver.command(obs[k], scores[k, i])
                 assert (lin[k], ang[k]) == pytest.approx(want, rel=0, abs=1e-12), where
                 # What it drove to (the partner report's claim): SkillDriver.target.
@@ -117,16 +120,17 @@ def test_the_batched_controller_drives_as_skill_driver_step_for_step() -> None:
 
 
 def test_the_batched_controller_shares_the_platform_as_skill_driver() -> None:
-    """alliance.toml's 2v2 with share_platform, the platform the favourite skill: every robot's
-    stage, climb and stop (each in its lane, found from where its partner stands) equal to
-    SkillDriver's."""
+    """alliance.toml's 2v2 with share_platform and split_with_partner, the platform the
+    favourite skill: every robot's stage, climb and stop (each in its lane, found from where its
+    partner stands) and every option passed over as the partner's equal to SkillDriver's."""
     env = load_config("alliance").env_config()
-    assert env.skills is not None and env.skills.share_platform
+    assert env.skills is not None and env.skills.share_platform and env.skills.split_with_partner
     env = replace(env, max_steps=400)
     fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=8), seed=3)
     fm.set_kinds([("policy", -1)] * 8)
     seen = _drive_and_compare(fm, 520, favourite=env.skills.n_options - 1, seed=1)
     assert seen["platform"] > 2000 and seen["stopped"] > 20 and seen["backing off"] > 0, seen
+    assert seen["left to the partner"] > 20, seen
 
 
 def test_fast_matches_drive_their_robots_with_the_controllers() -> None:
