@@ -316,12 +316,16 @@ class SkillDriver:
         # back-off that starts within the call keeps the target it was driving to); the
         # partner report's claim (jetson.decide.Decider.claim).
         self.target: tuple[str, tuple[float, float]] | None = None
+        # The option the last command() drove (option(action, obs): split_with_partner may
+        # pass the best score over); None while a goal manoeuvre or a back-off ran instead.
+        self.driven: int | None = None
 
     def reset(self) -> None:
         self._trail.clear()
         self._backoff_until = -1.0
         self._commit_point = None
         self.target = None
+        self.driven = None
 
     def committed(self, obs: NDArray[np.floating]) -> bool:
         """Whether the next command() ignores its action: a goal manoeuvre is under way (the
@@ -388,6 +392,7 @@ class SkillDriver:
         pos = f[1:3] * unit
         self._trail.push(now, float(pos[0]), float(pos[1]))
         self.target = None
+        self.driven = None
         if self.committed(obs):
             local = _to_robot(self._commit_point, pos, float(f[3]), float(f[4]))
             self.target = ("goal", (float(local[0]), float(local[1])))
@@ -396,7 +401,7 @@ class SkillDriver:
             return self._reverse_onto(local, now)
         if now < self._backoff_until:
             return -0.6 * self.v_max, self._backoff_turn * 0.5 * self.w_max
-        k = self.option(action, f)
+        k = self.driven = self.option(action, f)
         if c.route_option:
             if k == 0:
                 slot = f[s.route_offset : s.route_offset + 3]

@@ -167,6 +167,10 @@ class DecisionView:
     obs: Any
     action: Any
     commit: Any  # a committed goal manoeuvre's point, alliance frame
+    # The option the skill controller drove and its target (SkillDriver.driven and .target:
+    # kind, robot-frame point); None: not known (the scores' best is shown).
+    driven: Any = None
+    target: Any = None
 
     @classmethod
     def of(cls, decider: Any) -> DecisionView:
@@ -175,6 +179,7 @@ class DecisionView:
             decider.spec, getattr(decider.policy, "skills", None), decider.ring_memory.known,
             decider.goal_memory.known, decider.goal_memory.holding, decider.last_obs,
             decider.last_action, getattr(driver, "_commit_point", None),
+            getattr(driver, "driven", None), getattr(driver, "target", None),
         )  # fmt: skip
 
 
@@ -231,13 +236,16 @@ def field_view(decider: Any, state: Any, seen_robot_xy: Any = None) -> dict[str,
     # Not np.argmax: it lets go of the interpreter lock, and taking it back behind the camera
     # thread costs the daemon's thread up to a switch interval.
     scores = a[: skills.n_options].tolist()
-    k = scores.index(max(scores))
+    k = scores.index(max(scores)) if decider.driven is None else decider.driven
     name = names[k]
     target = None
     commit = decider.commit
     if commit is not None:
         name = "goal (committed)"
         target = to_alliance_frame(np.asarray(commit), None, alliance)[0]
+    elif decider.target is not None and decider.driven is not None:
+        # Where the controller drove (a platform lane's point, a ring left to the partner).
+        target = robot_to_field(np.array([decider.target[1]]), pose, heading)[0]
     elif name == "route":
         local = _slot(f, spec.route_offset, unit)
         target = None if local is None else robot_to_field(local[None, :], pose, heading)[0]

@@ -118,3 +118,36 @@ def test_robots_seen_go_to_the_field_frame_with_their_alliance() -> None:
     got = robots_field(np.array([[0.0, 1.5, 2.0]]), s)
     h = np.radians(s.heading)
     assert got == [[round(s.x + 1.5 * np.sin(h), 3), round(s.y + 1.5 * np.cos(h), 3), 2]]
+
+
+def test_the_skill_shown_is_the_one_the_controller_drove() -> None:
+    """A ring left to the partner (split_with_partner): the page shows the option the controller
+    drove and where it drove, not the policy's best score."""
+    from types import SimpleNamespace
+
+    from jetson.autonomy.observation import PartnerView, RobotView, build_frame
+    from jetson.autonomy.skills import SkillConfig, SkillDriver
+    from jetson.autonomy.spec import ObservationSpec
+    from jetson.dashboard.snapshot import DecisionView, field_view
+    from protocol.messages import Alliance
+
+    spec = ObservationSpec(version=6, n_stack=0, partner=True)
+    skills = SkillConfig(ring_options=2, goal_options=0, split_with_partner=True)
+    view = RobotView(
+        x=1.0, y=0.0, heading_deg=0.0, alliance="red", time_s=30.0,
+        rings_robot_xy=np.array([(0.0, 0.8), (1.5, 1.0)]),
+        partner=PartnerView(xy=(-0.2, 1.1), clamped=False, rings=0, claim_xy=None),
+    )  # fmt: skip
+    obs = build_frame(spec, view)
+    action = np.array([1.0, 0.5, -1.0])  # ring 0 scores best; it is the partner's
+    driver = SkillDriver(skills, spec)
+    driver.command(obs, action)
+    assert driver.driven == 1
+    decision = DecisionView(
+        spec, skills, np.zeros((0, 2)), np.zeros((0, 2)), False, obs, action, None,
+        driver.driven, driver.target,
+    )  # fmt: skip
+    state = SimpleNamespace(x=1.0, y=0.0, heading=0.0, alliance=Alliance.RED)
+    out = field_view(decision, state)
+    assert out["skill"] == "ring1"
+    assert out["target"] == [2.5, 1.0]  # ring 1, 1.5 m right and 1 m ahead of the robot
