@@ -8,8 +8,9 @@ import importlib.metadata
 import shutil
 import signal
 import sys
+import tomllib
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from protocol.cli_conventions import add_no_progress, make_parser, progress_wanted
 
@@ -164,6 +165,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
+    from sim.errors import ConfigError
     from sim.match import make_config
     from sim.training.checkpoint import agent_from_checkpoint, load_checkpoint
     from sim.training.export import export_policy
@@ -172,14 +174,54 @@ def _cmd_export(args: argparse.Namespace) -> int:
         state = load_checkpoint(args.checkpoint)
         agent, spec, cfg = agent_from_checkpoint(state)
         env = make_config(cfg.env_config(), observation=spec)
-        training = {"config": cfg.name, "seed": cfg.seed, "steps": int(state["step"])}
+        training: dict[str, Any] = {
+            "config": cfg.name, "seed": cfg.seed, "steps": int(state["step"])
+        }  # fmt: skip
+        if "wall_s" in state:
+            training["wall_s"] = float(state["wall_s"])
+        if args.skill:
+            settings = skill_overrides(args.skill)
+            if env.skills is None:
+                raise ValueError("--skill: this checkpoint's policy has no skills")
+            env = make_config(env, skills=settings)
+            assert env.skills is not None
+            env.skills.check(spec)
+            training["skills_set"] = settings  # set at export, not in training
         onnx_path, meta = export_policy(agent, spec, env, args.out, training)
-    except (ValueError, FileNotFoundError, KeyError) as e:
+    except (ValueError, FileNotFoundError, KeyError, ConfigError) as e:
         print(f"pete-sim export: {e}", file=sys.stderr)
         return 2
     print(onnx_path)
     print(meta)
     return 0
+
+
+# The skill controller's settings `pete-sim export --skill` may change: how the options are
+# driven, not which options there are (the network's outputs) nor the robot's size and speeds
+# (taken from the robot's config).
+EXPORT_SKILLS = (
+    "route_through_next", "commit_goal_s", "share_platform", "platform_lanes_m",
+    "platform_speed_mps", "split_with_partner", "split_margin_m", "lookahead_m", "turn_gain",
+    "turn_in_place_rad", "stuck_window_s", "stuck_distance_m", "backoff_s",
+)  # fmt: skip
+
+
+def skill_overrides(words: list[str]) -> dict[str, Any]:
+    """--skill KEY=VALUE words as a dict of SkillConfig settings, VALUE read as TOML (true,
+    0.3, [-0.3, 0.4]); a key that is not a controller setting is a ValueError naming them."""
+    out: dict[str, Any] = {}
+    for word in words:
+        key, sep, text = word.partition("=")
+        key = key.strip()
+        if not sep or key not in EXPORT_SKILLS:
+            raise ValueError(
+                f"--skill {word!r}: expected KEY=VALUE, KEY one of {', '.join(EXPORT_SKILLS)}"
+            )
+        try:
+            out[key] = tomllib.loads(f"v = {text.strip()}")["v"]
+        except tomllib.TOMLDecodeError as e:
+            raise ValueError(f"--skill {word!r}: {text!r} is not a TOML value ({e})") from None
+    return out
 
 
 def _opponent(word: str) -> PlayerSpec | None:
@@ -513,6 +555,11 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("export", help="export a checkpoint to policy.onnx + policy.json")
     p.add_argument("--checkpoint", type=Path, required=True, help="a .pt checkpoint of a run")
     p.add_argument("--out", type=Path, required=True, help="an .onnx path or a folder")
+    p.add_argument(
+        "--skill", action="append", default=[], metavar="KEY=VALUE",
+        help="set a skill controller setting in policy.json (how the options are driven, e.g. "
+        "share_platform=true); repeatable; recorded as the policy's training.skills_set",
+    )  # fmt: skip
     p.set_defaults(func=_cmd_export)
 
     p = sub.add_parser(

@@ -78,9 +78,8 @@ class SkillConfig:
                     "turn_gain", "turn_in_place_rad", "stuck_window_s",
                     "platform_speed_mps")  # fmt: skip
         bad = [k for k in positive if not getattr(self, k) > 0]
-        bad += [
-            k for k in ("commit_goal_s", "stuck_distance_m", "backoff_s") if getattr(self, k) < 0
-        ]
+        at_least_0 = ("commit_goal_s", "stuck_distance_m", "backoff_s", "split_margin_m")
+        bad += [k for k in at_least_0 if getattr(self, k) < 0]
         if len(self.platform_box) != 4 or min(self.platform_box[2:], default=0) <= 0:
             bad.append("platform_box")
         if len(self.platform_lanes_m) != 2:

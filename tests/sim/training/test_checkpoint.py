@@ -119,3 +119,40 @@ def test_resume_export_and_a_pt_player_work_from_a_safe_load(run: Path, tmp_path
         export=False,
     )  # fmt: skip
     assert resumed.steps == 384
+
+
+def test_export_sets_skill_controller_settings_and_refuses_the_rest(
+    run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`pete-sim export --skill KEY=VALUE` changes how the options are driven in policy.json
+    and records it; keys that would change the options, bad values and settings the observation
+    cannot serve are refused with the reason; a drive policy has no skills to set."""
+    import json
+
+    skills = {"ring_options": 2, "goal_options": 0}
+    cfg = parse_config({**TINY, "env": {**TINY["env"], "skills": skills}})
+    folder = tmp_path / "skills"
+    train(cfg, folder, progress=False, export=False)
+    latest = str(folder / "checkpoints" / "latest.pt")
+    out = tmp_path / "exp"
+    rc = main([
+        "export", "--checkpoint", latest, "--out", str(out), "--skill", "split_margin_m=0.5",
+        "--skill", "lookahead_m = 0.4",
+    ])  # fmt: skip
+    assert rc == 0
+    meta = json.loads((out / "policy.json").read_text())
+    assert meta["actions"]["skills"]["split_margin_m"] == 0.5
+    assert meta["actions"]["skills"]["lookahead_m"] == 0.4
+    assert meta["training"]["skills_set"] == {"split_margin_m": 0.5, "lookahead_m": 0.4}
+    capsys.readouterr()
+    for word, why in (
+        ("ring_options=3", "KEY one of"),
+        ("split_margin_m=-1", "out of range"),
+        ("share_platform=yes", "not a TOML value"),
+        ("share_platform=true", "role flag"),
+    ):
+        rc = main(["export", "--checkpoint", latest, "--out", str(out), "--skill", word])
+        assert rc == 2 and why in capsys.readouterr().err, word
+    drive = str(run / "checkpoints" / "latest.pt")
+    assert main(["export", "--checkpoint", drive, "--out", str(out), "--skill", "turn_gain=3"]) == 2
+    assert "no skills" in capsys.readouterr().err

@@ -1,8 +1,11 @@
 """The shipped learned alliance (jetson/models/alliance/) is what sim/configs/alliance.toml
 trains: the same observation (fingerprint), the partner block, the seen opponents and the role
-input, the same skills."""
+input, the same skills; exported with the controller sharing the platform and splitting the
+field with the partner (`pete-sim export --skill`)."""
 
 from __future__ import annotations
+
+import json
 
 from jetson.autonomy.policy import OnnxPolicy
 from jetson.models import ALLIANCE_POLICY
@@ -19,3 +22,7 @@ def test_the_shipped_alliance_policy_is_what_alliance_toml_trains() -> None:
     assert policy.spec.partner and policy.spec.seen_opponents and policy.spec.role_flag
     assert policy.skills is not None and env.skills is not None
     assert policy.skills.option_names() == env.skills.option_names()
+    assert policy.skills.share_platform and policy.skills.split_with_partner
+    assert not env.skills.share_platform and not env.skills.split_with_partner  # set at export
+    meta = json.loads(ALLIANCE_POLICY.with_suffix(".json").read_text())
+    assert meta["training"]["skills_set"] == {"share_platform": True, "split_with_partner": True}
