@@ -120,12 +120,14 @@ def test_the_batched_controller_drives_as_skill_driver_step_for_step() -> None:
 
 
 def test_the_batched_controller_shares_the_platform_as_skill_driver() -> None:
-    """alliance.toml's 2v2 with share_platform and split_with_partner, the platform the
-    favourite skill: every robot's stage, climb and stop (each in its lane, found from where its
-    partner stands) and every option passed over as the partner's equal to SkillDriver's."""
+    """alliance.toml's 2v2 with share_platform and split_with_partner (the shipped policy's
+    controller), the platform the favourite skill: every robot's stage, climb and stop (each in
+    its lane, found from where its partner stands) and every option passed over as the
+    partner's equal to SkillDriver's."""
     env = load_config("alliance").env_config()
-    assert env.skills is not None and env.skills.share_platform and env.skills.split_with_partner
-    env = replace(env, max_steps=400)
+    assert env.skills is not None
+    skills = replace(env.skills, share_platform=True, split_with_partner=True)  # as shipped
+    env = replace(env, max_steps=400, skills=skills)
     fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=8), seed=3)
     fm.set_kinds([("policy", -1)] * 8)
     seen = _drive_and_compare(fm, 520, favourite=env.skills.n_options - 1, seed=1)
