@@ -237,8 +237,8 @@ def platform_plan(
 
     Without share_platform: the platform's centre, THERE well inside it, else STAGE (pursue
     it). With it, in the robot's own lane: THERE at the hinge, CLIMB between the stage and the
-    board's wall edge (the target the lane's point over the hinge), else STAGE: the lane's
-    point PLATFORM_STAGE_M in front of the board on the field side. A robot's lane is its
+    board's wall edge, else STAGE: the lane's point PLATFORM_STAGE_M in front of the board on
+    the field side. A robot's lane is its
     role's (platform_lanes_m) on the side of the board where it stands against its partner
     (at the partner's alliance-frame point, None: unknown): the two never cross to reach their
     lanes. Climbing, the target is the lane's point PLATFORM_AIM_M past the hinge: steering at
