@@ -272,13 +272,13 @@ def _choose(f, a, n, c):
     if not c[_SPLIT] > 0.5 or at < 0 or not f[at + 2] > 0.5:
         return best
     mx, my = np.float64(f[at]) * c[_UNIT], np.float64(f[at + 1]) * c[_UNIT]
-    tried = np.zeros(n, dtype=np.bool_)
+    tried = 0  # a bit per option tried: no array allocated per robot and step
     for _ in range(n):
         k = -1  # the best untried score, the first of equals (a stable sort's order)
         for j in range(n):
-            if not tried[j] and (k < 0 or a[j] > a[k]):
+            if not (tried >> j) & 1 and (k < 0 or a[j] > a[k]):
                 k = j
-        tried[k] = True
+        tried |= 1 << k
         has, px, py = _option_point(f, k, c)
         if not has or math.hypot(px, py) <= math.hypot(px - mx, py - my) + c[_SPLIT_M]:
             return k
