@@ -55,6 +55,15 @@ class SkillConfig:
     # that is not (the best of all when none is left).
     split_with_partner: bool = False
     split_margin_m: float = 0.3
+    # The endgame (0: off). In the match's last keep_clear_s seconds (the rules' protected
+    # endgame, <SG3>, and a margin) option() passes over the rings and goals within
+    # keep_clear_m of the other alliance's platform (platform_box turned half a turn about the
+    # field's centre); touching it, or a robot on it, credits that alliance an Elevated robot.
+    # In the last climb_at_s seconds the robot drives the platform skill whatever the action
+    # (with the goal it carries: a goal on a Balanced board scores as Elevated).
+    keep_clear_s: float = 0.0
+    keep_clear_m: float = 0.5
+    climb_at_s: float = 0.0
     # The robot's size and top speeds (filled from the robot's config by the simulator and
     # saved with the policy, so the Jetson drives the robot the policy was trained on).
     robot_length_m: float = 0.381
@@ -78,7 +87,8 @@ class SkillConfig:
                     "turn_gain", "turn_in_place_rad", "stuck_window_s",
                     "platform_speed_mps")  # fmt: skip
         bad = [k for k in positive if not getattr(self, k) > 0]
-        at_least_0 = ("commit_goal_s", "stuck_distance_m", "backoff_s", "split_margin_m")
+        at_least_0 = ("commit_goal_s", "stuck_distance_m", "backoff_s", "split_margin_m",
+                      "keep_clear_s", "keep_clear_m", "climb_at_s")  # fmt: skip
         bad += [k for k in at_least_0 if getattr(self, k) < 0]
         if len(self.platform_box) != 4 or min(self.platform_box[2:], default=0) <= 0:
             bad.append("platform_box")
@@ -112,6 +122,8 @@ class SkillConfig:
             raise ValueError("skills: share_platform needs the observation's role flag")
         if self.split_with_partner and not spec.partner:
             raise ValueError("skills: split_with_partner needs the observation's partner block")
+        if self.climb_at_s > 0 and not self.platform:
+            raise ValueError("skills: climb_at_s needs the platform option")
 
 
 class Trail:
@@ -287,6 +299,76 @@ def climb(
     return v * max(0.0, math.cos(bearing)), max(-1.5, min(1.5, turn_gain * bearing))
 
 
+def _crosses(
+    x0: float, y0: float, x1: float, y1: float, cx: float, cy: float, gx: float, gy: float
+) -> bool:
+    """Whether the segment (x0, y0) -> (x1, y1) passes through the open box about (cx, cy) with
+    half extents (gx, gy) (the slab test)."""
+    t0, t1 = 0.0, 1.0
+    for p, d, lo, hi in ((x0, x1 - x0, cx - gx, cx + gx), (y0, y1 - y0, cy - gy, cy + gy)):
+        if abs(d) < 1e-12:
+            if not lo < p < hi:
+                return False
+            continue
+        a, b = (lo - p) / d, (hi - p) / d
+        t0, t1 = max(t0, min(a, b)), min(t1, max(a, b))
+        if t0 >= t1:
+            return False
+    return True
+
+
+KEEP_CLEAR_CORNER_M = 0.05  # a detour's corner lies this far outside the kept-clear box
+
+
+def around(
+    x: float, y: float, tx: float, ty: float, box: tuple[float, float, float, float], margin: float
+) -> tuple[float, float]:
+    """Where a robot at (x, y) steers on its way to (tx, ty), all in one frame, keeping out of a
+    box (centre x, y, half extents) grown by `margin`: the target when the straight way misses
+    the grown box, else the nearer way round: the grown box's corner (KEEP_CLEAR_CORNER_M
+    further out) on the field's side of the box (the field's centre is the frame's origin;
+    the box stands against a wall) that the robot sees and that makes the way shortest."""
+    cx, cy, hx, hy = box
+    gx, gy = hx + margin, hy + margin
+    if not _crosses(x, y, tx, ty, cx, cy, gx, gy):
+        return tx, ty
+    ox, oy = gx + KEEP_CLEAR_CORNER_M, gy + KEEP_CLEAR_CORNER_M
+    if abs(cx) >= abs(cy):
+        corners = ((cx - math.copysign(ox, cx), cy - oy), (cx - math.copysign(ox, cx), cy + oy))
+    else:
+        corners = ((cx - ox, cy - math.copysign(oy, cy)), (cx + ox, cy - math.copysign(oy, cy)))
+    best, way = (tx, ty), math.inf
+    for px, py in corners:
+        if _crosses(x, y, px, py, cx, cy, gx, gy):
+            continue
+        d = math.hypot(px - x, py - y) + math.hypot(tx - px, ty - py)
+        if d < way:
+            best, way = (px, py), d
+    return best
+
+
+def leave(
+    x: float, y: float, cos_h: float, sin_h: float, box: tuple[float, float, float, float],
+    margin: float, speed: float,
+) -> tuple[float, float] | None:  # fmt: skip
+    """(v, w) that takes a robot at (x, y) heading (cos_h, sin_h) out of a box grown by `margin`
+    without turning (a turning robot's corners sweep wider): straight forward or back, whichever
+    leaves the box's nearest side, or, standing along that side, whichever way heads toward
+    the field's centre; None outside the grown box."""
+    cx, cy, hx, hy = box
+    dx, dy = x - cx, y - cy
+    if not (abs(dx) < hx + margin and abs(dy) < hy + margin):
+        return None
+    ax, ay = dx - max(-hx, min(hx, dx)), dy - max(-hy, min(hy, dy))  # from the box's nearest point
+    if ax == 0.0 and ay == 0.0:
+        ax, ay = dx, dy
+    ahead = ax * sin_h + ay * cos_h  # along the heading (robot frame's y)
+    if abs(ahead) >= 0.5 * math.hypot(ax, ay):
+        return math.copysign(speed, ahead), 0.0
+    home = -x * sin_h - y * cos_h
+    return (speed if home >= 0 else -speed), 0.0
+
+
 def skill_config_from_dict(data: dict[str, Any]) -> SkillConfig:
     known = {f.name for f in fields(SkillConfig)}
     unknown = sorted(set(data) - known)
@@ -309,6 +391,12 @@ class SkillDriver:
         self._backoff_until = -1.0
         self._backoff_turn = 1.0
         self._commit_point: NDArray[np.float64] | None = None  # alliance frame
+        # The endgame (keep_clear_s): the other alliance's platform, turned about the centre;
+        # whether this command keeps clear of it, and the robot's alliance-frame pose.
+        cx, cy, hx, hy = config.platform_box
+        self._their_box = (-cx, -cy, hx, hy)
+        self._clear = False
+        self._pose = (0.0, 0.0, 1.0, 0.0)
         self._commit_until = -1.0
         # What the last command() drove to: ("ring" | "goal" | "platform", robot-frame point
         # of that moment, metres); None when it searched or was backing off when called (a
@@ -340,27 +428,41 @@ class SkillDriver:
         return True
 
     def option(self, action: NDArray[np.floating], obs: NDArray[np.floating] | None = None) -> int:
-        """The option the action picks: the highest score (the first of equals); with
-        split_with_partner and the observation, the highest whose ring or goal is not the
-        partner's (nearer the partner than this robot by more than split_margin_m), the
-        highest of all when every one is."""
+        """The option the action picks: the highest score (the first of equals). With the
+        observation: the platform in the match's last climb_at_s seconds; else the highest
+        whose ring or goal is neither the partner's (split_with_partner: nearer the partner
+        than this robot by more than split_margin_m) nor, in the last keep_clear_s seconds,
+        beside the other alliance's platform (within keep_clear_m), the highest of all when
+        every one is."""
         a = np.asarray(action, dtype=np.float64).reshape(-1)[: self.config.n_options]
         best = int(np.argmax(a))
         s, c = self.spec, self.config
-        if obs is None or not c.split_with_partner:
+        if obs is None:
             return best
         f = np.asarray(obs, dtype=np.float64)[: s.frame_size]
-        at = s.partner_offset
-        if not f[at + 2] > 0.5:
+        left = s.match_length_s * (1.0 - float(f[0]))
+        if c.climb_at_s > 0 and left <= c.climb_at_s:
+            return c.n_options - 1
+        split = c.split_with_partner and f[s.partner_offset + 2] > 0.5
+        clear = c.keep_clear_s > 0 and left <= c.keep_clear_s
+        if not (split or clear):
             return best
-        mx, my = float(f[at]) * s.length_unit_m, float(f[at + 1]) * s.length_unit_m
+        unit = s.length_unit_m
+        mx, my = (float(f[s.partner_offset + k]) * unit for k in (0, 1)) if split else (0.0, 0.0)
+        cx, cy, hx, hy = c.platform_box
         for k in np.argsort(-a, kind="stable"):
             point = self._option_point(f, int(k))
             if point is None:
                 return int(k)
             px, py = point
-            if math.hypot(px, py) <= math.hypot(px - mx, py - my) + c.split_margin_m:
-                return int(k)
+            if split and math.hypot(px, py) > math.hypot(px - mx, py - my) + c.split_margin_m:
+                continue
+            if clear:
+                q = _to_alliance(np.array(point), f[1:3] * unit, float(f[3]), float(f[4]))
+                m = c.keep_clear_m
+                if abs(q[0] + cx) < hx + m and abs(q[1] + cy) < hy + m:
+                    continue
+            return int(k)
         return best
 
     def _option_point(self, f: NDArray[np.float64], k: int) -> tuple[float, float] | None:
@@ -392,6 +494,12 @@ class SkillDriver:
         self._trail.push(now, float(pos[0]), float(pos[1]))
         self.target = None
         self.driven = None
+        self._pose = (float(pos[0]), float(pos[1]), float(f[3]), float(f[4]))
+        self._clear = c.keep_clear_s > 0 and s.match_length_s - now <= c.keep_clear_s
+        if self._clear:
+            out = leave(*self._pose, self._their_box, c.keep_clear_m, 0.5 * self.v_max)
+            if out is not None:
+                return out
         if self.committed(obs):
             local = _to_robot(self._commit_point, pos, float(f[3]), float(f[4]))
             self.target = ("goal", (float(local[0]), float(local[1])))
@@ -438,6 +546,15 @@ class SkillDriver:
     ) -> tuple[float, float]:
         c = self.config
         tx, ty = float(target[0]), float(target[1])
+        if self._clear:
+            # The endgame: the way round the other alliance's platform (alliance frame).
+            x, y, cos_h, sin_h = self._pose
+            ax, ay = x + tx * cos_h + ty * sin_h, y - tx * sin_h + ty * cos_h
+            px, py = around(x, y, ax, ay, self._their_box, c.keep_clear_m)
+            if (px, py) != (ax, ay):
+                dx, dy = px - x, py - y
+                tx, ty, after = dx * cos_h - dy * sin_h, dx * sin_h + dy * cos_h, None
+                target = np.array([tx, ty])
         turn = turn_first(
             tx, ty, self.v_max, self.w_max, c.turn_gain, c.turn_in_place_rad, c.robot_length_m
         )

@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from jetson.autonomy.skills import (
     CLIMB,
+    KEEP_CLEAR_CORNER_M,
     PLATFORM_AIM_M,
     PLATFORM_HINGE_M,
     PLATFORM_LANE_M,
@@ -62,7 +63,8 @@ Bool = NDArray[np.bool_]
 (_ROUTE, _THROUGH, _RINGS, _GOALS, _PLATFORM, _BOX_X, _BOX_Y, _BOX_HX, _BOX_HY, _LENGTH, _MAX_V,
  _MAX_W, _LOOKAHEAD, _TURN_GAIN, _TURN_IN_PLACE, _COMMIT_S, _WINDOW, _STUCK_M, _BACKOFF, _UNIT,
  _MATCH_LENGTH, _ROUTE_AT, _RING_AT, _GOAL_AT, _CLAMPED, _SHARE, _LANE_TALL, _LANE_OTHER,
- _CLIMB_V, _TALL, _PARTNER_AT, _SPLIT, _SPLIT_M) = range(33)  # fmt: skip
+ _CLIMB_V, _TALL, _PARTNER_AT, _SPLIT, _SPLIT_M, _CLEAR_S, _CLEAR_M,
+ _CLIMB_AT) = range(36)  # fmt: skip
 # Columns of a controller's state: SkillDriver's back-off and committed goal manoeuvre, and
 # what its last command drove to (SkillDriver.target: TARGET_KINDS' index, robot-frame point).
 (_BACKOFF_UNTIL, _BACKOFF_TURN, _COMMITTED, _COMMIT_X, _COMMIT_Y, _COMMIT_UNTIL, _TARGET,
@@ -85,7 +87,8 @@ def config_row(config: SkillConfig, spec: ObservationSpec) -> list[float]:
         c.stuck_window_s, c.stuck_distance_m, c.backoff_s, spec.length_unit_m,
         spec.match_length_s, spec.route_offset, spec.ring_offset, spec.goal_offset, clamped,
         float(c.share_platform), *c.platform_lanes_m, c.platform_speed_mps, tall, partner,
-        float(c.split_with_partner), c.split_margin_m,
+        float(c.split_with_partner), c.split_margin_m, c.keep_clear_s, c.keep_clear_m,
+        c.climb_at_s,
     ]  # fmt: skip
 
 
@@ -194,9 +197,74 @@ def _is_committed(f, st, r, c):
 
 
 @nb.njit(cache=True)
-def _pursue(tx, ty, now, has_after, ax, ay, r, c, trail, trail_n, st):
+def _crosses(x0, y0, x1, y1, cx, cy, gx, gy):
+    """skills._crosses: the segment through the open box (the slab test)."""
+    t0, t1 = 0.0, 1.0
+    for axis in range(2):
+        p, d, lo, hi = (
+            (x0, x1 - x0, cx - gx, cx + gx) if axis == 0 else (y0, y1 - y0, cy - gy, cy + gy)
+        )
+        if abs(d) < 1e-12:
+            if not lo < p < hi:
+                return False
+            continue
+        a, b = (lo - p) / d, (hi - p) / d
+        t0, t1 = max(t0, min(a, b)), min(t1, max(a, b))
+        if t0 >= t1:
+            return False
+    return True
+
+
+@nb.njit(cache=True)
+def _around(x, y, tx, ty, cx, cy, hx, hy, margin):
+    """skills.around: the target, or the field-side corner of the grown box the way round."""
+    gx, gy = hx + margin, hy + margin
+    if not _crosses(x, y, tx, ty, cx, cy, gx, gy):
+        return tx, ty
+    ox, oy = gx + KEEP_CLEAR_CORNER_M, gy + KEEP_CLEAR_CORNER_M
+    bx, by, way = tx, ty, np.inf
+    for k in range(2):
+        if abs(cx) >= abs(cy):
+            px, py = cx - math.copysign(ox, cx), (cy - oy if k == 0 else cy + oy)
+        else:
+            px, py = (cx - ox if k == 0 else cx + ox), cy - math.copysign(oy, cy)
+        if _crosses(x, y, px, py, cx, cy, gx, gy):
+            continue
+        d = math.hypot(px - x, py - y) + math.hypot(tx - px, ty - py)
+        if d < way:
+            bx, by, way = px, py, d
+    return bx, by
+
+
+@nb.njit(cache=True)
+def _leave(x, y, cos_h, sin_h, cx, cy, hx, hy, margin, speed):
+    """skills.leave: (whether inside the grown box, v, w) straight out of it."""
+    dx, dy = x - cx, y - cy
+    if not (abs(dx) < hx + margin and abs(dy) < hy + margin):
+        return False, 0.0, 0.0
+    ax, ay = dx - max(-hx, min(hx, dx)), dy - max(-hy, min(hy, dy))
+    if ax == 0.0 and ay == 0.0:
+        ax, ay = dx, dy
+    ahead = ax * sin_h + ay * cos_h
+    if abs(ahead) >= 0.5 * math.hypot(ax, ay):
+        return True, math.copysign(speed, ahead), 0.0
+    home = -x * sin_h - y * cos_h
+    return True, (speed if home >= 0 else -speed), 0.0
+
+
+@nb.njit(cache=True)
+def _pursue(tx, ty, now, has_after, ax, ay, r, c, trail, trail_n, st, pose, clear):
     """SkillDriver._pursue: turn first, or the pure-pursuit arc onto (tx, ty) (along to
-    (ax, ay) when has_after); a robot stuck while driving backs off."""
+    (ax, ay) when has_after); a robot stuck while driving backs off. With `clear` (the
+    endgame) the way goes round the other alliance's platform (pose: the robot's
+    alliance-frame x, y, cos_h, sin_h)."""
+    if clear:
+        x, y, cos_h, sin_h = pose[0], pose[1], pose[2], pose[3]
+        qx, qy = x + tx * cos_h + ty * sin_h, y - tx * sin_h + ty * cos_h
+        px, py = _around(x, y, qx, qy, -c[_BOX_X], -c[_BOX_Y], c[_BOX_HX], c[_BOX_HY], c[_CLEAR_M])
+        if px != qx or py != qy:
+            dx, dy = px - x, py - y
+            tx, ty, has_after = dx * cos_h - dy * sin_h, dx * sin_h + dy * cos_h, False
     turns, v, w = turn_first(
         tx, ty, c[_MAX_V], c[_MAX_W], c[_TURN_GAIN], c[_TURN_IN_PLACE], c[_LENGTH]
     )
@@ -219,13 +287,13 @@ def _pursue(tx, ty, now, has_after, ax, ay, r, c, trail, trail_n, st):
 
 
 @nb.njit(cache=True)
-def _reverse_onto(gx, gy, now, r, c, trail, trail_n, st):
+def _reverse_onto(gx, gy, now, r, c, trail, trail_n, st, pose, clear):
     """SkillDriver._reverse_onto: drive to half a metre short of a far goal (robot frame),
     then back onto it; forward when stuck."""
     dist = math.hypot(gx, gy)
     if dist > 1.0:
         k = 1.0 - 0.5 / dist
-        return _pursue(gx * k, gy * k, now, False, 0.0, 0.0, r, c, trail, trail_n, st)
+        return _pursue(gx * k, gy * k, now, False, 0.0, 0.0, r, c, trail, trail_n, st, pose, clear)
     v, w = back_onto(gx, gy, c[_MAX_V], c[_MAX_W], c[_TURN_GAIN])
     if trail_stuck(trail, trail_n, r, now, abs(v), c[_WINDOW], c[_STUCK_M]):
         st[r, _BACKOFF_UNTIL] = now + c[_BACKOFF] / 2
@@ -265,13 +333,25 @@ def _option_point(f, k, c):
 
 @nb.njit(cache=True)
 def _choose(f, a, n, c):
-    """SkillDriver.option(action, obs): the best of the n scores whose ring or goal is not the
-    partner's (split_with_partner), the best of all when every one is."""
+    """SkillDriver.option(action, obs): the platform in the last climb_at_s seconds; else the
+    best of the n scores whose ring or goal is neither the partner's (split_with_partner) nor
+    beside the other alliance's platform in the last keep_clear_s seconds, the best of all
+    when every one is."""
     best = _best(a, n)
+    left = c[_MATCH_LENGTH] * (1.0 - np.float64(f[0]))
+    if c[_CLIMB_AT] > 0 and left <= c[_CLIMB_AT]:
+        return n - 1
     at = int(c[_PARTNER_AT])
-    if not c[_SPLIT] > 0.5 or at < 0 or not f[at + 2] > 0.5:
+    split = c[_SPLIT] > 0.5 and at >= 0 and f[at + 2] > 0.5
+    clear = c[_CLEAR_S] > 0 and left <= c[_CLEAR_S]
+    if not (split or clear):
         return best
-    mx, my = np.float64(f[at]) * c[_UNIT], np.float64(f[at + 1]) * c[_UNIT]
+    mx, my = 0.0, 0.0
+    if split:
+        mx, my = np.float64(f[at]) * c[_UNIT], np.float64(f[at + 1]) * c[_UNIT]
+    p0, p1 = np.float64(f[1]) * c[_UNIT], np.float64(f[2]) * c[_UNIT]
+    cos_h, sin_h = np.float64(f[3]), np.float64(f[4])
+    m = c[_CLEAR_M]
     tried = 0  # a bit per option tried: no array allocated per robot and step
     for _ in range(n):
         k = -1  # the best untried score, the first of equals (a stable sort's order)
@@ -280,8 +360,16 @@ def _choose(f, a, n, c):
                 k = j
         tried |= 1 << k
         has, px, py = _option_point(f, k, c)
-        if not has or math.hypot(px, py) <= math.hypot(px - mx, py - my) + c[_SPLIT_M]:
+        if not has:
             return k
+        if split and math.hypot(px, py) > math.hypot(px - mx, py - my) + c[_SPLIT_M]:
+            continue
+        if clear:
+            # skills._to_alliance of the point; the other platform is the box turned about 0.
+            qx, qy = p0 + px * cos_h + py * sin_h, p1 - px * sin_h + py * cos_h
+            if abs(qx + c[_BOX_X]) < c[_BOX_HX] + m and abs(qy + c[_BOX_Y]) < c[_BOX_HY] + m:
+                continue
+        return k
     return best
 
 
@@ -342,12 +430,21 @@ def _command(f, a, r, c, trail, trail_n, overflow, st):
     trail_push(trail, trail_n, overflow, r, now, p0, p1, c[_WINDOW])
     backoff = -0.6 * c[_MAX_V], st[r, _BACKOFF_TURN] * 0.5 * c[_MAX_W]
     st[r, _TARGET] = 0.0
+    pose = (p0, p1, cos_h, sin_h)  # a tuple: nothing allocated per robot and step
+    clear = c[_CLEAR_S] > 0 and c[_MATCH_LENGTH] - now <= c[_CLEAR_S]
+    if clear:
+        out, v, w = _leave(
+            p0, p1, cos_h, sin_h, -c[_BOX_X], -c[_BOX_Y], c[_BOX_HX], c[_BOX_HY], c[_CLEAR_M],
+            0.5 * c[_MAX_V],
+        )  # fmt: skip
+        if out:
+            return v, w
     if _is_committed(f, st, r, c):
         lx, ly = to_robot(st[r, _COMMIT_X], st[r, _COMMIT_Y], p0, p1, sin_h, cos_h)
         _aim(st, r, _GOAL, lx, ly)
         if now < st[r, _BACKOFF_UNTIL]:
             return backoff
-        return _reverse_onto(lx, ly, now, r, c, trail, trail_n, st)
+        return _reverse_onto(lx, ly, now, r, c, trail, trail_n, st, pose, clear)
     if now < st[r, _BACKOFF_UNTIL]:
         return backoff
     search = 0.0, 0.3 * c[_MAX_W]  # an empty slot: a slow turn in place
@@ -365,7 +462,7 @@ def _command(f, a, r, c, trail, trail_n, overflow, st):
             ax, ay = 0.0, 0.0
             if has_after:
                 ax, ay = np.float64(f[at + 3]) * unit, np.float64(f[at + 4]) * unit
-            return _pursue(tx, ty, now, has_after, ax, ay, r, c, trail, trail_n, st)
+            return _pursue(tx, ty, now, has_after, ax, ay, r, c, trail, trail_n, st, pose, clear)
         k -= 1
     if k < rings:
         at = int(c[_RING_AT]) + 3 * k
@@ -373,7 +470,7 @@ def _command(f, a, r, c, trail, trail_n, overflow, st):
             return search
         tx, ty = np.float64(f[at]) * unit, np.float64(f[at + 1]) * unit
         _aim(st, r, _RING, tx, ty)
-        return _pursue(tx, ty, now, False, 0.0, 0.0, r, c, trail, trail_n, st)
+        return _pursue(tx, ty, now, False, 0.0, 0.0, r, c, trail, trail_n, st, pose, clear)
     k -= rings
     if k < goals:
         at = int(c[_GOAL_AT]) + 3 * k
@@ -387,7 +484,7 @@ def _command(f, a, r, c, trail, trail_n, overflow, st):
             st[r, _COMMIT_UNTIL] = now + c[_COMMIT_S]
             st[r, _COMMITTED] = 1.0
         _aim(st, r, _GOAL, gx, gy)
-        return _reverse_onto(gx, gy, now, r, c, trail, trail_n, st)
+        return _reverse_onto(gx, gy, now, r, c, trail, trail_n, st, pose, clear)
     # The platform (skills.platform_plan): stop there, climb its lane, else drive to it.
     at = int(c[_TALL])
     tall = at >= 0 and np.float64(f[at]) > 0.5
@@ -410,7 +507,7 @@ def _command(f, a, r, c, trail, trail_n, overflow, st):
             st[r, _BACKOFF_TURN] = 0.0
             trail_n[r] = 0
         return v, w
-    return _pursue(lx, ly, now, False, 0.0, 0.0, r, c, trail, trail_n, st)
+    return _pursue(lx, ly, now, False, 0.0, 0.0, r, c, trail, trail_n, st, pose, clear)
 
 
 @nb.njit(cache=True, parallel=True)

@@ -17,6 +17,8 @@ from jetson.autonomy.skills import (
     THERE,
     SkillConfig,
     SkillDriver,
+    around,
+    leave,
     platform_plan,
     skill_config_from_dict,
 )
@@ -202,6 +204,65 @@ def test_the_rings_nearer_the_partner_are_left_to_it() -> None:
     assert w > 0
     with pytest.raises(ValueError, match="partner block"):
         SkillDriver(skills, ObservationSpec(n_stack=0))
+
+
+def test_the_endgame_keeps_clear_of_their_platform_and_climbs_at_the_end() -> None:
+    """keep_clear_s: late in the match, rings beside the other alliance's platform (SKILLS'
+    box turned about the centre: (0, +1.5), 0.3 x 0.6 half extents) are passed over;
+    climb_at_s: in the last seconds the platform is driven whatever the action."""
+    skills = replace(SKILLS, keep_clear_s=33.0, keep_clear_m=0.4, climb_at_s=20.0)
+    d = SkillDriver(skills, SPEC)
+    end = SPEC.match_length_s
+    # Facing +y from (0, 0.3): ring 0 at (0, 1.0) in the alliance frame, 0.2 m short of the
+    # other platform's near edge (y 0.9 .. 2.1); ring 1 at (0.8, 0.3), 0.5 m to its side.
+    rings = [(0.0, 0.7), (0.8, 0.0)]
+    favours = np.array([1.0, 0.5, -1.0, -1.0, -1.0])
+    assert d.option(favours, frame(rings, x=0.0, y=0.3, t=end - 40)) == RING0
+    assert d.option(favours, frame(rings, x=0.0, y=0.3, t=end - 30)) == RING1
+    # Facing the other way from (0.2, 2.6) behind the board: ring 0 (0.8 m ahead, at y 1.8)
+    # is over it; ring 1 (1.4 m to the right, at (-1.2, 2.6)) is clear of it by 0.9 m.
+    behind = frame([(0.0, 0.8), (1.4, 0.0)], x=0.2, y=2.6, heading=180.0, t=end - 25)
+    assert d.option(favours, behind) == RING1
+    # Every ring beside it: the platform (nobody's); 20 s left: the platform, even so.
+    then_platform = np.array([1.0, 0.5, -1.0, -1.0, -0.5])
+    assert d.option(then_platform, frame([(0.0, 0.7), (0.3, 0.9)], y=0.3, t=end - 25)) == PLATFORM
+    assert d.option(favours, frame(rings, y=0.3, t=end - 20)) == PLATFORM
+    _, w = d.command(frame(rings, y=0.3, t=end - 20), favours)  # to its own board, behind it
+    assert d.target is not None and d.target[0] == "platform" and w != 0
+    # Off (the defaults): the best score to the end.
+    assert SkillDriver(SKILLS, SPEC).option(favours, frame(rings, y=0.3, t=end - 1)) == RING0
+    with pytest.raises(ValueError, match="platform option"):
+        SkillDriver(replace(skills, platform=False), SPEC)
+
+
+def test_the_way_goes_round_their_platform_and_a_robot_beside_it_leaves_straight() -> None:
+    """around: a straight way that misses the grown box is kept; one through it goes by the
+    field-side corner that makes it shortest. leave: inside the grown box, straight out
+    forward or back, never turning; along its side, toward the field's centre."""
+    box, m = (1.524, 0.0, 0.305, 0.635), 0.5  # the blue platform seen by red
+    assert around(0.0, 1.5, 0.5, -1.5, box, m) == (0.5, -1.5)  # misses the box (x < 0.719)
+    x, y = around(0.9, 1.5, 0.9, -1.5, box, m)  # straight through: round its field side
+    assert x == pytest.approx(1.524 - 0.805 - 0.05) and abs(y) == pytest.approx(1.185)
+    assert around(0.9, 1.5, 0.9, -1.5, box, m)[1] > 0  # the corner on the robot's side first
+    assert around(0.5, -0.2, 1.0, 1.6, box, m)[1] > 0  # ... or the shorter way from level
+    # Inside the grown box, facing it: reverse; its back to it: forward.
+    assert leave(1.0, 0.0, 0.0, 1.0, box, m, 0.5) == (-0.5, 0.0)  # heading +x (sin_h 1)
+    assert leave(1.0, 0.0, 0.0, -1.0, box, m, 0.5) == (0.5, 0.0)
+    # Along its side (heading +x at y 0.9, beside it): toward the centre, backwards here.
+    assert leave(1.4, 0.9, 0.0, 1.0, box, m, 0.5) == (-0.5, 0.0)
+    assert leave(0.6, 0.0, 0.0, 1.0, box, m, 0.5) is None  # 0.62 m off: clear
+    # The driver in the endgame: facing their platform 0.4 m off, it backs straight away; a
+    # ring beyond it is reached round its corner.
+    skills = replace(SKILLS, platform_box=(-1.524, 0.0, 0.305, 0.635), keep_clear_s=33.0)
+    d = SkillDriver(skills, SPEC)
+    end = SPEC.match_length_s
+    v, w = d.command(frame([(0.0, 0.5)], x=0.8, y=0.0, heading=90.0, t=end - 20), pick(RING0))
+    assert (v, w) == (-0.5 * skills.max_linear_mps, 0.0) and d.target is None
+    d.reset()
+    far = frame([(0.0, 3.0)], x=0.9, y=-1.5, t=end - 20)  # heading +y, ring at (0.9, 1.5)
+    _, w = d.command(far, pick(RING0))
+    assert w < 0  # turns left, for the corner at (0.67, -1.19)
+    assert SkillDriver(replace(skills, keep_clear_s=0.0), SPEC).command(far, pick(RING0))[1] == 0
 
 
 def test_both_robots_of_an_alliance_end_up_on_their_board_apart() -> None:

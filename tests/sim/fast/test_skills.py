@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from jetson.autonomy.geometry import robot_to_field
-from jetson.autonomy.skills import SkillDriver
+from jetson.autonomy.skills import SkillDriver, leave
 from sim.fast.matches import FastMatches
 from sim.fast.planner import INTENTS
 from sim.fast.skills import TARGET_KINDS, FastSkillDrivers, OptionLabels
@@ -60,6 +60,7 @@ def _drive_and_compare(
     pick = draw((n, robots))
     seen: Counter[str] = Counter()
     rows = np.arange(n)
+    unit = fm.spec.length_unit_m
     for step in range(steps):
         change = rng.random((n, robots)) < 0.08
         pick = np.where(change, draw((n, robots)), pick)
@@ -84,9 +85,17 @@ def _drive_and_compare(
                 seen["committed"] += int(busy[k])
                 seen["backing off"] += int(driver._backoff_until > now)
                 seen[skills.option_names()[driver.option(scores[k, i])]] += 1
-                # split_with_partner: the best option's ring or goal is the partner's.
-                left = driver.option(scores[k, i], obs[k]) != driver.option(scores[k, i])
-                seen["left to the partner"] += int(left and not busy[k])
+                # split_with_partner, keep_clear_s: the best option's ring or goal is the
+                # partner's or beside the other platform; climb_at_s: the platform.
+                passed = driver.option(scores[k, i], obs[k]) != driver.option(scores[k, i])
+                seen["passed over"] += int(passed and not busy[k])
+                late = fm.spec.match_length_s - now <= skills.climb_at_s
+                seen["endgame climb"] += int(late and not busy[k])
+                if fm.spec.match_length_s - now <= skills.keep_clear_s:
+                    x, y, cos_h, sin_h = obs[k, 1:5].astype(float) * (unit, unit, 1, 1)
+                    cx, cy, hx, hy = skills.platform_box
+                    out = leave(x, y, cos_h, sin_h, (-cx, -cy, hx, hy), skills.keep_clear_m, 1)
+                    seen["leaving their platform"] += int(out is not None)
                 want = driver.command(obs[k], scores[k, i])
                 assert (lin[k], ang[k]) == pytest.approx(want, rel=0, abs=1e-12), where
                 # What it drove to (the partner report's claim): SkillDriver.target.
@@ -132,7 +141,26 @@ def test_the_batched_controller_shares_the_platform_as_skill_driver() -> None:
     fm.set_kinds([("policy", -1)] * 8)
     seen = _drive_and_compare(fm, 520, favourite=env.skills.n_options - 1, seed=1)
     assert seen["platform"] > 2000 and seen["stopped"] > 20 and seen["backing off"] > 0, seen
-    assert seen["left to the partner"] > 20, seen
+    assert seen["passed over"] > 20, seen
+
+
+def test_the_batched_controller_keeps_the_endgame_as_skill_driver() -> None:
+    """The shipped controller with the endgame on from early in these short matches (the other
+    alliance's platform kept clear of all along, widely; the climb from the 12th second): every
+    option passed over beside that platform and every endgame climb equal to SkillDriver's."""
+    env = load_config("alliance").env_config()
+    assert env.skills is not None
+    skills = replace(
+        env.skills, share_platform=True, split_with_partner=True, keep_clear_s=120.0,
+        keep_clear_m=1.2, climb_at_s=108.0,
+    )  # fmt: skip
+    env = replace(env, max_steps=400, skills=skills)
+    fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=8), seed=4)
+    fm.set_kinds([("policy", -1)] * 8)
+    seen = _drive_and_compare(fm, 520, seed=2)
+    assert seen["passed over"] > 100 and seen["endgame climb"] > 500, seen
+    assert seen["leaving their platform"] > 20, seen
+    assert seen["stopped"] > 0 and seen["claims ring"] > 100, seen
 
 
 def test_fast_matches_drive_their_robots_with_the_controllers() -> None:
