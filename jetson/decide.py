@@ -419,7 +419,9 @@ class Decider:
                     0.0, 0.0, False, "error", seen, len(rings), f"{type(exc).__name__}: {exc}"
                 )
             k = pose_speed_scale(state, self.config)
-            return Decision(k * linear, k * angular, True, "policy", seen, len(rings))
+            # The controller lets go of a goal in a tug of war it loses (release_dragged_s).
+            clamp = ClampAction.RELEASE if self._driver.release else ClampAction.LEAVE
+            return Decision(k * linear, k * angular, True, "policy", seen, len(rings), clamp=clamp)
         action = np.clip(action, -1.0, 1.0)
         linear, angular = (action[:2] * self._scale * pose_speed_scale(state, self.config)).tolist()
         i = self._intake_index

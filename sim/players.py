@@ -102,7 +102,9 @@ class PolicyPlayer:
             if core.claims:
                 core.claims[index] = None  # a stop claims nothing
             return DriveCommand(0.0, 0.0)
-        command = DriveCommand(*self._driver.command(obs, action))
+        linear, angular = self._driver.command(obs, action)
+        # The controller lets go of a goal in a tug of war it loses (release_dragged_s).
+        command = DriveCommand(linear, angular, clamp=False if self._driver.release else None)
         core.claim(index, self._driver)  # its skill's target: its partner's observation reads it
         return command
 

@@ -19,6 +19,7 @@ bumper is backed away from, a robot that stops moving while driving backs off.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import deque
 from dataclasses import dataclass, fields
@@ -64,6 +65,13 @@ class SkillConfig:
     keep_clear_s: float = 0.0
     keep_clear_m: float = 0.5
     climb_at_s: float = 0.0
+    # A tug of war (0: off; needs the goal memory's clamp flag): a robot whose clamp holds a goal
+    # and that moves in ways its own commands do not move it (sideways, against them: more than
+    # DRAG_M over DRAG_WINDOW_S, SkillDriver._dragged) is dragged by another robot that holds
+    # the goal too and pulls harder. It lets go (`release`: the clamp opens) and drives straight
+    # ahead, away from the goal at its back, for release_dragged_s, then passes over the goal
+    # options for RELEASED_NO_GOALS_S.
+    release_dragged_s: float = 0.0
     # The robot's size and top speeds (filled from the robot's config by the simulator and
     # saved with the policy, so the Jetson drives the robot the policy was trained on).
     robot_length_m: float = 0.381
@@ -88,7 +96,8 @@ class SkillConfig:
                     "platform_speed_mps")  # fmt: skip
         bad = [k for k in positive if not getattr(self, k) > 0]
         at_least_0 = ("commit_goal_s", "stuck_distance_m", "backoff_s", "split_margin_m",
-                      "keep_clear_s", "keep_clear_m", "climb_at_s")  # fmt: skip
+                      "keep_clear_s", "keep_clear_m", "climb_at_s",
+                      "release_dragged_s")  # fmt: skip
         bad += [k for k in at_least_0 if getattr(self, k) < 0]
         if len(self.platform_box) != 4 or min(self.platform_box[2:], default=0) <= 0:
             bad.append("platform_box")
@@ -124,6 +133,13 @@ class SkillConfig:
             raise ValueError("skills: split_with_partner needs the observation's partner block")
         if self.climb_at_s > 0 and not self.platform:
             raise ValueError("skills: climb_at_s needs the platform option")
+        if self.release_dragged_s > 0 and not spec.goal_memory:
+            raise ValueError("skills: release_dragged_s needs the goal memory's clamp flag")
+
+
+DRAG_WINDOW_S = 2.0  # release_dragged_s: how long a robot's moves are compared with its commands
+DRAG_M = 0.8  # ... and how far it must have moved against them to be dragged
+RELEASED_NO_GOALS_S = 5.0  # after letting go, the goal options are passed over this long
 
 
 class Trail:
@@ -406,6 +422,12 @@ class SkillDriver:
         # The option the last command() drove (option(action, obs): split_with_partner may
         # pass the best score over); None while a goal manoeuvre or a back-off ran instead.
         self.driven: int | None = None
+        # Whether the last command() lets go of the goal (release_dragged_s): the clamp opens.
+        self.release = False
+        # Its commands with the pose each was given at: (t, x, y, sin_h, cos_h, linear m/s).
+        self._moves: deque[tuple[float, float, float, float, float, float]] = deque()
+        self._release_until = -1.0
+        self._no_goals_until = -1.0
 
     def reset(self) -> None:
         self._trail.clear()
@@ -413,6 +435,10 @@ class SkillDriver:
         self._commit_point = None
         self.target = None
         self.driven = None
+        self.release = False
+        self._moves.clear()
+        self._release_until = -1.0
+        self._no_goals_until = -1.0
 
     def committed(self, obs: NDArray[np.floating]) -> bool:
         """Whether the next command() ignores its action: a goal manoeuvre is under way (the
@@ -445,12 +471,16 @@ class SkillDriver:
             return c.n_options - 1
         split = c.split_with_partner and f[s.partner_offset + 2] > 0.5
         clear = c.keep_clear_s > 0 and left <= c.keep_clear_s
-        if not (split or clear):
+        no_goals = float(f[0]) * s.match_length_s < self._no_goals_until
+        if not (split or clear or no_goals):
             return best
+        first_goal = int(c.route_option) + c.ring_options
         unit = s.length_unit_m
         mx, my = (float(f[s.partner_offset + k]) * unit for k in (0, 1)) if split else (0.0, 0.0)
         cx, cy, hx, hy = c.platform_box
         for k in np.argsort(-a, kind="stable"):
+            if no_goals and first_goal <= k < first_goal + c.goal_options:
+                continue
             point = self._option_point(f, int(k))
             if point is None:
                 return int(k)
@@ -485,11 +515,65 @@ class SkillDriver:
     def command(
         self, obs: NDArray[np.floating], action: NDArray[np.floating]
     ) -> tuple[float, float]:
-        """(linear m/s, angular rad/s clockwise) for the stacked observation and the action."""
+        """(linear m/s, angular rad/s clockwise) for the stacked observation and the action;
+        `release` says whether the clamp is to open with it."""
         s, c = self.spec, self.config
         f = np.asarray(obs, dtype=np.float64)[: s.frame_size]
-        unit = s.length_unit_m
         now = float(f[0]) * s.match_length_s
+        self.release = False
+        if c.release_dragged_s <= 0:
+            return self._command(f, obs, action, now)
+        x, y = float(f[1]) * s.length_unit_m, float(f[2]) * s.length_unit_m
+        clamped = float(f[s.scalar_index("clamped")]) > 0.5
+        sin_h, cos_h = float(f[4]), float(f[3])
+        if now < self._release_until or (clamped and self._dragged(now, x, y, sin_h, cos_h)):
+            if now >= self._release_until:  # it lets go now
+                self._release_until = now + c.release_dragged_s
+                self._no_goals_until = now + RELEASED_NO_GOALS_S
+                self._commit_point = None
+                self._moves.clear()
+            self._trail.push(now, x, y)
+            self.target = self.driven = None
+            self.release = True
+            return 0.5 * self.v_max, 0.0
+        v, w = self._command(f, obs, action, now)
+        self._moves.append((now, x, y, sin_h, cos_h, v))
+        while self._moves[0][0] < now - DRAG_WINDOW_S:
+            self._moves.popleft()
+        return v, w
+
+    def _dragged(self, now: float, x: float, y: float, sin_h: float, cos_h: float) -> bool:
+        """Over the last DRAG_WINDOW_S (nearly all of it recorded) the robot moved more than
+        DRAG_M in a way its own commands do not move it: sideways (a differential drive cannot),
+        back against the way it was told to drive, or along while told to turn in place. Each
+        step's move is split along and across the mean of its two headings (arcs move along)
+        and the parts are summed with their signs, so the pose's noise cancels out and a robot
+        that is slower than told (speeding up, or held) is not dragged."""
+        m = (*self._moves, (now, x, y, sin_h, cos_h, 0.0))
+        if len(m) < 3 or now - m[0][0] < 0.9 * DRAG_WINDOW_S:
+            return False
+        side = against = still = 0.0
+        for a, b in itertools.pairwise(m):
+            hx, hy = a[3] + b[3], a[4] + b[4]  # the mean heading's (sin, cos), unnormalised
+            n = math.hypot(hx, hy)
+            if n < 1e-9:
+                continue  # half a turn in one step: no mean heading
+            dx, dy = b[1] - a[1], b[2] - a[2]
+            along = (dx * hx + dy * hy) / n
+            side += (dx * hy - dy * hx) / n
+            told = a[5]
+            if abs(told) < 0.05:
+                still += along
+            else:
+                against -= along if told > 0 else -along
+        return max(abs(side), against, abs(still)) > DRAG_M
+
+    def _command(
+        self, f: NDArray[np.float64], obs: NDArray[np.floating], action: NDArray[np.floating],
+        now: float,
+    ) -> tuple[float, float]:  # fmt: skip
+        s, c = self.spec, self.config
+        unit = s.length_unit_m
         pos = f[1:3] * unit
         self._trail.push(now, float(pos[0]), float(pos[1]))
         self.target = None

@@ -101,6 +101,12 @@ class FastSkillDrivers:
     ) -> None:
         for config in configs:
             config.check(spec)
+            if config.release_dragged_s > 0:
+                raise ValueError(
+                    "skills: the batched controller does not let go in a tug of war "
+                    "(release_dragged_s): train with it off and set it on the exported policy "
+                    "(pete-sim export --skill release_dragged_s=1.0)"
+                )
         self.configs = tuple(configs)
         self.spec = spec
         self.n = n_matches

@@ -19,6 +19,7 @@ from jetson.settings import DecisionConfig
 from jetson.testing import ProbePolicy
 from protocol.messages import (
     Alliance,
+    ClampAction,
     Command,
     GpsStatus,
     MatchPhase,
@@ -185,6 +186,28 @@ def test_a_skill_policy_claims_its_skills_target_in_the_field_frame() -> None:
     assert c.target == TargetKind.PLATFORM and c.xy == pytest.approx((0.0, -1.2), abs=1e-6)
     d.decide(state(200, phase=MatchPhase.DISABLED), seen)  # a stop claims nothing
     assert d.claim(state(200)).target == TargetKind.NOTHING
+
+
+def test_a_skill_policy_dragged_by_its_goal_opens_the_clamp() -> None:
+    """release_dragged_s through the decision: the Brain reports the clamp closed while the
+    GPS carries the robot sideways as it drives ahead; the decision asks the clamp to open."""
+
+    class RingPolicy(ProbePolicy):
+        action_names = ("ring0", "goal0", "platform")
+        action_scale = (1.0, 1.0, 1.0)
+
+        def __call__(self, obs):
+            return np.array([1.0, -1.0, -1.0], dtype=np.float32)
+
+    policy = RingPolicy(ObservationSpec(version=6, n_stack=0, goal_memory=True))
+    policy.skills = SkillConfig(ring_options=1, goal_options=1, release_dragged_s=1.0)
+    d = Decider(policy)
+    seen = PerceptionInput(1, 0.05, np.array([[0.0, 1.5]]))  # a ring ahead: drive at it
+    clamps = []
+    for k in range(30):  # 0.5 m/s sideways (+y; the robot faces +x) for 2.5 s, clamped
+        s = state(1000 + 83 * k, y=0.04 * k, goal_clamped=1, match_ms=20000 + 83 * k)
+        clamps.append(d.decide(s, seen).clamp)
+    assert clamps[0] == ClampAction.LEAVE and clamps[-1] == ClampAction.RELEASE
 
 
 def test_the_partner_a_decision_was_given_is_recorded_for_replay(tmp_path) -> None:

@@ -265,6 +265,44 @@ def test_the_way_goes_round_their_platform_and_a_robot_beside_it_leaves_straight
     assert SkillDriver(replace(skills, keep_clear_s=0.0), SPEC).command(far, pick(RING0))[1] == 0
 
 
+def test_a_robot_dragged_by_its_goal_lets_go_and_leaves_the_goals_a_while() -> None:
+    """release_dragged_s: clamped, driving ahead (+y) at full speed yet carried sideways (a
+    robot of the other alliance holds the goal too and pulls harder): after 2 s of it
+    the controller opens the clamp and drives straight ahead for release_dragged_s, then passes
+    over the goal options for RELEASED_NO_GOALS_S. Moving as commanded, or not at all (stuck),
+    is not being dragged."""
+    skills = replace(SKILLS, release_dragged_s=1.0)
+    goal_ahead = pick(GOAL0)
+
+    def run(step_xy: tuple[float, float], clamped: bool = True) -> SkillDriver:
+        d = SkillDriver(skills, SPEC)
+        for k in range(25):  # 2 s at 12 Hz, a ring ahead to drive at (not held)
+            view = RobotView(
+                x=step_xy[0] * k, y=step_xy[1] * k, heading_deg=0.0, alliance="red",
+                time_s=20.0 + k / 12, rings_robot_xy=np.array([[0.0, 2.0]]),
+                goals_robot_xy=np.array([[0.0, -1.5]]), goal_clamped=clamped,
+            )  # fmt: skip
+            d.command(build_frame(SPEC, view), pick(RING0))
+        return d
+
+    assert not run((0.0, 1.0 / 12)).release  # moved as told: 1 m/s ahead
+    assert not run((0.0, 0.3 / 12)).release  # slower than told (speeding up, or held back)
+    assert run((0.0, -0.5 / 12)).release  # 1 m backward while told ahead: dragged
+    assert not run((0.0, 0.0)).release  # stuck: not dragged
+    assert not run((0.04, 0.0), clamped=False).release  # no goal held: pushed, not dragged
+    d = run((0.04, 0.0))  # 0.96 m sideways in 2 s, clamped: dragged
+    assert d.release and d.target is None
+    later = frame([(0.0, 2.0)], [(0.0, -1.5)], x=1.0, t=22.5)
+    assert d.command(later, goal_ahead) == (0.5 * skills.max_linear_mps, 0.0) and d.release
+    # Let go (the clamp open): the goal options are passed over for a while, then not.
+    assert d.option(goal_ahead, frame([(0.0, 2.0)], [(0.0, -1.5)], t=24.0)) != GOAL0
+    d.command(frame([(0.0, 2.0)], [(0.0, -1.5)], t=24.0), goal_ahead)
+    assert not d.release
+    assert d.option(goal_ahead, frame([(0.0, 2.0)], [(0.0, -1.5)], t=27.5)) == GOAL0
+    with pytest.raises(ValueError, match="clamp flag"):
+        SkillDriver(replace(skills, goal_options=0), ObservationSpec(n_stack=0))
+
+
 def test_both_robots_of_an_alliance_end_up_on_their_board_apart() -> None:
     """The twin: both red robots of tipping_point_2v2 drive the platform skill from their starts
     (the other alliance idle), 6 seeded matches of 45 s: in 5 at least, both stand on the board

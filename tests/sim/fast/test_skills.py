@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from jetson.autonomy.geometry import robot_to_field
-from jetson.autonomy.skills import SkillDriver, leave
+from jetson.autonomy.skills import SkillConfig, SkillDriver, leave
+from jetson.autonomy.spec import ObservationSpec
 from sim.fast.matches import FastMatches
 from sim.fast.planner import INTENTS
 from sim.fast.skills import TARGET_KINDS, FastSkillDrivers, OptionLabels
@@ -253,3 +254,12 @@ def test_the_batched_labels_equal_intent_label() -> None:
     for option in range(skills.n_options):
         assert labelled[option] > 0, labelled
     assert labelled[-1] > 0, labelled
+
+
+def test_the_batched_controller_refuses_what_it_does_not_run() -> None:
+    """Letting go in a tug of war (release_dragged_s) is SkillDriver's only: a clear error, not
+    a controller that drives differently."""
+    spec = ObservationSpec(n_stack=0, goal_memory=True, goal_clamp_offset_m=0.35)
+    skills = SkillConfig(ring_options=2, goal_options=2, release_dragged_s=1.0)
+    with pytest.raises(ValueError, match="release_dragged_s"):
+        FastSkillDrivers([skills] * 2, spec, 2, 1 / 12)
