@@ -200,7 +200,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
 # driven, not which options there are (the network's outputs) nor the robot's size and speeds
 # (taken from the robot's config).
 EXPORT_SKILLS = (
-    "route_through_next", "commit_goal_s", "share_platform", "platform_lanes_m",
+    "route_through_next", "commit_goal_s", "share_platform", "platform_lanes_m", "platform_past_m",
     "platform_speed_mps", "split_with_partner", "split_margin_m", "keep_clear_s",
     "keep_clear_m", "climb_at_s", "release_dragged_s", "lookahead_m", "turn_gain",
     "turn_in_place_rad", "stuck_window_s", "stuck_distance_m", "backoff_s",

@@ -50,6 +50,12 @@ class SkillConfig:
     share_platform: bool = False
     platform_lanes_m: tuple[float, float] = (-0.3, 0.4)
     platform_speed_mps: float = 0.35
+    # With share_platform: how far past the hinge (toward the wall) a robot that climbs with a
+    # goal stops, the tall robot's first. The goal rides behind it, over the board's field edge;
+    # the robot's own weight past the hinge balances it (two goals at the hinge tip the board).
+    # A robot must stay on the board to be Elevated: the 24" has the overhang's few cm, the 15"
+    # about 0.16 m.
+    platform_past_m: tuple[float, float] = (0.0, 0.0)
     # Split the field with the partner (needs the observation's partner block): the rings and
     # goals nearer the partner's reported position than this robot, by more than
     # split_margin_m, are the partner's; option() passes over their options for the best one
@@ -103,6 +109,8 @@ class SkillConfig:
             bad.append("platform_box")
         if len(self.platform_lanes_m) != 2:
             bad.append("platform_lanes_m")
+        if len(self.platform_past_m) != 2 or min(self.platform_past_m, default=0) < 0:
+            bad.append("platform_past_m")
         if bad:
             raise ValueError(f"skills: out of range: {bad}")
 
@@ -258,10 +266,16 @@ PLATFORM_AIM_M = 1.0  # a climbing robot steers at its lane's point this far pas
 
 
 def platform_plan(
-    config: SkillConfig, tall: bool, x: float, y: float, partner: tuple[float, float] | None
+    config: SkillConfig,
+    tall: bool,
+    x: float,
+    y: float,
+    partner: tuple[float, float] | None,
+    carrying: bool = False,
 ) -> tuple[int, float, float, float]:
     """The platform skill for a robot at alliance-frame (x, y): (mode, target x, target y,
-    how far the robot stands from the hinge toward the field).
+    how far the robot stands from where it stops, toward the field: the hinge, or with
+    share_platform and a goal carried, platform_past_m past it).
 
     Without share_platform: the platform's centre, THERE well inside it, else STAGE (pursue
     it). With it, in the robot's own lane: THERE at the hinge, CLIMB between the stage and the
@@ -290,6 +304,10 @@ def platform_plan(
     mode, t_d = STAGE, c_d + side * stage
     if abs(ell - lane) < PLATFORM_LANE_M and -h_d < ahead < stage + 0.1:
         mode, t_d = (THERE if abs(ahead) < PLATFORM_HINGE_M else CLIMB), c_d - side * PLATFORM_AIM_M
+    if carrying:  # the stop is past the hinge: its weight there balances the goal behind it
+        ahead += config.platform_past_m[0 if tall else 1]
+        if mode != STAGE:
+            mode = THERE if abs(ahead) < PLATFORM_HINGE_M else CLIMB
     return ((mode, lane, t_d) if flip else (mode, t_d, lane)) + (ahead,)
 
 
@@ -683,7 +701,10 @@ class SkillDriver:
             at = s.partner_offset
             mate = _to_alliance(f[at : at + 2] * s.length_unit_m, pos, float(f[3]), float(f[4]))
             partner = (float(mate[0]), float(mate[1]))
-        mode, tx, ty, ahead = platform_plan(c, tall, float(pos[0]), float(pos[1]), partner)
+        carrying = s.goal_memory and float(f[s.scalar_index("clamped")]) > 0.5
+        mode, tx, ty, ahead = platform_plan(
+            c, tall, float(pos[0]), float(pos[1]), partner, carrying
+        )
         local = _to_robot(np.array([tx, ty]), pos, float(f[3]), float(f[4]))
         self.target = ("platform", (float(local[0]), float(local[1])))
         if mode == THERE:

@@ -64,7 +64,7 @@ Bool = NDArray[np.bool_]
  _MAX_W, _LOOKAHEAD, _TURN_GAIN, _TURN_IN_PLACE, _COMMIT_S, _WINDOW, _STUCK_M, _BACKOFF, _UNIT,
  _MATCH_LENGTH, _ROUTE_AT, _RING_AT, _GOAL_AT, _CLAMPED, _SHARE, _LANE_TALL, _LANE_OTHER,
  _CLIMB_V, _TALL, _PARTNER_AT, _SPLIT, _SPLIT_M, _CLEAR_S, _CLEAR_M,
- _CLIMB_AT) = range(36)  # fmt: skip
+ _CLIMB_AT, _PAST_TALL, _PAST_OTHER) = range(38)  # fmt: skip
 # Columns of a controller's state: SkillDriver's back-off and committed goal manoeuvre, and
 # what its last command drove to (SkillDriver.target: TARGET_KINDS' index, robot-frame point).
 (_BACKOFF_UNTIL, _BACKOFF_TURN, _COMMITTED, _COMMIT_X, _COMMIT_Y, _COMMIT_UNTIL, _TARGET,
@@ -88,7 +88,7 @@ def config_row(config: SkillConfig, spec: ObservationSpec) -> list[float]:
         spec.match_length_s, spec.route_offset, spec.ring_offset, spec.goal_offset, clamped,
         float(c.share_platform), *c.platform_lanes_m, c.platform_speed_mps, tall, partner,
         float(c.split_with_partner), c.split_margin_m, c.keep_clear_s, c.keep_clear_m,
-        c.climb_at_s,
+        c.climb_at_s, *c.platform_past_m,
     ]  # fmt: skip
 
 
@@ -388,9 +388,10 @@ def _aim(st, r, kind, x, y):
 
 
 @nb.njit(cache=True)
-def _platform_plan(c, tall, x, y, known, mx, my):
+def _platform_plan(c, tall, x, y, known, mx, my, carrying):
     """skills.platform_plan for a robot at alliance-frame (x, y), its partner at (mx, my) when
-    known: (mode: STAGE, CLIMB or THERE, target x, target y, metres from the hinge)."""
+    known, carrying a goal or not: (mode: STAGE, CLIMB or THERE, target x, target y, metres
+    from where it stops)."""
     cx, cy, hx, hy = c[_BOX_X], c[_BOX_Y], c[_BOX_HX], c[_BOX_HY]
     if not c[_SHARE] > 0.5:
         inside = abs(x - cx) < hx - 0.2 and abs(y - cy) < hy - 0.2
@@ -408,6 +409,10 @@ def _platform_plan(c, tall, x, y, known, mx, my):
     mode, t_d = STAGE, c_d + side * stage
     if abs(ell - lane) < PLATFORM_LANE_M and -h_d < ahead < stage + 0.1:
         mode, t_d = (THERE if abs(ahead) < PLATFORM_HINGE_M else CLIMB), c_d - side * PLATFORM_AIM_M
+    if carrying:
+        ahead += c[_PAST_TALL] if tall else c[_PAST_OTHER]
+        if mode != STAGE:
+            mode = THERE if abs(ahead) < PLATFORM_HINGE_M else CLIMB
     if flip:
         return mode, lane, t_d, ahead
     return mode, t_d, lane, ahead
@@ -500,7 +505,9 @@ def _command(f, a, r, c, trail, trail_n, overflow, st):
         # skills._to_alliance of the partner's robot-frame point.
         qx, qy = np.float64(f[at]) * unit, np.float64(f[at + 1]) * unit
         known, mx, my = True, p0 + qx * cos_h + qy * sin_h, p1 - qx * sin_h + qy * cos_h
-    mode, sx, sy, ahead = _platform_plan(c, tall, p0, p1, known, mx, my)
+    at = int(c[_CLAMPED])
+    carrying = at >= 0 and np.float64(f[at]) > 0.5
+    mode, sx, sy, ahead = _platform_plan(c, tall, p0, p1, known, mx, my, carrying)
     lx, ly = to_robot(sx, sy, p0, p1, sin_h, cos_h)
     _aim(st, r, _PLATFORM_TARGET, lx, ly)
     if mode == THERE:

@@ -138,6 +138,15 @@ def test_two_robots_share_the_platform_each_up_its_own_lane() -> None:
     assert (mode, y) == (CLIMB, -0.3) and x < hinge and ahead == pytest.approx(0.6048)
     assert platform_plan(SHARED, True, hinge + 0.01, -0.3, None)[0] == THERE
     assert platform_plan(SHARED, True, hinge - 0.1, -0.3, None)[0] == CLIMB
+    # Carrying a goal, with platform_past_m: the stop moves past the hinge toward the wall (x
+    # below the hinge here), the tall robot's 0.05, the other's 0.15; the hinge is no stop.
+    past = replace(SHARED, platform_past_m=(0.05, 0.15))
+    assert platform_plan(past, True, hinge + 0.01, -0.3, None, carrying=True)[0] == CLIMB
+    assert platform_plan(past, True, hinge - 0.05, -0.3, None, carrying=True)[0] == THERE
+    mode, _, _, ahead = platform_plan(past, False, hinge, 0.4, None, carrying=True)
+    assert mode == CLIMB and ahead == pytest.approx(0.15)
+    assert platform_plan(past, False, hinge - 0.15, 0.4, None, carrying=True)[0] == THERE
+    assert platform_plan(past, False, hinge, 0.4, None)[0] == THERE  # no goal: the hinge
     # Without share_platform: the centre, as one robot drives it.
     alone = replace(SHARED, share_platform=False)
     assert platform_plan(alone, True, 0.0, -1.0, None)[:3] == (STAGE, -1.524, 0.0)

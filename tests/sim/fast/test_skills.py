@@ -147,13 +147,14 @@ def test_the_batched_controller_shares_the_platform_as_skill_driver() -> None:
 
 def test_the_batched_controller_keeps_the_endgame_as_skill_driver() -> None:
     """The shipped controller with the endgame on from early in these short matches (the other
-    alliance's platform kept clear of all along, widely; the climb from the 12th second): every
-    option passed over beside that platform and every endgame climb equal to SkillDriver's."""
+    alliance's platform kept clear of all along, widely; the climb from the 12th second, with
+    the goals carried stopping past the hinge): every option passed over beside that platform
+    and every endgame climb equal to SkillDriver's."""
     env = load_config("alliance").env_config()
     assert env.skills is not None
     skills = replace(
         env.skills, share_platform=True, split_with_partner=True, keep_clear_s=120.0,
-        keep_clear_m=1.2, climb_at_s=108.0,
+        keep_clear_m=1.2, climb_at_s=108.0, platform_past_m=(0.05, 0.15),
     )  # fmt: skip
     env = replace(env, max_steps=400, skills=skills)
     fm = FastMatches(env, RolloutConfig(workers=0, envs_per_worker=8), seed=4)
