@@ -495,7 +495,7 @@ class SkillDriver:
         first_goal = int(c.route_option) + c.ring_options
         unit = s.length_unit_m
         mx, my = (float(f[s.partner_offset + k]) * unit for k in (0, 1)) if split else (0.0, 0.0)
-        cx, cy, hx, hy = c.platform_box
+        cx, cy, hx, hy = self._their_box
         for k in np.argsort(-a, kind="stable"):
             if no_goals and first_goal <= k < first_goal + c.goal_options:
                 continue
@@ -508,7 +508,7 @@ class SkillDriver:
             if clear:
                 q = _to_alliance(np.array(point), f[1:3] * unit, float(f[3]), float(f[4]))
                 m = c.keep_clear_m
-                if abs(q[0] + cx) < hx + m and abs(q[1] + cy) < hy + m:
+                if abs(q[0] - cx) < hx + m and abs(q[1] - cy) < hy + m:
                     continue
             return int(k)
         return best
@@ -540,7 +540,7 @@ class SkillDriver:
         now = float(f[0]) * s.match_length_s
         self.release = False
         if c.release_dragged_s <= 0:
-            return self._command(f, obs, action, now)
+            return self._command(f, action, now)
         x, y = float(f[1]) * s.length_unit_m, float(f[2]) * s.length_unit_m
         clamped = float(f[s.scalar_index("clamped")]) > 0.5
         sin_h, cos_h = float(f[4]), float(f[3])
@@ -554,7 +554,7 @@ class SkillDriver:
             self.target = self.driven = None
             self.release = True
             return 0.5 * self.v_max, 0.0
-        v, w = self._command(f, obs, action, now)
+        v, w = self._command(f, action, now)
         self._moves.append((now, x, y, sin_h, cos_h, v))
         while self._moves[0][0] < now - DRAG_WINDOW_S:
             self._moves.popleft()
@@ -587,9 +587,8 @@ class SkillDriver:
         return max(abs(side), against, abs(still)) > DRAG_M
 
     def _command(
-        self, f: NDArray[np.float64], obs: NDArray[np.floating], action: NDArray[np.floating],
-        now: float,
-    ) -> tuple[float, float]:  # fmt: skip
+        self, f: NDArray[np.float64], action: NDArray[np.floating], now: float
+    ) -> tuple[float, float]:
         s, c = self.spec, self.config
         unit = s.length_unit_m
         pos = f[1:3] * unit
@@ -602,7 +601,7 @@ class SkillDriver:
             out = leave(*self._pose, self._their_box, c.keep_clear_m, 0.5 * self.v_max)
             if out is not None:
                 return out
-        if self.committed(obs):
+        if self.committed(f):
             local = _to_robot(self._commit_point, pos, float(f[3]), float(f[4]))
             self.target = ("goal", (float(local[0]), float(local[1])))
             if now < self._backoff_until:
