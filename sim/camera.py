@@ -2,6 +2,7 @@
 
     frame = render_camera(world, robot_index)             # the robot's configured camera
     frame = render_camera(world, 0, cam.scaled(320, 240))  # another resolution, same optics
+    rgb, depth = render_view(world, robot_index)          # the same, without the ground truth
 
 The projection is built from the pinhole intrinsics (fx, fy, cx, cy), so a ring's pixel in the
 render is where sim.visibility's projection puts it; depth is z along the optical axis in metres
@@ -74,12 +75,11 @@ def view_matrix(pose: CameraPose) -> list[float]:
     return list(p.computeViewMatrix(eye.tolist(), (eye + forward).tolist(), up.tolist()))
 
 
-def render_camera(world: World, index: int, cam: CameraConfig | None = None) -> CameraFrame:
-    """Render robot `index`'s camera view of the world as it is now."""
-    robot = world.robots[index]
-    cam = cam or robot.config.camera
+def _render(
+    world: World, pose: CameraPose, cam: CameraConfig, segment: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """(rgb, depth, PyBullet's segmentation or None) of a camera at `pose` now."""
     world.ensure_ring_visuals()
-    pose = sensors.camera_pose(world, index)
     near = cam.near_m * 0.5
     _, _, rgba, zbuf, seg = p.getCameraImage(
         cam.width,
@@ -87,6 +87,7 @@ def render_camera(world: World, index: int, cam: CameraConfig | None = None) -> 
         view_matrix(pose),
         projection_matrix(cam),
         renderer=p.ER_TINY_RENDERER,
+        flags=0 if segment else p.ER_NO_SEGMENTATION_MASK,
         physicsClientId=world.client,
         **_LIGHT,
     )
@@ -95,7 +96,28 @@ def render_camera(world: World, index: int, cam: CameraConfig | None = None) -> 
     far = cam.far_m
     depth = (far * near / (far - (far - near) * z)).astype(np.float32)
     depth[z >= 1.0 - 1e-7] = 0.0
-    seg = np.asarray(seg, dtype=np.int64).reshape(cam.height, cam.width)
+    if not segment:
+        return rgb, depth, None
+    return rgb, depth, np.asarray(seg, dtype=np.int64).reshape(cam.height, cam.width)
+
+
+def render_view(
+    world: World, index: int, cam: CameraConfig | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """(rgb, depth) of robot `index`'s camera as render_camera gives them, without the ground
+    truth (the renderer skips its segmentation: a frame for a daemon nobody scores)."""
+    cam = cam or world.robots[index].config.camera
+    rgb, depth, _ = _render(world, sensors.camera_pose(world, index), cam, False)
+    return rgb, depth
+
+
+def render_camera(world: World, index: int, cam: CameraConfig | None = None) -> CameraFrame:
+    """Render robot `index`'s camera view of the world as it is now."""
+    robot = world.robots[index]
+    cam = cam or robot.config.camera
+    pose = sensors.camera_pose(world, index)
+    rgb, depth, seg = _render(world, pose, cam, True)
+    assert seg is not None
     labels = np.zeros(seg.shape, dtype=np.uint8)
     ring_ids = np.full(seg.shape, -1, dtype=np.int16)
     lut_size = int(seg.max()) + 2 if seg.size else 1

@@ -36,6 +36,7 @@ PHASES = ("disabled", "autonomous", "driver")
 RINGS_UNKNOWN = 255  # the State's rings_held when no ring counter is fitted
 CLAMP_UNKNOWN = 255  # the State's goal_clamped when no clamp sensor is fitted
 GPS_FAILURES = ("calibrating", "error", "absent")
+RADIO_TX = "radio tx"  # the side-channel command that reads what the radio wrote
 
 Phase = Literal["disabled", "autonomous", "driver"]
 
@@ -293,8 +294,14 @@ class BrainHost:
     def run_batch(self, lines: Sequence[str]) -> list[dict[str, str]]:
         """Send several commands in one write and read their replies; the first error raises
         (brain_host changes nothing on an error, but later commands in the batch did run)."""
+        self.send_batch(lines)
+        return self.read_batch(lines)
+
+    def send_batch(self, lines: Sequence[str]) -> None:
+        """The first half of run_batch: the commands written, their replies not yet read (two
+        Brains stepped side by side: both sent, then both read)."""
         if not lines:
-            return []
+            return
         for line in lines:
             if "\n" in line:
                 raise ValueError(f"a side-channel command is one line: {line!r}")
@@ -309,6 +316,9 @@ class BrainHost:
                 f"brain_host is gone (status {self.proc.poll()}): {exc}" + self._stderr_hint()
             ) from exc
         self.round_trips += 1
+
+    def read_batch(self, lines: Sequence[str]) -> list[dict[str, str]]:
+        """The second half of run_batch: the replies to `lines`, sent by send_batch."""
         replies = [self._readline() for _ in lines]
         out = []
         for line, reply in zip(lines, replies, strict=True):
@@ -445,11 +455,21 @@ class BrainHost:
         linked (the bytes are lost, as on the field)."""
         if not data:
             return True
-        return self.command(f"radio rx {data.hex()}").get("delivered") == "1"
+        return self.command(self.radio_rx_line(data)).get("delivered") == "1"
 
     def radio_tx(self) -> bytes:
         """The bytes this Brain has written to its radio since the last call."""
-        hexed = self.command("radio tx").get("bytes", "-")
+        return self.radio_tx_bytes(self.command(RADIO_TX))
+
+    @staticmethod
+    def radio_rx_line(data: bytes) -> str:
+        """The command that hands `data` to the radio (one line in a batch)."""
+        return f"radio rx {data.hex()}"
+
+    @staticmethod
+    def radio_tx_bytes(reply: dict[str, str]) -> bytes:
+        """The radio's bytes from the reply to RADIO_TX."""
+        hexed = reply.get("bytes", "-")
         return b"" if hexed == "-" else bytes.fromhex(hexed)
 
     def advance(self, ms: int, rx: int | None = None) -> BrainReport:

@@ -37,6 +37,7 @@ from protocol import messages
 from sim.errors import DaemonError
 
 RESULT_TIMEOUT_S = 10.0
+ERROR_POLL_S = 0.005  # how often a wait for a frame's result looks for a camera error
 
 
 @dataclass(frozen=True)
@@ -173,6 +174,11 @@ class DaemonHost:
                 # The recording keeps small camera frames, as `pete-jetson run`'s does.
                 r = self.settings.record
                 self.daemon.frames = self.camera.tap = FrameTap(1.0 / r.frames_hz, r.frame_width)
+            self.camera.on_result = self._published
+        # Told by the camera thread as it publishes each result: lockstep's wait for a frame's
+        # result sleeps on it instead of polling (a poller's wakeups take the GIL from the very
+        # thread it waits for).
+        self._published_cond = threading.Condition()
         self.alive = True
         self.exits: list[Any] = []  # a process's ends (DaemonProcess); none in this process
         self._shut = False
@@ -283,14 +289,21 @@ class DaemonHost:
         flight at a time (the latency is shorter than the frame period), so a camera error
         after it was sent is its own."""
         deadline = time.monotonic() + RESULT_TIMEOUT_S
-        while time.monotonic() < deadline:
-            got = self.camera.latest()
-            if got is not None and got.frame_index >= index:
-                return got if got.frame_index == index else None
-            if self.camera.errors > errors:
-                return None  # the pipeline failed on this frame (the thread logged why)
-            time.sleep(0.0002)
+        with self._published_cond:
+            while (left := deadline - time.monotonic()) > 0:
+                got = self.camera.latest()
+                if got is not None and got.frame_index >= index:
+                    return got if got.frame_index == index else None
+                if self.camera.errors > errors:
+                    return None  # the pipeline failed on this frame (the thread logged why)
+                # A camera error publishes nothing: look again every few milliseconds.
+                self._published_cond.wait(min(left, ERROR_POLL_S))
         raise DaemonError(f"the camera thread gave no result for frame {index} in time")
+
+    def _published(self, result: Perceived) -> None:
+        """The camera thread published `result` (its on_result)."""
+        with self._published_cond:
+            self._published_cond.notify_all()
 
     def drop_pending_frames(self) -> None:
         """The stream stopped: frames in flight will never be processed."""

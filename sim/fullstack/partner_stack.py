@@ -6,9 +6,10 @@ beside ours by sim.fullstack.runner.FullStackMatch. The two Brains' radios are l
 sim.fullstack.vexlink.Vexlink, so each daemon hears the other's partner reports as it would on
 the field. Faults act on our robot; `vexlink-lost` cuts the radio between the two.
 
-The lockstep pieces both robots' stacks run are here, one each: a Brain's step (`step_brain`), a
-daemon's turn (`service_daemon`), a camera frame to its daemon (`stream_ready`, `send_frame`),
-a link's changes over the match (`note_change`).
+The lockstep pieces both robots' stacks run are here, one each: a Brain's step (`send_step`,
+then `finish_step`: both Brains' steps are sent before either is read), a daemon's turn
+(`service_daemon`), a camera frame to its daemon (`stream_ready`, `send_frame`), a link's
+changes over the match (`note_change`).
 """
 
 from __future__ import annotations
@@ -20,13 +21,15 @@ from typing import IO, Any
 
 import numpy as np
 
+from sim.camera import render_view
 from sim.errors import BrainHostError, DaemonError, MatchError
-from sim.fullstack.brain_host import BrainHost, BrainReport
+from sim.fullstack.brain_host import RADIO_TX, BrainHost, BrainReport
 from sim.fullstack.cable import Cable
 from sim.fullstack.daemon import DaemonHost, DaemonOptions
 from sim.fullstack.hardware import RobotHardware
 from sim.fullstack.options import LOOP_MS
 from sim.fullstack.report import percentiles_ms
+from sim.fullstack.vexlink import Radio
 
 # Boot ids of the partner's Brain and Jetson (ours: 0x5EED0000 and 0x7E750000, plus the seed's
 # low 16 bits), so the two robots' logs never share one.
@@ -34,12 +37,38 @@ PARTNER_BRAIN_BOOT = 0x5EEE0000
 PARTNER_JETSON_BOOT = 0x7E760000
 
 
-def step_brain(brain: BrainHost, cable: Cable, lines: list[str], until_ms: int) -> BrainReport:
-    """One 10 ms step of a Brain: the sensors' and any extra side-channel lines, the step to
-    until_ms (on the Brain's own clock) once the Jetson's bytes sent so far have arrived; what
-    it wrote goes up the cable."""
-    lines = [*lines, brain.step_line("until", until_ms, cable.delivered_down)]
-    report = BrainReport.parse(brain.run_batch(lines)[-1])
+@dataclass
+class BrainStep:
+    """A Brain's step sent (send_step) and not yet read (finish_step): two Brains step side by
+    side, each brain_host running while the other's batch is written."""
+
+    brain: BrainHost
+    lines: list[str]
+    radio: Radio | None
+
+
+def send_step(
+    brain: BrainHost, cable: Cable, lines: list[str], until_ms: int, radio: Radio | None = None
+) -> BrainStep:
+    """One 10 ms step of a Brain, sent: the radio's bytes, the sensors' and any extra
+    side-channel lines, the step to until_ms (on the Brain's own clock) once the Jetson's bytes
+    sent so far have arrived, then what the radio wrote."""
+    batch = [brain.radio_rx_line(radio.incoming)] if radio is not None and radio.incoming else []
+    batch += [*lines, brain.step_line("until", until_ms, cable.delivered_down)]
+    if radio is not None:
+        radio.incoming = b""
+        batch.append(RADIO_TX)
+    brain.send_batch(batch)
+    return BrainStep(brain, batch, radio)
+
+
+def finish_step(step: BrainStep, cable: Cable) -> BrainReport:
+    """The step's replies: its report; what the Brain wrote goes up the cable, what its radio
+    wrote to step.radio."""
+    replies = step.brain.read_batch(step.lines)
+    if step.radio is not None:
+        step.radio.outgoing = BrainHost.radio_tx_bytes(replies.pop())
+    report = BrainReport.parse(replies[-1])
     cable.pump_up(report.tx)
     return report
 
@@ -61,19 +90,17 @@ def stream_ready(server: Any) -> bool:
 
 
 def send_frame(
-    server: Any, jetson: Any, world: Any, index: int, cam: Any, stamp_s: float, k: int
-) -> Any:
-    """Robot `index`'s camera frame k, rendered now and sent to its daemon (told when it was
-    taken); the render (sim.camera.CameraFrame), or None when the daemon hung up."""
+    server: Any, jetson: Any, rgb: Any, depth: Any, cam: Any, stamp_s: float, k: int
+) -> bool:
+    """Camera frame k (sim.camera's rgb and depth, rendered now) to its daemon, told when it was
+    taken; False when the daemon hung up."""
     from jetson.perception.frame import Frame
-    from sim.camera import render_camera
 
-    f = render_camera(world, index, cam)
-    frame = Frame(np.ascontiguousarray(f.rgb[:, :, ::-1]), f.depth, cam.intrinsics, stamp_s, k)
+    frame = Frame(np.ascontiguousarray(rgb[:, :, ::-1]), depth, cam.intrinsics, stamp_s, k)
     if not server.send(frame):
-        return None
+        return False
     jetson.frame_sent(k, stamp_s)
-    return f
+    return True
 
 
 def service_daemon(jetson: Any, cable: Cable) -> None:
@@ -102,6 +129,7 @@ class PartnerStack:
     links: list[tuple[int, str]] = field(default_factory=list)  # (match ms, state) changes
     statuses: list[int | None] = field(default_factory=list)
     last_report: BrainReport | None = None
+    radio: Radio = field(default_factory=Radio)
 
     @classmethod
     def start(
@@ -182,10 +210,14 @@ class PartnerStack:
             undo.pop_all()  # all started: close() stops them
         return cls(index, hardware, brain, cable, jetson, log, server, cam_cfg)
 
-    def tick(self, phase: str, t_ms: int, match_ms: int, started: bool) -> BrainReport:
-        """Its Brain's step to t_ms + one loop, then its daemon's turn (the clock already set)."""
+    def send_tick(self, phase: str, t_ms: int) -> BrainStep:
+        """Its Brain's step to t_ms + one loop, sent (finish_tick reads it)."""
         lines = self.hardware.sensor_lines(self.hardware.read(phase))
-        report = step_brain(self.brain, self.cable, lines, t_ms + LOOP_MS)
+        return send_step(self.brain, self.cable, lines, t_ms + LOOP_MS, self.radio)
+
+    def finish_tick(self, step: BrainStep, match_ms: int, started: bool) -> BrainReport:
+        """Its Brain's step read, then its daemon's turn (the clock already set)."""
+        report = finish_step(step, self.cable)
         service_daemon(self.jetson, self.cable)
         if started:
             self.steps += 1
@@ -202,7 +234,8 @@ class PartnerStack:
         if stream_ready(self.server):
             self.frame_index += 1
             k = self.frame_index
-            send_frame(self.server, self.jetson, world, self.index, self.cam_cfg, stamp_s, k)
+            rgb, depth = render_view(world, self.index, self.cam_cfg)  # nobody scores it
+            send_frame(self.server, self.jetson, rgb, depth, self.cam_cfg, stamp_s, k)
 
     def close(self) -> None:
         """Stop everything, each part whatever the others did."""

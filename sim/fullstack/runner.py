@@ -37,13 +37,15 @@ from typing import Any
 import numpy as np
 
 from jetson.autonomy.geometry import field_to_robot
+from sim.camera import render_camera
 from sim.errors import MatchError
 from sim.fullstack.options import LOOP_MS, MatchOptions
 from sim.fullstack.partner_stack import (
+    finish_step,
     note_change,
     send_frame,
+    send_step,
     service_daemon,
-    step_brain,
     stream_ready,
 )
 from sim.fullstack.report import (
@@ -57,6 +59,7 @@ from sim.fullstack.report import (
     write_summary,
     write_timeline,
 )
+from sim.fullstack.vexlink import Radio
 from sim.world import sensors
 
 PREROLL_MS = 1000  # powered and disabled before the match: the two sides shake hands
@@ -339,6 +342,7 @@ class FullStackMatch:
         self.partner_index: int | None = None
         self.partner: Any = None  # sim.fullstack.partner_stack.PartnerStack
         self.vexlink: Any = None  # sim.fullstack.vexlink.Vexlink between the two Brains
+        self.radio: Any = None  # our Brain's sim.fullstack.vexlink.Radio, with a partner
         self._partner_report: Any = None
         self.partner_links: list[tuple[int, str]] = []  # our Brain's link: (match ms, state)
         self._sent_seq = 0
@@ -473,6 +477,7 @@ class FullStackMatch:
             self.world, self.partner_index, o, self.folder, tmp, self.clock, jopts
         )
         self.vexlink = Vexlink(VexlinkConfig(), np.random.default_rng((o.seed, 46)))
+        self.radio = Radio()
         self.brain.set_radio("on")
         self.partner.brain.set_radio("on")
 
@@ -599,6 +604,7 @@ class FullStackMatch:
         self._start_brain(boot_id, realtime=False, append_stderr=True)
         if self.vexlink is not None:
             self.brain.set_radio("on")
+            self.radio = Radio()  # what was on its way to the old Brain went with it
         self.brain_offset_ms = self.t_ms
         self.cable.new_brain(self.brain.pty_path)
         self.hardware.forget_sent()
@@ -685,11 +691,17 @@ class FullStackMatch:
         over = started and self.match_ms >= self.match_len_ms
         phase = competition_phase(w.time_s, w.isolation_s, started, over or w.over)
         reading = self.hardware.read(phase)
+        # Both Brains' steps are sent before either is read: each brain_host runs its step
+        # while the other's batch goes out.
+        step = None
         if self.brain is not None:
             lines = self.hardware.sensor_lines(reading) + self.extra_lines
             self.extra_lines = []
             until = t + LOOP_MS - self.brain_offset_ms
-            report = step_brain(self.brain, self.cable, lines, until)
+            step = send_step(self.brain, self.cable, lines, until, self.radio)
+        partner_step = self.partner.send_tick(phase, t) if self.partner is not None else None
+        if step is not None:
+            report = finish_step(step, self.cable)
             if self.brain_offset_ms:
                 report = report.shifted(self.brain_offset_ms)
         else:
@@ -712,11 +724,12 @@ class FullStackMatch:
                     stop = msg.linear == 0.0 and msg.angular == 0.0
                     self.brain_track.command_delivered(msg.seq, t, stop)
         if self.partner is not None:
-            self._partner_report = self.partner.tick(phase, t, self.match_ms, started)
+            assert partner_step is not None
+            self._partner_report = self.partner.finish_tick(partner_step, self.match_ms, started)
             if self.brain is not None:
-                self.vexlink.relay(self.brain, self.partner.brain, t)
+                self.vexlink.relay(self.radio, self.partner.radio, t)
             else:  # our Brain is down (rebooting): its radio hears nothing meanwhile
-                self.vexlink.a_down(t, self.partner.brain.radio_tx())
+                self.vexlink.a_down(t, self.partner.radio.radio_tx())
             note_change(self.partner_links, self.match_ms, report.partner)
         self.brain_track.note(report, started)
         self.scenario.after_tick(self, report)
@@ -783,8 +796,8 @@ class FullStackMatch:
     def _send_frame(self, stamp_s: float) -> None:
         self.frame_index += 1
         k = self.frame_index
-        f = send_frame(self.server, self.jetson, self.world, self.ia, self.cam_cfg, stamp_s, k)
-        if f is None:
+        f = render_camera(self.world, self.ia, self.cam_cfg)
+        if not send_frame(self.server, self.jetson, f.rgb, f.depth, self.cam_cfg, stamp_s, k):
             self.replay.event(self.match_ms / 1000, "camera stream: the daemon hung up")
             return
         self.truth[k] = self._truth(f)
@@ -1047,7 +1060,6 @@ class SimStackMatch:
         self.replay = _Replay(options)
 
     def run(self) -> MatchResult:
-        from sim.camera import render_camera
         from sim.evaluate import make_cores, play_match
         from sim.render import top_down
 

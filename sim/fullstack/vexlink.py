@@ -5,18 +5,19 @@ byte (protocol/README.md, section 13). `Vexlink` carries them to the other Brain
 would: one frame at a time per direction at that direction's bandwidth (the transmitter end about
 1040 bytes/s, the receiver end 520), after a latency with jitter, some frames lost, and none at
 all while the link is cut (the `vexlink-lost` fault). Frames arrive whole and in order.
-`relay(t_ms)` moves what both Brains wrote since the last call and hands each what has arrived by
-t_ms; `stats` counts what was sent, lost and late.
+`relay(a, b, t_ms)` moves what both Brains wrote since the last call and hands each what has
+arrived by t_ms; `stats` counts what was sent, lost and late. An end is a BrainHost (its radio
+read and written by round trips of their own) or a `Radio`, the buffer a lockstep match's Brain
+step carries in its own batch (sim.fullstack.partner_stack.send_step).
 """
 
 from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
-
-from sim.fullstack.brain_host import BrainHost
 
 # VEXlink's bandwidth from each end (PROS pros::Link; ../shared/REFERENCE.md section 9).
 TRANSMITTER_BYTES_PER_S = 1040.0
@@ -43,6 +44,32 @@ class VexlinkConfig:
             raise ValueError("vexlink latency_ms and jitter_ms must be >= 0, late_ms > 0")
         if self.transmitter_bytes_per_s <= 0 or self.receiver_bytes_per_s <= 0:
             raise ValueError("vexlink bandwidths must be positive")
+
+
+class RadioEnd(Protocol):
+    """A Brain's radio as the link sees it."""
+
+    def radio_tx(self) -> bytes: ...
+
+    def radio_rx(self, data: bytes) -> bool: ...
+
+
+@dataclass
+class Radio:
+    """A Brain's radio in lockstep: what has arrived for it goes with its next step's batch and
+    what it wrote is read in the same batch, so the radio costs no round trips of its own (the
+    Brain runs nothing between its step and the next)."""
+
+    incoming: bytes = b""  # arrived from the partner's radio, for the next step
+    outgoing: bytes = b""  # what it wrote by the last step
+
+    def radio_tx(self) -> bytes:
+        out, self.outgoing = self.outgoing, b""
+        return out
+
+    def radio_rx(self, data: bytes) -> bool:
+        self.incoming += data
+        return True
 
 
 @dataclass
@@ -93,7 +120,7 @@ class Vexlink:
         self._ba.flight.clear()
         self._ab.pending.clear()
 
-    def relay(self, a: BrainHost, b: BrainHost, t_ms: float) -> None:
+    def relay(self, a: RadioEnd, b: RadioEnd, t_ms: float) -> None:
         """Move what both brain_hosts wrote since the last call, and give each what has arrived."""
         self.carry(t_ms, a.radio_tx(), b.radio_tx())
         to_a, to_b = self.arrived(t_ms)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from jetson.autonomy.camera import project_points
-from sim.camera import LABEL_RING, render_camera, rgb_to_hsv_opencv
+from sim.camera import LABEL_RING, render_camera, render_view, rgb_to_hsv_opencv
 from sim.config import CameraConfig, WorldConfig, merge
 from sim.visibility import (
     Obstacles,
@@ -166,6 +166,14 @@ def test_render_shapes_and_types(frame) -> None:
     assert f.labels.shape == f.ring_ids.shape == (240, 320)
     assert np.allclose(f.K, [[cam.fx, 0, cam.cx], [0, cam.fy, cam.cy], [0, 0, 1]])
     assert len(f.visible) >= 3
+
+
+def test_the_view_without_truth_is_the_same_picture(frame) -> None:
+    # render_view skips the renderer's segmentation (the partner's frames on the full stack):
+    # the colour and depth a daemon gets are render_camera's, pixel for pixel.
+    w, f, cam = frame
+    rgb, depth = render_view(w, 0, cam)
+    assert np.array_equal(rgb, f.rgb) and np.array_equal(depth, f.depth)
 
 
 def test_rendered_rings_fall_inside_the_perception_hsv_window(frame) -> None:

@@ -18,7 +18,8 @@ from protocol.messages import (
     TargetKind,
 )
 from sim.fullstack.brain_host import DEFAULT_BINARY, BrainHost
-from sim.fullstack.vexlink import Vexlink, VexlinkConfig
+from sim.fullstack.partner_stack import finish_step, send_step
+from sim.fullstack.vexlink import Radio, Vexlink, VexlinkConfig
 from tests.sim.fullstack.pty_port import Port
 
 
@@ -146,6 +147,63 @@ def test_two_brains_carry_a_report_between_their_jetsons_and_a_cut_is_lost_on_bo
         ports[1].collect(reps[1].tx)
         status = [m for m in ports[1].messages if isinstance(m, PartnerStatus)]
         assert status[-1].link is PartnerLink.LOST
+    finally:
+        for p in ports:
+            p.close()
+        for h in hosts:
+            assert h.close() == 0
+
+
+class _PortCable:
+    """What send_step/finish_step read of a cable, over a test Port: the bytes written to the
+    Brain so far; what the Brain wrote is collected from the reports instead."""
+
+    def __init__(self, port: Port) -> None:
+        self.port = port
+
+    @property
+    def delivered_down(self) -> int:
+        return self.port.written
+
+    def pump_up(self, tx: int) -> None:
+        pass
+
+
+@pytest.mark.skipif(not DEFAULT_BINARY.exists(), reason="brain_host is not built: run `make build`")
+def test_the_radio_rides_in_each_brains_step_batch_one_round_trip_a_step() -> None:
+    # A lockstep match's two Brains (sim.fullstack.partner_stack): both steps sent before
+    # either is read, the radio's bytes in the same batches; the report crosses as by relay().
+    hosts = [BrainHost.start(boot_id=0x5EED0020 + i) for i in range(2)]
+    ports = [Port(h.pty_path) for h in hosts]
+    cables = [_PortCable(p) for p in ports]
+    radios = [Radio(), Radio()]
+    link = Vexlink(VexlinkConfig(loss=0.0), np.random.default_rng(0))
+    try:
+        for h, p in zip(hosts, ports, strict=True):
+            h.set_radio("on")
+            p.send(Hello(FINGERPRINT, PROTOCOL_VERSION, Role.JETSON, 0xA11CE, "test"))
+        report = Partner(
+            x_mm=300, y_mm=-600, heading_cdeg=9000, flags=PartnerFlags.POSE_OK, goal=0,
+            rings=2, target=TargetKind.RING, target_id=7, target_x_mm=100, target_y_mm=200,
+            match_ms=0,
+        )  # fmt: skip
+        trips = [h.round_trips for h in hosts]
+        t = 0
+        for step in range(100):
+            t += 10
+            if step % 10 == 0:
+                ports[1].send(report)  # the other way this time: b's Jetson reports to a's
+            sent = [
+                send_step(h, c, [], t, r) for h, c, r in zip(hosts, cables, radios, strict=True)
+            ]
+            reps = [finish_step(s, c) for s, c in zip(sent, cables, strict=True)]
+            link.relay(radios[0], radios[1], t)
+        assert [h.round_trips - n for h, n in zip(hosts, trips, strict=True)] == [100, 100]
+        ports[0].collect(reps[0].tx)
+        heard = [m for m in ports[0].messages if isinstance(m, Partner)]
+        assert heard and heard[-1] == report
+        assert 8 <= len(heard) <= 10
+        assert reps[0].partner == "up" and reps[1].partner == "connecting"
     finally:
         for p in ports:
             p.close()
