@@ -202,7 +202,8 @@ def _cmd_export(args: argparse.Namespace) -> int:
 EXPORT_SKILLS = (
     "route_through_next", "commit_goal_s", "share_platform", "platform_lanes_m", "platform_past_m",
     "platform_speed_mps", "split_with_partner", "split_margin_m", "keep_clear_s",
-    "keep_clear_m", "climb_at_s", "release_dragged_s", "lookahead_m", "turn_gain",
+    "keep_clear_m", "climb_at_s", "release_dragged_s", "partner_room_m", "lookahead_m",
+    "turn_gain",
     "turn_in_place_rad", "stuck_window_s", "stuck_distance_m", "backoff_s",
 )  # fmt: skip
 

@@ -78,6 +78,11 @@ class SkillConfig:
     # ahead, away from the goal at its back, for release_dragged_s, then passes over the goal
     # options for RELEASED_NO_GOALS_S.
     release_dragged_s: float = 0.0
+    # Room to turn (0: off; needs the observation's partner block): a robot whose option has
+    # nothing to drive to turns in place to look for one, its corners sweeping a circle; with
+    # its partner nearer than partner_room_m (centre to centre) it backs straight away from the
+    # partner instead (SkillDriver._look_around).
+    partner_room_m: float = 0.0
     # The robot's size and top speeds (filled from the robot's config by the simulator and
     # saved with the policy, so the Jetson drives the robot the policy was trained on).
     robot_length_m: float = 0.381
@@ -103,7 +108,7 @@ class SkillConfig:
         bad = [k for k in positive if not getattr(self, k) > 0]
         at_least_0 = ("commit_goal_s", "stuck_distance_m", "backoff_s", "split_margin_m",
                       "keep_clear_s", "keep_clear_m", "climb_at_s",
-                      "release_dragged_s")  # fmt: skip
+                      "release_dragged_s", "partner_room_m")  # fmt: skip
         bad += [k for k in at_least_0 if getattr(self, k) < 0]
         if len(self.platform_box) != 4 or min(self.platform_box[2:], default=0) <= 0:
             bad.append("platform_box")
@@ -143,6 +148,8 @@ class SkillConfig:
             raise ValueError("skills: climb_at_s needs the platform option")
         if self.release_dragged_s > 0 and not spec.goal_memory:
             raise ValueError("skills: release_dragged_s needs the goal memory's clamp flag")
+        if self.partner_room_m > 0 and not spec.partner:
+            raise ValueError("skills: partner_room_m needs the observation's partner block")
 
 
 DRAG_WINDOW_S = 2.0  # release_dragged_s: how long a robot's moves are compared with its commands
@@ -614,7 +621,7 @@ class SkillDriver:
             if k == 0:
                 slot = f[s.route_offset : s.route_offset + 3]
                 if slot[2] <= 0:
-                    return 0.0, 0.3 * self.w_max
+                    return self._look_around(f)
                 after = None
                 nxt = f[s.route_offset + 3 : s.route_offset + 6]  # the second stop's slot
                 if c.route_through_next and nxt[2] > 0:
@@ -625,14 +632,14 @@ class SkillDriver:
         if k < c.ring_options:
             slot = f[s.ring_offset + 3 * k : s.ring_offset + 3 * k + 3]
             if slot[2] <= 0:
-                return 0.0, 0.3 * self.w_max
+                return self._look_around(f)
             self.target = ("ring", _point(slot, unit))
             return self._pursue(slot[:2] * unit, now)
         k -= c.ring_options
         if k < c.goal_options:
             slot = f[s.goal_offset + 3 * k : s.goal_offset + 3 * k + 3]
             if slot[2] <= 0:
-                return 0.0, 0.3 * self.w_max
+                return self._look_around(f)
             if c.commit_goal_s > 0:
                 self._commit_point = _to_alliance(slot[:2] * unit, pos, float(f[3]), float(f[4]))
                 self._commit_until = now + c.commit_goal_s
@@ -641,6 +648,17 @@ class SkillDriver:
         return self._platform(f, pos)
 
     # --- the skills -------------------------------------------------------------------------
+
+    def _look_around(self, f: NDArray[np.float64]) -> tuple[float, float]:
+        """Nothing to drive to: turn in place to find something, or with the partner within
+        partner_room_m, back straight away from it (a turning robot's corners sweep wider than
+        its sides: two robots side by side touched every turn)."""
+        s, room = self.spec, self.config.partner_room_m
+        if room > 0 and s.partner and f[s.partner_offset + 2] > 0.5:
+            px, py = f[s.partner_offset : s.partner_offset + 2] * s.length_unit_m
+            if math.hypot(float(px), float(py)) < room:
+                return (-0.3 if py > 0 else 0.3) * self.v_max, 0.0
+        return 0.0, 0.3 * self.w_max
 
     def _pursue(
         self, target: NDArray[np.float64], now: float, after: NDArray[np.float64] | None = None

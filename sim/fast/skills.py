@@ -107,6 +107,12 @@ class FastSkillDrivers:
                     "(release_dragged_s): train with it off and set it on the exported policy "
                     "(pete-sim export --skill release_dragged_s=1.0)"
                 )
+            if config.partner_room_m > 0:
+                raise ValueError(
+                    "skills: the batched controller does not keep room from the partner to "
+                    "turn (partner_room_m): train with it off and set it on the exported policy "
+                    "(pete-sim export --skill partner_room_m=0.8)"
+                )
         self.configs = tuple(configs)
         self.spec = spec
         self.n = n_matches

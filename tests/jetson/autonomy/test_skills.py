@@ -215,6 +215,36 @@ def test_the_rings_nearer_the_partner_are_left_to_it() -> None:
         SkillDriver(skills, ObservationSpec(n_stack=0))
 
 
+def test_with_its_partner_beside_it_a_robot_with_nothing_to_do_backs_away_not_turns() -> None:
+    # partner_room_m: a robot turning in place sweeps its corners round; two robots side by side
+    # at their platform, both looking for rings, touched every turn.
+    skills = SkillConfig(ring_options=2, goal_options=0, partner_room_m=0.8)
+    d = SkillDriver(skills, ALLIANCE_SPEC)
+
+    def seen(partner_xy: tuple[float, float] | None) -> np.ndarray:  # type: ignore[type-arg]
+        view = RobotView(
+            x=0.0, y=0.0, heading_deg=0.0, alliance="red", time_s=30.0,
+            rings_robot_xy=np.array([(0.0, 1.0)]),
+            partner=PartnerView(xy=partner_xy, clamped=False, rings=0, claim_xy=None),
+        )  # fmt: skip
+        return build_frame(ALLIANCE_SPEC, view)
+
+    empty = pick_of(skills, 1)  # ring 1: one ring seen, its slot is empty
+    v, w = d.command(seen((-0.3, 0.5)), empty)  # ahead, 0.58 m away: back away
+    assert v < 0 and w == 0.0
+    v, w = d.command(seen((0.4, -0.3)), empty)  # behind: ahead, away from it
+    assert v > 0 and w == 0.0
+    assert d.command(seen((1.0, 0.5)), empty)[0] == 0.0  # room enough: it turns, looking
+    assert d.command(seen((1.0, 0.5)), empty)[1] > 0
+    assert d.command(seen(None), empty) == (0.0, 0.3 * d.w_max)  # where the partner is unknown
+    off = SkillDriver(replace(skills, partner_room_m=0.0), ALLIANCE_SPEC)
+    assert off.command(seen((-0.3, 0.5)), empty) == (0.0, 0.3 * off.w_max)
+    v, w = d.command(seen((-0.3, 0.5)), pick_of(skills, 0))  # a ring to drive to: it drives
+    assert v > 0
+    with pytest.raises(ValueError, match="partner block"):
+        SkillDriver(skills, ObservationSpec(n_stack=0, goal_memory=True))
+
+
 def test_the_endgame_keeps_clear_of_their_platform_and_climbs_at_the_end() -> None:
     """keep_clear_s: late in the match, rings beside the other alliance's platform (SKILLS'
     box turned about the centre: (0, +1.5), 0.3 x 0.6 half extents) are passed over;

@@ -258,9 +258,13 @@ def test_the_batched_labels_equal_intent_label() -> None:
 
 
 def test_the_batched_controller_refuses_what_it_does_not_run() -> None:
-    """Letting go in a tug of war (release_dragged_s) is SkillDriver's only: a clear error, not
-    a controller that drives differently."""
-    spec = ObservationSpec(n_stack=0, goal_memory=True, goal_clamp_offset_m=0.35)
+    """Letting go in a tug of war (release_dragged_s) and room to turn from the partner
+    (partner_room_m) are SkillDriver's only: a clear error, not a controller that drives
+    differently."""
+    spec = ObservationSpec(n_stack=0, goal_memory=True, goal_clamp_offset_m=0.35, partner=True)
     skills = SkillConfig(ring_options=2, goal_options=2, release_dragged_s=1.0)
     with pytest.raises(ValueError, match="release_dragged_s"):
         FastSkillDrivers([skills] * 2, spec, 2, 1 / 12)
+    roomy = SkillConfig(ring_options=2, goal_options=2, partner_room_m=0.8)
+    with pytest.raises(ValueError, match="partner_room_m"):
+        FastSkillDrivers([roomy] * 2, spec, 2, 1 / 12)
