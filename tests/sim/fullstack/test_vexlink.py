@@ -3,6 +3,9 @@ partner report crosses to the partner's Jetson, and a cut link is lost on both s
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
+
 import numpy as np
 import pytest
 
@@ -103,15 +106,28 @@ def test_bad_settings_are_named() -> None:
         VexlinkConfig(receiver_bytes_per_s=0)
 
 
-@pytest.mark.skipif(not DEFAULT_BINARY.exists(), reason="brain_host is not built: run `make build`")
-def test_two_brains_carry_a_report_between_their_jetsons_and_a_cut_is_lost_on_both() -> None:
-    hosts = [BrainHost.start(boot_id=0x5EED0010 + i) for i in range(2)]
+@contextlib.contextmanager
+def two_brains(boot_id: int) -> Iterator[tuple[list[BrainHost], list[Port]]]:
+    """Two brain_hosts with their radios on, each with a Jetson (a test port) that said hello;
+    both closed after, and each must end cleanly."""
+    hosts = [BrainHost.start(boot_id=boot_id + i) for i in range(2)]
     ports = [Port(h.pty_path) for h in hosts]
-    link = Vexlink(VexlinkConfig(loss=0.0), np.random.default_rng(0))
     try:
         for h, p in zip(hosts, ports, strict=True):
             h.set_radio("on")
             p.send(Hello(FINGERPRINT, PROTOCOL_VERSION, Role.JETSON, 0xA11CE, "test"))
+        yield hosts, ports
+    finally:
+        for p in ports:
+            p.close()
+        statuses = [h.close() for h in hosts]
+    assert statuses == [0, 0]
+
+
+@pytest.mark.skipif(not DEFAULT_BINARY.exists(), reason="brain_host is not built: run `make build`")
+def test_two_brains_carry_a_report_between_their_jetsons_and_a_cut_is_lost_on_both() -> None:
+    link = Vexlink(VexlinkConfig(loss=0.0), np.random.default_rng(0))
+    with two_brains(0x5EED0010) as (hosts, ports):
         report = Partner(
             x_mm=-1200, y_mm=900, heading_cdeg=4500, flags=PartnerFlags.POSE_OK, goal=1,
             rings=6, target=TargetKind.GOAL, target_id=3, target_x_mm=0, target_y_mm=0,
@@ -147,11 +163,6 @@ def test_two_brains_carry_a_report_between_their_jetsons_and_a_cut_is_lost_on_bo
         ports[1].collect(reps[1].tx)
         status = [m for m in ports[1].messages if isinstance(m, PartnerStatus)]
         assert status[-1].link is PartnerLink.LOST
-    finally:
-        for p in ports:
-            p.close()
-        for h in hosts:
-            assert h.close() == 0
 
 
 class _PortCable:
@@ -173,15 +184,10 @@ class _PortCable:
 def test_the_radio_rides_in_each_brains_step_batch_one_round_trip_a_step() -> None:
     # A lockstep match's two Brains (sim.fullstack.partner_stack): both steps sent before
     # either is read, the radio's bytes in the same batches; the report crosses as by relay().
-    hosts = [BrainHost.start(boot_id=0x5EED0020 + i) for i in range(2)]
-    ports = [Port(h.pty_path) for h in hosts]
-    cables = [_PortCable(p) for p in ports]
     radios = [Radio(), Radio()]
     link = Vexlink(VexlinkConfig(loss=0.0), np.random.default_rng(0))
-    try:
-        for h, p in zip(hosts, ports, strict=True):
-            h.set_radio("on")
-            p.send(Hello(FINGERPRINT, PROTOCOL_VERSION, Role.JETSON, 0xA11CE, "test"))
+    with two_brains(0x5EED0020) as (hosts, ports):
+        cables = [_PortCable(p) for p in ports]
         report = Partner(
             x_mm=300, y_mm=-600, heading_cdeg=9000, flags=PartnerFlags.POSE_OK, goal=0,
             rings=2, target=TargetKind.RING, target_id=7, target_x_mm=100, target_y_mm=200,
@@ -204,8 +210,3 @@ def test_the_radio_rides_in_each_brains_step_batch_one_round_trip_a_step() -> No
         assert heard and heard[-1] == report
         assert 8 <= len(heard) <= 10
         assert reps[0].partner == "up" and reps[1].partner == "connecting"
-    finally:
-        for p in ports:
-            p.close()
-        for h in hosts:
-            assert h.close() == 0
