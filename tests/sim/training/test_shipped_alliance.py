@@ -27,9 +27,9 @@ def test_the_shipped_alliance_policy_is_what_alliance_toml_trains() -> None:
     meta = json.loads(ALLIANCE_POLICY.with_suffix(".json").read_text())
     assert meta["training"]["skills_set"] == {
         "share_platform": True, "split_with_partner": True, "keep_clear_s": 45,
-        "keep_clear_m": 0.55, "climb_at_s": 30, "platform_past_m": [0.045, 0.16],
+        "keep_clear_m": 0.55, "climb_at_s": 35, "platform_past_m": [0.045, 0.16],
     }  # fmt: skip
     # The endgame as exported: clear of the other platform, the climb with the goals balanced.
     s = policy.skills
-    assert (s.keep_clear_s, s.climb_at_s, s.platform_past_m) == (45, 30, (0.045, 0.16))
+    assert (s.keep_clear_s, s.climb_at_s, s.platform_past_m) == (45, 35, (0.045, 0.16))
     assert s.release_dragged_s == 0.0  # letting go in tugs cost goals: the endgame note
