@@ -494,14 +494,15 @@ class SkillDriver:
         left = s.match_length_s * (1.0 - float(f[0]))
         if c.climb_at_s > 0 and left <= c.climb_at_s:
             return c.n_options - 1
-        split = c.split_with_partner and f[s.partner_offset + 2] > 0.5
+        mate = self._partner(f) if c.split_with_partner else None
+        split = mate is not None
         clear = c.keep_clear_s > 0 and left <= c.keep_clear_s
         no_goals = float(f[0]) * s.match_length_s < self._no_goals_until
         if not (split or clear or no_goals):
             return best
         first_goal = int(c.route_option) + c.ring_options
         unit = s.length_unit_m
-        mx, my = (float(f[s.partner_offset + k]) * unit for k in (0, 1)) if split else (0.0, 0.0)
+        mx, my = mate if mate is not None else (0.0, 0.0)
         cx, cy, hx, hy = self._their_box
         for k in np.argsort(-a, kind="stable"):
             if no_goals and first_goal <= k < first_goal + c.goal_options:
@@ -653,12 +654,20 @@ class SkillDriver:
         """Nothing to drive to: turn in place to find something, or with the partner within
         partner_room_m, back straight away from it (a turning robot's corners sweep wider than
         its sides: two robots side by side touched every turn)."""
-        s, room = self.spec, self.config.partner_room_m
-        if room > 0 and s.partner and f[s.partner_offset + 2] > 0.5:
-            px, py = f[s.partner_offset : s.partner_offset + 2] * s.length_unit_m
-            if math.hypot(float(px), float(py)) < room:
-                return (-0.3 if py > 0 else 0.3) * self.v_max, 0.0
+        room = self.config.partner_room_m
+        mate = self._partner(f) if room > 0 else None
+        if mate is not None and math.hypot(*mate) < room:
+            return (-0.3 if mate[1] > 0 else 0.3) * self.v_max, 0.0
         return 0.0, 0.3 * self.w_max
+
+    def _partner(self, f: NDArray[np.float64]) -> tuple[float, float] | None:
+        """The partner's robot-frame position (metres) from the observation's partner block;
+        None without the block or a fresh report."""
+        s = self.spec
+        if not s.partner or not f[s.partner_offset + 2] > 0.5:
+            return None
+        at, unit = s.partner_offset, s.length_unit_m
+        return float(f[at]) * unit, float(f[at + 1]) * unit
 
     def _pursue(
         self, target: NDArray[np.float64], now: float, after: NDArray[np.float64] | None = None
@@ -714,9 +723,8 @@ class SkillDriver:
         s, c = self.spec, self.config
         tall = s.role_flag and float(f[s.scalar_index("tall")]) > 0.5
         partner = None
-        if c.share_platform and s.partner and f[s.partner_offset + 2] > 0.5:
-            at = s.partner_offset
-            mate = _to_alliance(f[at : at + 2] * s.length_unit_m, pos, float(f[3]), float(f[4]))
+        if c.share_platform and (local := self._partner(f)) is not None:
+            mate = _to_alliance(np.array(local), pos, float(f[3]), float(f[4]))
             partner = (float(mate[0]), float(mate[1]))
         carrying = s.goal_memory and float(f[s.scalar_index("clamped")]) > 0.5
         mode, tx, ty, ahead = platform_plan(

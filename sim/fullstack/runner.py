@@ -342,7 +342,7 @@ class FullStackMatch:
         self.partner_index: int | None = None
         self.partner: Any = None  # sim.fullstack.partner_stack.PartnerStack
         self.vexlink: Any = None  # sim.fullstack.vexlink.Vexlink between the two Brains
-        self.radio: Any = None  # our Brain's sim.fullstack.vexlink.Radio, with a partner
+        self.radio: Radio | None = None  # our Brain's radio, with a partner
         self._partner_report: Any = None
         self.partner_links: list[tuple[int, str]] = []  # our Brain's link: (match ms, state)
         self._sent_seq = 0
